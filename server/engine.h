@@ -1,0 +1,203 @@
+/* trioct engine: fixed-resolution triangle octree and the queries it answers.
+ * The one public header of libtrioct_engine; no I/O, no network, no global state. */
+#ifndef TRIOCT_ENGINE_H
+#define TRIOCT_ENGINE_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+typedef struct vec3 {
+    double x, y, z;
+} vec3;
+
+/* How a test decides. See docs/accuracy.md for each mode's contract. */
+typedef enum accuracy_mode {
+    ACCURACY_EXACT = 0, /* exact arithmetic on the double inputs (filtered, exact fallback) */
+    ACCURACY_SEED = 1,  /* the seed document's epsilon tests, as written */
+    ACCURACY_FAST = 2,  /* plain double tests, no exactness guarantee */
+} accuracy_mode;
+
+const char *accuracy_mode_name(accuracy_mode mode);
+
+/* Engine status codes: 0 is success, errors are negative. */
+#define OCTREE_STATUS_MAP(X)                                                       \
+    X(OCTREE_OK, 0, "ok")                                                          \
+    X(OCTREE_ERR_INVALID, -1, "invalid argument")                                  \
+    X(OCTREE_ERR_NONFINITE, -2, "triangle has a NaN or infinite coordinate")       \
+    X(OCTREE_ERR_INDEX, -3, "triangle refers to a vertex that does not exist")     \
+    X(OCTREE_ERR_DEPTH, -4, "resolution needs more levels than the depth cap")     \
+    X(OCTREE_ERR_NOMEM, -5, "out of memory")                                       \
+    X(OCTREE_ERR_TOO_BIG, -6, "more triangles or nodes than the engine addresses") \
+    X(OCTREE_ERR_EMPTY, -7, "no triangles")
+
+typedef enum octree_status {
+#define OCTREE_STATUS_ENUM(name, code, text) name = code,
+    OCTREE_STATUS_MAP(OCTREE_STATUS_ENUM)
+#undef OCTREE_STATUS_ENUM
+} octree_status;
+
+const char *octree_status_text(octree_status status);
+
+/* The deepest octree the engine builds. 2^21 leaves a side keeps every node's integer
+ * coordinates in 21 bits, and a tree this deep over a real mesh already needs far more
+ * memory than a machine has. A resolution asking for more is an error (OCTREE_ERR_DEPTH)
+ * when given explicitly; the seed's heuristic resolution is clamped to it. */
+#define OCTREE_MAX_DEPTH_CAP 21
+
+typedef struct octree_def {
+    double resolution;    /* leaf side d; <= 0 asks for the seed's heuristic sqrt(mean |E2 x E0|) */
+    int max_depth;        /* cap on L_max, 0..OCTREE_MAX_DEPTH_CAP */
+    accuracy_mode mode;   /* membership test used while building, and default for queries */
+    double seed_epsilon;  /* epsilon of the seed's tests (ACCURACY_SEED only) */
+} octree_def;
+
+octree_def octree_default_def(void);
+
+/* Input mesh: vertex array plus three vertex indices per triangle. */
+typedef struct mesh_view {
+    const vec3 *vertices;
+    size_t vertex_count;
+    const uint32_t *indices; /* 3 * triangle_count */
+    size_t triangle_count;
+} mesh_view;
+
+typedef struct octree octree;
+
+/* Where a build failed: the offending triangle when there is one. */
+typedef struct octree_error {
+    octree_status status;
+    size_t triangle;   /* index of the offending triangle, or SIZE_MAX */
+    char message[160];
+} octree_error;
+
+/* Builds an immutable octree over a copy of the mesh. On failure returns NULL and fills
+ * err (when not NULL). The result is safe for concurrent queries from many threads. */
+octree *octree_build(const mesh_view *mesh, const octree_def *def, octree_error *err);
+void octree_free(octree *tree);
+
+typedef struct octree_info {
+    size_t triangle_count;
+    size_t vertex_count;
+    size_t node_count;
+    size_t leaf_count;
+    size_t nonempty_leaf_count;
+    size_t leaf_refs;          /* total triangle references held by leaves */
+    int max_level;             /* L_max */
+    int depth_clamped;         /* 1 when the heuristic resolution was clamped to the cap */
+    double resolution;         /* d actually used */
+    double world_size;         /* D = 2^L_max * d */
+    vec3 world_min;            /* the world cube is [world_min, world_min + D] */
+    size_t bytes_nodes, bytes_leaf_lists, bytes_triangles, bytes_total;
+    double build_seconds;
+    accuracy_mode mode;
+} octree_info;
+
+void octree_get_info(const octree *tree, octree_info *info);
+
+/* ---------- queries ---------- */
+
+/* What a query visited: honest work counters. */
+typedef struct query_stats {
+    uint64_t nodes_visited;
+    uint64_t leaves_visited;
+    uint64_t candidates_tested;  /* full primitive tests run */
+    uint64_t exact_fallbacks;    /* predicate evaluations that needed exact arithmetic */
+} query_stats;
+
+typedef enum ray_detail {
+    RAY_ANY = 0,     /* stop at the first confirmed hit */
+    RAY_CLOSEST = 1, /* smallest t, ties to the smaller triangle id */
+    RAY_ALL = 2,     /* every crossing, ordered by t then triangle id */
+} ray_detail;
+
+typedef struct ray_input {
+    vec3 origin;
+    vec3 direction;   /* need not be unit length; t is in units of |direction| */
+    double tmin, tmax; /* closed interval */
+} ray_input;
+
+typedef struct ray_hit {
+    double t;
+    uint32_t triangle;
+    double u, v;  /* barycentric weights of vertices 1 and 2 */
+    vec3 normal;  /* unit geometric normal (v1-v0)x(v2-v0) */
+} ray_hit;
+
+/* Results of one ray. For RAY_ALL the hits go to `hits` (capacity `max_hits`); hit_count
+ * is the number of crossings found, which may exceed max_hits (then `truncated` is 1 and
+ * the first max_hits are stored). For ANY/CLOSEST, hits[0] holds the answer when hit_count>0. */
+typedef struct ray_output {
+    size_t hit_count;
+    int truncated;
+    ray_hit *hits;
+    size_t max_hits;
+} ray_output;
+
+/* Returns OCTREE_OK, or OCTREE_ERR_INVALID/NONFINITE for a bad ray (zero or non-finite
+ * direction, NaN origin, tmin > tmax). mode selects the primitive test. */
+octree_status octree_ray(const octree *tree, const ray_input *ray, ray_detail detail,
+                         accuracy_mode mode, ray_output *out, query_stats *stats);
+
+typedef enum tri_detail {
+    TRI_YESNO = 0,    /* stop at the first confirmed contact */
+    TRI_IDS = 1,      /* sorted unique ids of world triangles touched */
+    TRI_SEGMENTS = 2, /* ids plus the contact segment of each pair */
+} tri_detail;
+
+typedef struct tri_contact {
+    uint32_t triangle;
+    vec3 p, q; /* contact segment (p == q for a point contact); area contacts give an
+                  extreme pair of the overlap polygon */
+} tri_contact;
+
+typedef struct tri_output {
+    int hit;                 /* any contact */
+    size_t count;            /* contacts found (may exceed capacity: truncated = 1) */
+    int truncated;
+    tri_contact *contacts;   /* capacity entries; ids only unless TRI_SEGMENTS */
+    size_t capacity;
+} tri_output;
+
+octree_status octree_triangle(const octree *tree, const vec3 tri[3], tri_detail detail,
+                              accuracy_mode mode, tri_output *out, query_stats *stats);
+
+/* A rigid pose: p' = R p + t, R row-major 3x3. */
+typedef struct pose {
+    double r[9];
+    vec3 t;
+} pose;
+
+typedef struct mesh_pair {
+    uint32_t query_triangle;
+    uint32_t world_triangle;
+} mesh_pair;
+
+typedef struct mesh_output {
+    int hit;
+    size_t count;
+    int truncated;
+    mesh_pair *pairs; /* sorted by (query, world) */
+    size_t capacity;
+} mesh_output;
+
+/* Query mesh under a pose against the world: yes/no (all_pairs = 0) or every pair. */
+octree_status octree_mesh(const octree *tree, const mesh_view *shape, const pose *at,
+                          int all_pairs, accuracy_mode mode, mesh_output *out,
+                          query_stats *stats);
+
+/* ---------- batches ---------- */
+/* Each item gets its own status in statuses[i] and its own output; the batch returns
+ * OCTREE_OK when every item was answered (an item's own error is not a batch error) and
+ * stats sums every item's counters. */
+octree_status octree_ray_batch(const octree *tree, const ray_input *rays, size_t count, ray_detail detail,
+                               accuracy_mode mode, ray_output *outs, octree_status *statuses,
+                               query_stats *stats);
+octree_status octree_triangle_batch(const octree *tree, const vec3 (*tris)[3], size_t count,
+                                    tri_detail detail, accuracy_mode mode, tri_output *outs,
+                                    octree_status *statuses, query_stats *stats);
+/* One shape at many poses. */
+octree_status octree_mesh_batch(const octree *tree, const mesh_view *shape, const pose *poses, size_t count,
+                                int all_pairs, accuracy_mode mode, mesh_output *outs,
+                                octree_status *statuses, query_stats *stats);
+
+#endif

@@ -1,0 +1,31 @@
+/* Exact floating-point expansion arithmetic (Shewchuk 1997, "Adaptive Precision
+ * Floating-Point Arithmetic and Fast Robust Geometric Predicates"). An expansion is an
+ * array of doubles, ordered by increasing magnitude and non-overlapping, whose exact sum
+ * is the value. Used only by the exact fallbacks of the predicates. */
+#ifndef TRIOCT_GEOM_EXPANSION_H
+#define TRIOCT_GEOM_EXPANSION_H
+
+#include <stddef.h>
+
+/* The relative rounding unit of double (2^-53), the epsilon of every error bound. */
+#define EXPANSION_EPS 0x1p-53
+
+/* Error-free transforms: a op b = hi + lo exactly. */
+void two_sum(double a, double b, double *hi, double *lo);
+void two_diff(double a, double b, double *hi, double *lo);
+void two_product(double a, double b, double *hi, double *lo);
+
+/* h = e + f (lengths en, fn); returns length of h, which must hold en + fn doubles. */
+size_t expansion_sum(size_t en, const double *e, size_t fn, const double *f, double *h);
+/* h = e * b; h must hold 2 * en doubles. */
+size_t expansion_scale(size_t en, const double *e, double b, double *h);
+/* h = e * f; h must hold 2 * en * fn doubles (at least 1). */
+size_t expansion_product(size_t en, const double *e, size_t fn, const double *f, double *h);
+/* -e, in place. */
+void expansion_negate(size_t en, double *e);
+/* Sign of the exact value: -1, 0 or +1. */
+int expansion_sign(size_t en, const double *e);
+/* The value rounded roughly to double (for reporting, not for decisions). */
+double expansion_estimate(size_t en, const double *e);
+
+#endif
