@@ -1,0 +1,108 @@
+/* The seed's node-box geometry derived from a box's two corners: face vertices, edges,
+ * face and edge normals, and the eight octants a node splits into. */
+#include "box_geometry.h"
+
+#include <assert.h>
+
+/* Box corners are named by three bits, x in bit 0, y in bit 1, z in bit 2; a set bit takes
+ * the coordinate from hi, a clear bit from lo. */
+static vec3 box_corner(box3 box, int bits)
+{
+    return vec3_make(bits & 1 ? box.hi.x : box.lo.x, bits & 2 ? box.hi.y : box.lo.y,
+                     bits & 4 ? box.hi.z : box.lo.z);
+}
+
+/* The seed's vertex table V_ij as corner bits: face 0 is y = ymin, 1 is x = xmax,
+ * 2 is y = ymax, 3 is x = xmin, 4 is z = zmax, 5 is z = zmin, each wound so that
+ * E_i3 x E_i0 points out of the box. */
+static const unsigned char face_vertex_bits[6][4] = {
+    {0, 1, 5, 4}, {1, 3, 7, 5}, {3, 2, 6, 7}, {2, 0, 4, 6}, {4, 5, 7, 6}, {0, 2, 3, 1},
+};
+
+/* The outward axis of each face: the axis index and the sign along it. */
+static const signed char face_axis[6] = {1, 0, 1, 0, 2, 2};
+static const signed char face_sign[6] = {-1, 1, 1, -1, 1, -1};
+
+static vec3 axis_vector(int axis, int sign)
+{
+    vec3 v = {0.0, 0.0, 0.0};
+    double s = sign > 0 ? 1.0 : -1.0;
+    if (axis == 0)
+        v.x = s;
+    else if (axis == 1)
+        v.y = s;
+    else
+        v.z = s;
+    return v;
+}
+
+vec3 box_face_vertex(box3 box, int face, int j)
+{
+    assert(face >= 0 && face < 6 && j >= 0 && j < 4);
+    return box_corner(box, face_vertex_bits[face][j]);
+}
+
+vec3 box_face_edge(box3 box, int face, int j)
+{
+    assert(face >= 0 && face < 6 && j >= 0 && j < 4);
+    return vec3_sub(box_face_vertex(box, face, (j + 1) & 3), box_face_vertex(box, face, j));
+}
+
+vec3 box_face_normal(int face)
+{
+    assert(face >= 0 && face < 6);
+    return axis_vector(face_axis[face], face_sign[face]);
+}
+
+/* An edge of an axis-aligned face runs along one axis; its two ends agree on the other two
+ * corner bits, one of which is the face's own axis. The edge normal lies along the
+ * remaining agreeing axis, towards the side the edge sits on. Deriving it from corner bits
+ * rather than from lengths keeps it a unit axis even for a box of zero extent. */
+vec3 box_face_edge_normal(box3 box, int face, int j)
+{
+    assert(face >= 0 && face < 6 && j >= 0 && j < 4);
+    (void)box;
+    int a = face_vertex_bits[face][j];
+    int b = face_vertex_bits[face][(j + 1) & 3];
+    int agreeing = ~(a ^ b) & 7 & ~(1 << face_axis[face]);
+    int axis = agreeing == 1 ? 0 : agreeing == 2 ? 1 : 2;
+    return axis_vector(axis, (a & agreeing) ? 1 : -1);
+}
+
+/* Which half each seed octant 1..8 takes along x, y, z (1 = the upper half [C, hi]). */
+static const unsigned char octant_upper_bits[8] = {
+    7, /* 1: +x +y +z */
+    6, /* 2: -x +y +z */
+    4, /* 3: -x -y +z */
+    5, /* 4: +x -y +z */
+    3, /* 5: +x +y -z */
+    2, /* 6: -x +y -z */
+    0, /* 7: -x -y -z */
+    1, /* 8: +x -y -z */
+};
+
+/* The midpoint as the seed writes it, (lo + hi) / 2. Halving is exact, and rounding the sum
+ * is monotone, so the result never leaves [lo, hi]; only a sum that overflows needs the
+ * halves added instead. Every child computes its split from the same parent corners with
+ * this one function, so two neighbours' shared face is the same double. */
+static double split_coordinate(double lo, double hi)
+{
+    double c = 0.5 * (lo + hi);
+    if (isinf(c) && isfinite(lo) && isfinite(hi))
+        c = 0.5 * lo + 0.5 * hi;
+    return c;
+}
+
+box3 box_octant(box3 box, int k)
+{
+    assert(k >= 0 && k < 8);
+    vec3 c = vec3_make(split_coordinate(box.lo.x, box.hi.x), split_coordinate(box.lo.y, box.hi.y),
+                       split_coordinate(box.lo.z, box.hi.z));
+    int upper = octant_upper_bits[k];
+    box3 child;
+    child.lo = vec3_make(upper & 1 ? c.x : box.lo.x, upper & 2 ? c.y : box.lo.y,
+                         upper & 4 ? c.z : box.lo.z);
+    child.hi = vec3_make(upper & 1 ? box.hi.x : c.x, upper & 2 ? box.hi.y : c.y,
+                         upper & 4 ? box.hi.z : c.z);
+    return child;
+}
