@@ -1,0 +1,22 @@
+/* Triangle against triangle (closed sets), in the three accuracy modes. Degenerate
+ * triangles act as the segment or point they are. */
+#ifndef TRIOCT_GEOM_TRI_TRI_H
+#define TRIOCT_GEOM_TRI_TRI_H
+
+#include "vec3.h"
+
+/* 1 when the closed triangles share a point, decided exactly on the double inputs. */
+int tri_tri_overlap_exact(const vec3 a[3], const vec3 b[3]);
+
+/* The seed's edge-plane + point-in-triangle tests with epsilon. */
+int tri_tri_overlap_seed(const vec3 a[3], const vec3 b[3], double eps);
+
+/* Plain double test (Moller 1997 interval overlap), no exactness guarantee. */
+int tri_tri_overlap_fast(const vec3 a[3], const vec3 b[3]);
+
+/* For triangles known to touch: an intersection segment p..q (p == q for a point).
+ * Coplanar overlaps give two extreme points of the overlap region along its longest
+ * extent. The points are constructed in double: the decision was made exactly before. */
+void tri_tri_contact_segment(const vec3 a[3], const vec3 b[3], vec3 *p, vec3 *q);
+
+#endif
