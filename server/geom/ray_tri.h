@@ -1,0 +1,66 @@
+/* Ray against triangle. The exact test is watertight: a ray through an edge or vertex
+ * shared by triangles of a closed mesh crosses exactly one of them, because boundary ties
+ * are broken by a symbolic perturbation of the ray direction that both neighbours see the
+ * same way. */
+#ifndef TRIOCT_GEOM_RAY_TRI_H
+#define TRIOCT_GEOM_RAY_TRI_H
+
+#include "vec3.h"
+
+/* What a hit reports, rounded to double. Hits are ordered exactly by ray_tri_compare_t on
+ * the triangles themselves, never by these rounded values. */
+typedef struct ray_tri_hit {
+    double t;       /* rounded, for reporting */
+    double u, v;    /* barycentric weights of v1, v2 (rounded) */
+} ray_tri_hit;
+
+/* 1 on a hit with tmin <= t <= tmax (exact). A ray parallel to the plane never hits.
+ *
+ * Semantics, for the ray o + t d and the triangle v0, v1, v2:
+ *  - Edge functions w_ij = ((v_i - o) x (v_j - o)) . d for the edges 01, 12, 20 (the sign
+ *    of each is ray_edge_sign). They sum exactly to den = ((v1 - v0) x (v2 - v0)) . d; when
+ *    all three are zero (den == 0: d parallel to the plane, d == 0, or a degenerate
+ *    triangle) there is no hit, even for a ray lying in the plane.
+ *  - A zero w_ij is given the sign it takes for d' = d + (e1, e2, e3), e1 >> e2 >> e3 > 0
+ *    infinitesimal: the sign of the first nonzero component of (v_i - o) x (v_j - o). When
+ *    that vector is zero (o on the edge's line) the sign is +1 if v_i < v_j
+ *    lexicographically (x, then y, then z), else -1. Both rules are antisymmetric in
+ *    (i, j), so a ray crossing a closed, consistently oriented mesh through a shared edge
+ *    is claimed by exactly one of the two triangles, and through a shared vertex by exactly
+ *    one triangle of the fan: every answer is that of the perturbed ray, which misses all
+ *    edges, so crossing counts keep the right parity. (A ray starting on an edge's line
+ *    gets the fixed rule instead, which still makes the edge's two triangles disagree.)
+ *  - A hit needs the three (tie-broken) signs equal; den then has that sign.
+ *  - t = num / den with num = det[v0 - o, v1 - o, v2 - o] = ((v1 - v0) x (v2 - v0)) . (v0 - o).
+ *    The range is closed and decided exactly: tmin <= num / den <= tmax. tmin may be 0,
+ *    negative or -INFINITY, tmax may be INFINITY; NaN limits or tmin > tmax never hit. A
+ *    ray leaving the inside of the triangle (not along its plane) hits at t = 0 iff
+ *    tmin <= 0 <= tmax.
+ *  - hit (may be NULL) gets t within a few ulps of the exact value (plain double when that
+ *    is accurate enough, else a double-double or exact evaluation), clamped into
+ *    [tmin, tmax], and u, v = w_20 / sum, w_01 / sum over the sign-corrected edge
+ *    functions: finite, in [0, 1], with u + v <= 1 (up to rounding).
+ *  - A floating-point filter decides almost every call; exact expansion arithmetic decides
+ *    the rest and is counted through predicates_note_fallback (and the predicates' own
+ *    counters). The exact stage is exact while no product of inputs underflows or
+ *    overflows: nonzero coordinates, direction components and finite limits between about
+ *    2^-120 and 2^160 in magnitude (1e9 offsets with 1e-9 features are well inside). */
+int ray_tri_exact(vec3 o, vec3 d, double tmin, double tmax, const vec3 tri[3], ray_tri_hit *hit);
+
+/* Compare the exact t of two exact hits of the same ray: -1, 0, +1 for t_a <, =, > t_b.
+ * Exact (filter, then expansions) for any two triangles whose planes the ray is not
+ * parallel to, hit or not; 0 when either den is 0. */
+int ray_tri_compare_t(vec3 o, vec3 d, const vec3 a[3], const vec3 b[3]);
+
+/* The seed's plane + point-in-triangle test with epsilon, and Moller-Trumbore.
+ * ray_tri_seed: t = n.(v0 - o) / (n.d + eps) with the unit normal n, accepted when
+ * tmin - eps < t < tmax + eps, then the hit point's signed distance along each edge's
+ * unit outward normal must be below eps; zero-area triangles never hit.
+ * ray_tri_fast: Moller-Trumbore in plain double, rejecting rays within a relative 1e-12 of
+ * parallel. Neither is watertight: shared edges and vertices may be counted twice or
+ * missed. */
+int ray_tri_seed(vec3 o, vec3 d, double tmin, double tmax, const vec3 tri[3], double eps,
+                 ray_tri_hit *hit);
+int ray_tri_fast(vec3 o, vec3 d, double tmin, double tmax, const vec3 tri[3], ray_tri_hit *hit);
+
+#endif
