@@ -1,0 +1,25 @@
+/* Exact reference answers for tests, computed with GMP rationals by a method that shares
+ * nothing with the engine: two closed convex hulls meet iff a linear feasibility problem
+ * (convex weights of each point set giving the same point) has a solution, found by
+ * enumerating basic solutions exactly. */
+#ifndef TRIOCT_TESTS_ORACLE_H
+#define TRIOCT_TESTS_ORACLE_H
+
+#include "geom/vec3.h"
+
+/* 1 when conv(a[0..na)) and conv(b[0..nb)) share a point (na, nb in 1..8). */
+int oracle_hulls_intersect(const vec3 *a, int na, const vec3 *b, int nb);
+
+/* Closed triangle vs closed triangle, and closed triangle vs closed box. */
+int oracle_tri_tri(const vec3 a[3], const vec3 b[3]);
+int oracle_tri_box(const vec3 tri[3], box3 box);
+
+/* 1 when the ray o + t d, t in [tmin, tmax], meets the closed triangle (no tie-breaking:
+ * boundary contacts count). */
+int oracle_ray_tri(vec3 o, vec3 d, double tmin, double tmax, const vec3 tri[3]);
+
+/* For a ray meeting the triangle's plane at a single point: compares the exact t at which
+ * the ray meets planes of a and b (-1, 0, +1). */
+int oracle_compare_plane_t(vec3 o, vec3 d, const vec3 a[3], const vec3 b[3]);
+
+#endif
