@@ -1,0 +1,32 @@
+/* Batch forms of the queries: one call, many items, each with its own status. */
+#include "../engine.h"
+
+/* OCTREE_ERR_NOMEM is the one item error that says the batch itself could not go on. */
+#define BATCH_LOOP(call)                                   \
+    octree_status batch = OCTREE_OK;                       \
+    for (size_t i = 0; i < count; i++) {                   \
+        statuses[i] = (call);                              \
+        if (statuses[i] == OCTREE_ERR_NOMEM)               \
+            batch = OCTREE_ERR_NOMEM;                      \
+    }                                                      \
+    return batch
+
+octree_status octree_ray_batch(const octree *tree, const ray_input *rays, size_t count, ray_detail detail,
+                               accuracy_mode mode, ray_output *outs, octree_status *statuses, query_stats *stats)
+{
+    BATCH_LOOP(octree_ray(tree, &rays[i], detail, mode, &outs[i], stats));
+}
+
+octree_status octree_triangle_batch(const octree *tree, const vec3 (*tris)[3], size_t count, tri_detail detail,
+                                    accuracy_mode mode, tri_output *outs, octree_status *statuses,
+                                    query_stats *stats)
+{
+    BATCH_LOOP(octree_triangle(tree, tris[i], detail, mode, &outs[i], stats));
+}
+
+octree_status octree_mesh_batch(const octree *tree, const mesh_view *shape, const pose *poses, size_t count,
+                                int all_pairs, accuracy_mode mode, mesh_output *outs, octree_status *statuses,
+                                query_stats *stats)
+{
+    BATCH_LOOP(octree_mesh(tree, shape, &poses[i], all_pairs, mode, &outs[i], stats));
+}

@@ -1,0 +1,62 @@
+/* The octree's private layout, shared by the build and the query files. */
+#ifndef TRIOCT_OCTREE_INTERNAL_H
+#define TRIOCT_OCTREE_INTERNAL_H
+
+#include <stdint.h>
+
+#include "../engine.h"
+#include "../geom/vec3.h"
+
+/* count == NODE_INTERIOR marks an interior node whose eight children, in the seed's octant
+ * order, are nodes first .. first + 7. Otherwise the node is a leaf whose triangles are
+ * leaf_items[first .. first + count). Eight bytes a node: the box is derived on the way
+ * down from the world cube and the octant numbers. */
+#define NODE_INTERIOR UINT32_MAX
+
+typedef struct octree_node {
+    uint32_t first;
+    uint32_t count;
+} octree_node;
+
+struct octree {
+    vec3 *vertices;
+    size_t vertex_count;
+    uint32_t *indices; /* 3 per triangle */
+    size_t triangle_count;
+
+    octree_node *nodes;
+    size_t node_count;
+    uint32_t *leaf_items;
+    size_t leaf_item_count;
+
+    box3 world; /* the cube [lo, lo + D] */
+    double seed_epsilon;
+    octree_info info;
+};
+
+static inline void octree_triangle_vertices(const struct octree *tree, uint32_t id, vec3 out[3])
+{
+    const uint32_t *ix = tree->indices + 3 * (size_t)id;
+    out[0] = tree->vertices[ix[0]];
+    out[1] = tree->vertices[ix[1]];
+    out[2] = tree->vertices[ix[2]];
+}
+
+/* Adds one query's counters to the caller's (when given), with the exact fallbacks this
+ * thread ran since fallbacks_before. */
+static inline void query_stats_finish(query_stats *caller, query_stats *local, uint64_t fallbacks_before,
+                                      uint64_t fallbacks_now)
+{
+    local->exact_fallbacks = fallbacks_now - fallbacks_before;
+    if (!caller)
+        return;
+    caller->nodes_visited += local->nodes_visited;
+    caller->leaves_visited += local->leaves_visited;
+    caller->candidates_tested += local->candidates_tested;
+    caller->exact_fallbacks += local->exact_fallbacks;
+}
+
+/* Deepest traversal stack a query needs: 7 siblings waiting per level plus the node. */
+#define OCTREE_STACK_MAX (8 * (OCTREE_MAX_DEPTH_CAP + 1) + 1)
+
+#endif

@@ -1,0 +1,341 @@
+/* Ray queries: front-to-back traversal with conservative slab tests, so no node that the
+ * exact ray touches is ever skipped, and a closest-hit query stops at the first node that
+ * cannot hold a nearer hit. */
+#include <float.h>
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "../geom/box_geometry.h"
+#include "../geom/predicates.h"
+#include "../geom/ray_tri.h"
+#include "id_set.h"
+#include "octree_internal.h"
+
+#define EPS 0x1p-53
+/* Absolute slack for results that may have underflowed (one ulp of the smallest normal). */
+#define TINY 0x1p-1021
+
+typedef struct ray_setup {
+    vec3 o, d;
+    double inv[3];
+    /* Per axis: 0 = ordinary, 1 = direction exactly zero (the ray keeps that coordinate),
+     * 2 = unconstrained (1/d is not a normal double, so the slab is not trusted at all). */
+    int kind[3];
+    double tmin, tmax;
+    int widen; /* exact mode: widen every interval by its rounding error */
+} ray_setup;
+
+static void setup_ray(ray_setup *r, const ray_input *in, accuracy_mode mode)
+{
+    r->o = in->origin;
+    r->d = in->direction;
+    r->tmin = in->tmin;
+    r->tmax = in->tmax;
+    r->widen = mode == ACCURACY_EXACT;
+    for (int a = 0; a < 3; a++) {
+        double d = vec3_get(in->direction, a);
+        r->inv[a] = 0.0;
+        if (d == 0.0) {
+            r->kind[a] = 1;
+            continue;
+        }
+        double inv = 1.0 / d;
+        if (!isfinite(inv) || fabs(inv) < DBL_MIN) {
+            r->kind[a] = 2;
+            continue;
+        }
+        r->kind[a] = 0;
+        r->inv[a] = inv;
+    }
+}
+
+/* The parameter interval over which the ray is inside the closed box, widened outward by
+ * the rounding error of (plane - o) * (1/d): each of the three roundings is relative, so
+ * 4 eps |t| covers them, plus TINY for underflow. Empty boxes give tnear > tfar (or NaN,
+ * which fails every comparison the same way). */
+static inline void slab(const ray_setup *r, box3 b, double *tnear, double *tfar)
+{
+    double lo[3] = {b.lo.x, b.lo.y, b.lo.z}, hi[3] = {b.hi.x, b.hi.y, b.hi.z};
+    double o[3] = {r->o.x, r->o.y, r->o.z};
+    double tn = -INFINITY, tf = INFINITY;
+    for (int a = 0; a < 3; a++) {
+        if (r->kind[a] == 0) {
+            double t0 = (lo[a] - o[a]) * r->inv[a], t1 = (hi[a] - o[a]) * r->inv[a];
+            if (t0 > t1) {
+                double s = t0;
+                t0 = t1;
+                t1 = s;
+            }
+            tn = t0 > tn ? t0 : tn;
+            tf = t1 < tf ? t1 : tf;
+        } else if (r->kind[a] == 1 && (o[a] < lo[a] || o[a] > hi[a])) {
+            tn = INFINITY;
+            tf = -INFINITY;
+        }
+    }
+    if (r->widen) {
+        tn = tn - fabs(tn) * (4 * EPS) - TINY;
+        tf = tf + fabs(tf) * (4 * EPS) + TINY;
+    }
+    *tnear = tn;
+    *tfar = tf;
+}
+
+/* An upper bound on the exact t = N / D of a hit, N = det[v0-o, v1-o, v2-o] and
+ * D = ((v1-v0) x (v2-v0)) . d. Each is a sum of products of rounded differences, whose
+ * error is below 8 eps times its permanent (the orient3d bound is 7 eps + 56 eps^2). */
+static double exact_t_upper_bound(const ray_setup *r, const vec3 tri[3])
+{
+    vec3 a = vec3_sub(tri[0], r->o), b = vec3_sub(tri[1], r->o), c = vec3_sub(tri[2], r->o);
+    vec3 bc = vec3_cross(b, c);
+    double n = vec3_dot(a, bc);
+    vec3 ab = vec3_abs(a), bb = vec3_abs(b), cb = vec3_abs(c);
+    double perm_n = ab.x * (bb.y * cb.z + bb.z * cb.y) + ab.y * (bb.z * cb.x + bb.x * cb.z) +
+                    ab.z * (bb.x * cb.y + bb.y * cb.x);
+    vec3 e1 = vec3_sub(tri[1], tri[0]), e2 = vec3_sub(tri[2], tri[0]);
+    vec3 nn = vec3_cross(e1, e2);
+    double den = vec3_dot(nn, r->d);
+    vec3 e1b = vec3_abs(e1), e2b = vec3_abs(e2), db = vec3_abs(r->d);
+    double perm_d = db.x * (e1b.y * e2b.z + e1b.z * e2b.y) + db.y * (e1b.z * e2b.x + e1b.x * e2b.z) +
+                    db.z * (e1b.x * e2b.y + e1b.y * e2b.x);
+    double err_n = 8 * EPS * perm_n + TINY, err_d = 8 * EPS * perm_d + TINY;
+    if (den < 0) {
+        den = -den;
+        n = -n;
+    }
+    if (!(den - err_d > 0) || !isfinite(n) || !isfinite(den))
+        return INFINITY;
+    double q = (n + err_n) / (den - err_d);
+    return q + fabs(q) * (4 * EPS) + TINY;
+}
+
+static int test_triangle(const octree *tree, const ray_setup *r, accuracy_mode mode, uint32_t id,
+                         ray_tri_hit *hit)
+{
+    vec3 tri[3];
+    octree_triangle_vertices(tree, id, tri);
+    switch (mode) {
+    case ACCURACY_SEED:
+        return ray_tri_seed(r->o, r->d, r->tmin, r->tmax, tri, tree->seed_epsilon, hit);
+    case ACCURACY_FAST:
+        return ray_tri_fast(r->o, r->d, r->tmin, r->tmax, tri, hit);
+    case ACCURACY_EXACT:
+        break;
+    }
+    return ray_tri_exact(r->o, r->d, r->tmin, r->tmax, tri, hit);
+}
+
+/* Order of two hits of the same ray: exact t in exact mode, then triangle id. */
+static int hit_order(const octree *tree, const ray_setup *r, accuracy_mode mode, const ray_hit *a,
+                     const ray_hit *b)
+{
+    int c;
+    if (mode == ACCURACY_EXACT) {
+        vec3 ta[3], tb[3];
+        octree_triangle_vertices(tree, a->triangle, ta);
+        octree_triangle_vertices(tree, b->triangle, tb);
+        c = ray_tri_compare_t(r->o, r->d, ta, tb);
+    } else {
+        c = (a->t > b->t) - (a->t < b->t);
+    }
+    if (c == 0)
+        c = (a->triangle > b->triangle) - (a->triangle < b->triangle);
+    return c;
+}
+
+static ray_hit make_hit(const octree *tree, uint32_t id, const ray_tri_hit *h)
+{
+    vec3 tri[3];
+    octree_triangle_vertices(tree, id, tri);
+    vec3 n = vec3_normalize(vec3_cross(vec3_sub(tri[1], tri[0]), vec3_sub(tri[2], tri[0])));
+    return (ray_hit){h->t, id, h->u, h->v, n};
+}
+
+/* A growable list of hits for RAY_ALL. */
+typedef struct hit_list {
+    ray_hit *items;
+    size_t count, capacity;
+} hit_list;
+
+static int hit_list_push(hit_list *l, ray_hit h)
+{
+    if (l->count == l->capacity) {
+        size_t cap = l->capacity ? 2 * l->capacity : 16;
+        ray_hit *items = realloc(l->items, cap * sizeof *items);
+        if (!items)
+            return -1;
+        l->items = items;
+        l->capacity = cap;
+    }
+    l->items[l->count++] = h;
+    return 0;
+}
+
+typedef struct sort_ctx {
+    const octree *tree;
+    const ray_setup *r;
+    accuracy_mode mode;
+} sort_ctx;
+
+/* Merge sort with a context (qsort has none in C11); hits per ray are few. */
+static void sort_hits(ray_hit *items, ray_hit *tmp, size_t n, const sort_ctx *c)
+{
+    if (n < 2)
+        return;
+    size_t half = n / 2;
+    sort_hits(items, tmp, half, c);
+    sort_hits(items + half, tmp, n - half, c);
+    size_t i = 0, j = half, k = 0;
+    while (i < half && j < n)
+        tmp[k++] = hit_order(c->tree, c->r, c->mode, &items[j], &items[i]) < 0 ? items[j++] : items[i++];
+    while (i < half)
+        tmp[k++] = items[i++];
+    while (j < n)
+        tmp[k++] = items[j++];
+    memcpy(items, tmp, n * sizeof *items);
+}
+
+static octree_status validate_ray(const ray_input *ray)
+{
+    if (!vec3_is_finite(ray->origin) || !vec3_is_finite(ray->direction))
+        return OCTREE_ERR_NONFINITE;
+    if (ray->direction.x == 0.0 && ray->direction.y == 0.0 && ray->direction.z == 0.0)
+        return OCTREE_ERR_INVALID;
+    if (!isfinite(ray->tmin) || isnan(ray->tmax) || ray->tmin > ray->tmax)
+        return OCTREE_ERR_INVALID;
+    return OCTREE_OK;
+}
+
+typedef struct ray_entry {
+    uint32_t node;
+    double tnear;
+    box3 box;
+} ray_entry;
+
+octree_status octree_ray(const octree *tree, const ray_input *ray, ray_detail detail, accuracy_mode mode,
+                         ray_output *out, query_stats *stats)
+{
+    octree_status st = validate_ray(ray);
+    if (st != OCTREE_OK)
+        return st;
+    if (detail != RAY_ANY && detail != RAY_CLOSEST && detail != RAY_ALL)
+        return OCTREE_ERR_INVALID;
+    if (mode != ACCURACY_EXACT && mode != ACCURACY_SEED && mode != ACCURACY_FAST)
+        return OCTREE_ERR_INVALID;
+    uint64_t fallbacks_before = predicates_fallback_count();
+    query_stats local = {0};
+
+    ray_setup r;
+    setup_ray(&r, ray, mode);
+    out->hit_count = 0;
+    out->truncated = 0;
+
+    id_set tested;
+    id_set_init(&tested);
+    hit_list all = {0};
+    ray_hit best = {0};
+    int have_best = 0;
+    double bound = r.tmax; /* nodes starting past this cannot hold a wanted hit */
+    int done = 0;
+
+    ray_entry stack[OCTREE_STACK_MAX];
+    size_t top = 0;
+    double tn, tf;
+    slab(&r, tree->world, &tn, &tf);
+    if (tn <= tf && tn <= r.tmax && tf >= r.tmin)
+        stack[top++] = (ray_entry){0, tn, tree->world};
+
+    while (top > 0 && !done) {
+        ray_entry e = stack[--top];
+        if (e.tnear > bound)
+            continue; /* a nearer hit was found after this node was pushed */
+        local.nodes_visited++;
+        octree_node node = tree->nodes[e.node];
+        if (node.count != NODE_INTERIOR) {
+            local.leaves_visited++;
+            for (uint32_t i = 0; i < node.count && !done; i++) {
+                uint32_t id = tree->leaf_items[node.first + i];
+                int fresh = id_set_insert(&tested, id);
+                if (fresh == 0)
+                    continue;
+                if (fresh < 0) {
+                    st = OCTREE_ERR_NOMEM;
+                    done = 1;
+                    break;
+                }
+                local.candidates_tested++;
+                ray_tri_hit h;
+                if (!test_triangle(tree, &r, mode, id, &h))
+                    continue;
+                ray_hit hit = make_hit(tree, id, &h);
+                if (detail == RAY_ANY) {
+                    best = hit;
+                    have_best = 1;
+                    done = 1;
+                } else if (detail == RAY_CLOSEST) {
+                    if (!have_best || hit_order(tree, &r, mode, &hit, &best) < 0) {
+                        best = hit;
+                        have_best = 1;
+                        if (mode == ACCURACY_EXACT) {
+                            vec3 tri[3];
+                            octree_triangle_vertices(tree, id, tri);
+                            double ub = exact_t_upper_bound(&r, tri);
+                            bound = ub < bound ? ub : bound;
+                        } else {
+                            bound = hit.t < bound ? hit.t : bound;
+                        }
+                    }
+                } else if (hit_list_push(&all, hit) != 0) {
+                    st = OCTREE_ERR_NOMEM;
+                    done = 1;
+                }
+            }
+            continue;
+        }
+        /* Children that the ray meets within [tmin, bound], nearest pushed last. */
+        ray_entry kids[8];
+        int nk = 0;
+        for (int k = 0; k < 8; k++) {
+            box3 cb = box_octant(e.box, k);
+            slab(&r, cb, &tn, &tf);
+            if (!(tn <= tf && tn <= bound && tf >= r.tmin))
+                continue;
+            ray_entry c = {node.first + (uint32_t)k, tn, cb};
+            int j = nk++;
+            while (j > 0 && kids[j - 1].tnear < c.tnear) {
+                kids[j] = kids[j - 1];
+                j--;
+            }
+            kids[j] = c;
+        }
+        for (int j = 0; j < nk; j++)
+            stack[top++] = kids[j];
+    }
+
+    if (detail == RAY_ALL && st == OCTREE_OK) {
+        sort_ctx c = {tree, &r, mode};
+        ray_hit *tmp = malloc((all.count ? all.count : 1) * sizeof *tmp);
+        if (!tmp) {
+            st = OCTREE_ERR_NOMEM;
+        } else {
+            sort_hits(all.items, tmp, all.count, &c);
+            free(tmp);
+            out->hit_count = all.count;
+            size_t keep = all.count < out->max_hits ? all.count : out->max_hits;
+            out->truncated = keep < all.count;
+            if (keep)
+                memcpy(out->hits, all.items, keep * sizeof *all.items);
+        }
+    } else if (have_best && st == OCTREE_OK) {
+        out->hit_count = 1;
+        if (out->max_hits > 0)
+            out->hits[0] = best;
+        else
+            out->truncated = 1;
+    }
+    free(all.items);
+    id_set_release(&tested);
+    query_stats_finish(stats, &local, fallbacks_before, predicates_fallback_count());
+    return st;
+}

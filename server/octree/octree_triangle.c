@@ -1,0 +1,228 @@
+/* Triangle and mesh queries: the seed's query outline (descend into nodes whose box the
+ * query triangle touches, gather leaf lists, test each candidate once in full). */
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "../geom/box_geometry.h"
+#include "../geom/predicates.h"
+#include "../geom/tri_box.h"
+#include "../geom/tri_tri.h"
+#include "id_set.h"
+#include "octree_internal.h"
+
+typedef struct tri_entry {
+    uint32_t node;
+    box3 box;
+} tri_entry;
+
+static int node_touched(const octree *tree, const vec3 q[3], box3 qb, box3 box, accuracy_mode mode)
+{
+    switch (mode) {
+    case ACCURACY_SEED:
+        return tri_box_overlap_seed(q, box, tree->seed_epsilon);
+    case ACCURACY_FAST:
+        return tri_box_overlap_fast(q, box);
+    case ACCURACY_EXACT:
+        break;
+    }
+    if (qb.lo.x > box.hi.x || qb.lo.y > box.hi.y || qb.lo.z > box.hi.z || qb.hi.x < box.lo.x ||
+        qb.hi.y < box.lo.y || qb.hi.z < box.lo.z)
+        return 0;
+    return tri_box_overlap_exact(q, box);
+}
+
+static int triangles_touch(const octree *tree, const vec3 q[3], const vec3 w[3], accuracy_mode mode)
+{
+    switch (mode) {
+    case ACCURACY_SEED:
+        return tri_tri_overlap_seed(q, w, tree->seed_epsilon);
+    case ACCURACY_FAST:
+        return tri_tri_overlap_fast(q, w);
+    case ACCURACY_EXACT:
+        break;
+    }
+    return tri_tri_overlap_exact(q, w);
+}
+
+static int compare_u32(const void *a, const void *b)
+{
+    uint32_t x = *(const uint32_t *)a, y = *(const uint32_t *)b;
+    return (x > y) - (x < y);
+}
+
+typedef struct id_list {
+    uint32_t *items;
+    size_t count, capacity;
+} id_list;
+
+static int id_list_push(id_list *l, uint32_t id)
+{
+    if (l->count == l->capacity) {
+        size_t cap = l->capacity ? 2 * l->capacity : 32;
+        uint32_t *items = realloc(l->items, cap * sizeof *items);
+        if (!items)
+            return -1;
+        l->items = items;
+        l->capacity = cap;
+    }
+    l->items[l->count++] = id;
+    return 0;
+}
+
+/* Finds the world triangles q touches: stops at the first when stop_at_first, else appends
+ * all of them (unsorted) to hits. Returns OCTREE_OK or OCTREE_ERR_NOMEM. */
+static octree_status triangle_search(const octree *tree, const vec3 q[3], accuracy_mode mode, int stop_at_first,
+                                     id_list *hits, int *any, query_stats *stats)
+{
+    box3 qb = {vec3_min(vec3_min(q[0], q[1]), q[2]), vec3_max(vec3_max(q[0], q[1]), q[2])};
+    id_set tested;
+    id_set_init(&tested);
+    octree_status st = OCTREE_OK;
+    *any = 0;
+
+    tri_entry stack[OCTREE_STACK_MAX];
+    size_t top = 0;
+    stack[top++] = (tri_entry){0, tree->world};
+    while (top > 0) {
+        tri_entry e = stack[--top];
+        stats->nodes_visited++;
+        if (!node_touched(tree, q, qb, e.box, mode))
+            continue;
+        octree_node node = tree->nodes[e.node];
+        if (node.count == NODE_INTERIOR) {
+            for (int k = 0; k < 8; k++)
+                stack[top++] = (tri_entry){node.first + (uint32_t)k, box_octant(e.box, k)};
+            continue;
+        }
+        stats->leaves_visited++;
+        for (uint32_t i = 0; i < node.count; i++) {
+            uint32_t id = tree->leaf_items[node.first + i];
+            int fresh = id_set_insert(&tested, id);
+            if (fresh < 0) {
+                st = OCTREE_ERR_NOMEM;
+                goto done;
+            }
+            if (fresh == 0)
+                continue;
+            stats->candidates_tested++;
+            vec3 w[3];
+            octree_triangle_vertices(tree, id, w);
+            if (!triangles_touch(tree, q, w, mode))
+                continue;
+            *any = 1;
+            if (stop_at_first)
+                goto done;
+            if (id_list_push(hits, id) != 0) {
+                st = OCTREE_ERR_NOMEM;
+                goto done;
+            }
+        }
+    }
+done:
+    id_set_release(&tested);
+    return st;
+}
+
+static int valid_mode(accuracy_mode mode)
+{
+    return mode == ACCURACY_EXACT || mode == ACCURACY_SEED || mode == ACCURACY_FAST;
+}
+
+octree_status octree_triangle(const octree *tree, const vec3 tri[3], tri_detail detail, accuracy_mode mode,
+                              tri_output *out, query_stats *stats)
+{
+    for (int k = 0; k < 3; k++)
+        if (!vec3_is_finite(tri[k]))
+            return OCTREE_ERR_NONFINITE;
+    if (!valid_mode(mode) || (detail != TRI_YESNO && detail != TRI_IDS && detail != TRI_SEGMENTS))
+        return OCTREE_ERR_INVALID;
+    uint64_t fallbacks_before = predicates_fallback_count();
+    query_stats local = {0};
+    id_list hits = {0};
+    int any = 0;
+    octree_status st = triangle_search(tree, tri, mode, detail == TRI_YESNO, &hits, &any, &local);
+    out->hit = any;
+    out->count = 0;
+    out->truncated = 0;
+    if (st == OCTREE_OK && detail != TRI_YESNO) {
+        qsort(hits.items, hits.count, sizeof *hits.items, compare_u32);
+        out->count = hits.count;
+        size_t keep = hits.count < out->capacity ? hits.count : out->capacity;
+        out->truncated = keep < hits.count;
+        for (size_t i = 0; i < keep; i++) {
+            tri_contact *c = &out->contacts[i];
+            c->triangle = hits.items[i];
+            c->p = c->q = (vec3){0, 0, 0};
+            if (detail == TRI_SEGMENTS) {
+                vec3 w[3];
+                octree_triangle_vertices(tree, c->triangle, w);
+                tri_tri_contact_segment(tri, w, &c->p, &c->q);
+            }
+        }
+    }
+    free(hits.items);
+    query_stats_finish(stats, &local, fallbacks_before, predicates_fallback_count());
+    return st;
+}
+
+static vec3 apply_pose(const pose *at, vec3 p)
+{
+    const double *r = at->r;
+    return (vec3){r[0] * p.x + r[1] * p.y + r[2] * p.z + at->t.x, r[3] * p.x + r[4] * p.y + r[5] * p.z + at->t.y,
+                  r[6] * p.x + r[7] * p.y + r[8] * p.z + at->t.z};
+}
+
+octree_status octree_mesh(const octree *tree, const mesh_view *shape, const pose *at, int all_pairs,
+                          accuracy_mode mode, mesh_output *out, query_stats *stats)
+{
+    if (!shape || !at || (shape->triangle_count && (!shape->indices || !shape->vertices)) || !valid_mode(mode))
+        return OCTREE_ERR_INVALID;
+    for (int k = 0; k < 9; k++)
+        if (!isfinite(at->r[k]))
+            return OCTREE_ERR_NONFINITE;
+    if (!vec3_is_finite(at->t))
+        return OCTREE_ERR_NONFINITE;
+    for (size_t i = 0; i < 3 * shape->triangle_count; i++) {
+        if (shape->indices[i] >= shape->vertex_count)
+            return OCTREE_ERR_INDEX;
+        if (!vec3_is_finite(shape->vertices[shape->indices[i]]))
+            return OCTREE_ERR_NONFINITE;
+    }
+    uint64_t fallbacks_before = predicates_fallback_count();
+    query_stats local = {0};
+    out->hit = 0;
+    out->count = 0;
+    out->truncated = 0;
+    octree_status st = OCTREE_OK;
+    id_list hits = {0};
+    for (size_t i = 0; i < shape->triangle_count && st == OCTREE_OK; i++) {
+        /* The posed triangle is rounded to doubles once; every decision after that is
+         * exact on those doubles. */
+        vec3 q[3];
+        for (int k = 0; k < 3; k++)
+            q[k] = apply_pose(at, shape->vertices[shape->indices[3 * i + (size_t)k]]);
+        if (!vec3_is_finite(q[0]) || !vec3_is_finite(q[1]) || !vec3_is_finite(q[2])) {
+            st = OCTREE_ERR_NONFINITE;
+            break;
+        }
+        int any = 0;
+        hits.count = 0;
+        st = triangle_search(tree, q, mode, !all_pairs, &hits, &any, &local);
+        if (!any)
+            continue;
+        out->hit = 1;
+        if (!all_pairs)
+            break;
+        qsort(hits.items, hits.count, sizeof *hits.items, compare_u32);
+        for (size_t j = 0; j < hits.count; j++) {
+            if (out->count < out->capacity)
+                out->pairs[out->count] = (mesh_pair){(uint32_t)i, hits.items[j]};
+            out->count++;
+        }
+    }
+    out->truncated = out->count > out->capacity;
+    free(hits.items);
+    query_stats_finish(stats, &local, fallbacks_before, predicates_fallback_count());
+    return st;
+}

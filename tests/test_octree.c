@@ -1,0 +1,675 @@
+/* Octree tests: the seed's construction, conservative exact membership, and every query
+ * answering exactly what brute force over all triangles answers. */
+#include <math.h>
+#include <pthread.h>
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include <cmocka.h>
+
+#include "engine.h"
+#include "geom/box_geometry.h"
+#include "geom/tri_box.h"
+#include "octree/octree_internal.h"
+#include "support/brute_force.h"
+#include "support/meshgen.h"
+#include "support/oracle.h"
+#include "world/mesh_load.h"
+
+static uint64_t base_seed = 20261121;
+
+static octree *build_or_fail(const mesh_data *m, double resolution, accuracy_mode mode)
+{
+    octree_def def = octree_default_def();
+    def.resolution = resolution;
+    def.mode = mode;
+    mesh_view v = mesh_data_view(m);
+    octree_error err;
+    octree *t = octree_build(&v, &def, &err);
+    if (!t)
+        fail_msg("build failed: %s", err.message);
+    return t;
+}
+
+/* ---------- construction ---------- */
+
+static void test_levels_and_enlarged_world(void **state)
+{
+    (void)state;
+    mesh_data m = meshgen_box((box3){{0, 0, 0}, {10, 3, 2}});
+    octree *t = build_or_fail(&m, 1.0, ACCURACY_EXACT);
+    octree_info info;
+    octree_get_info(t, &info);
+    assert_int_equal(info.max_level, 4); /* ceil(log2(10 / 1)) */
+    assert_true(info.world_size == 16.0);
+    assert_true(info.resolution == 1.0);
+    assert_true(info.world_min.x == 0.0 && info.world_min.y == 0.0 && info.world_min.z == 0.0);
+    assert_int_equal(info.triangle_count, 12);
+    assert_true(info.node_count > 1 && (info.node_count - 1) % 8 == 0);
+    assert_true(info.bytes_total > info.bytes_nodes);
+    octree_free(t);
+    mesh_data_free(&m);
+}
+
+static void test_seed_heuristic_resolution(void **state)
+{
+    (void)state;
+    /* Two right triangles with legs 2: |E2 x E0| = 4 each, so d = sqrt(4) = 2. */
+    vec3 v[] = {{0, 0, 0}, {2, 0, 0}, {0, 2, 0}, {10, 0, 0}, {12, 0, 0}, {10, 2, 0}};
+    uint32_t ix[] = {0, 1, 2, 3, 4, 5};
+    mesh_view mv = {v, 6, ix, 2};
+    octree *t = octree_build(&mv, NULL, NULL);
+    assert_non_null(t);
+    octree_info info;
+    octree_get_info(t, &info);
+    assert_true(info.resolution == 2.0);
+    assert_int_equal(info.max_level, 3); /* extent 12: 2 * 2^3 = 16 >= 12 > 8 */
+    octree_free(t);
+}
+
+static void test_nan_vertex_is_rejected_naming_the_triangle(void **state)
+{
+    (void)state;
+    vec3 v[] = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {NAN, 0, 0}};
+    uint32_t ix[] = {0, 1, 2, 0, 2, 1, 1, 2, 3};
+    mesh_view mv = {v, 4, ix, 3};
+    octree_error err;
+    assert_null(octree_build(&mv, NULL, &err));
+    assert_int_equal(err.status, OCTREE_ERR_NONFINITE);
+    assert_int_equal(err.triangle, 2);
+    assert_non_null(strstr(err.message, "triangle 2"));
+    v[3] = (vec3){0, INFINITY, 0};
+    assert_null(octree_build(&mv, NULL, &err));
+    assert_int_equal(err.status, OCTREE_ERR_NONFINITE);
+}
+
+static void test_bad_index_and_empty_mesh_are_rejected(void **state)
+{
+    (void)state;
+    vec3 v[] = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}};
+    uint32_t ix[] = {0, 1, 3};
+    mesh_view mv = {v, 3, ix, 1};
+    octree_error err;
+    assert_null(octree_build(&mv, NULL, &err));
+    assert_int_equal(err.status, OCTREE_ERR_INDEX);
+    assert_int_equal(err.triangle, 0);
+    mv.triangle_count = 0;
+    assert_null(octree_build(&mv, NULL, &err));
+    assert_int_equal(err.status, OCTREE_ERR_EMPTY);
+    octree_def def = octree_default_def();
+    def.max_depth = OCTREE_MAX_DEPTH_CAP + 1;
+    mv.triangle_count = 1;
+    ix[2] = 2;
+    assert_null(octree_build(&mv, &def, &err));
+    assert_int_equal(err.status, OCTREE_ERR_INVALID);
+}
+
+static void test_depth_cap_errors_when_explicit_and_clamps_heuristic(void **state)
+{
+    (void)state;
+    /* Extent 1e6 with triangles of 1e-3: log2(1e9) is about 30 levels, over the cap. */
+    mesh_data a = meshgen_soup(base_seed, 50, (box3){{0, 0, 0}, {1e6, 1e6, 1e6}}, 1e-3);
+    mesh_view v = mesh_data_view(&a);
+    octree_def def = octree_default_def();
+    def.resolution = 1e-3;
+    octree_error err;
+    assert_null(octree_build(&v, &def, &err));
+    assert_int_equal(err.status, OCTREE_ERR_DEPTH);
+    assert_non_null(strstr(err.message, "cap"));
+    def.resolution = 0; /* heuristic */
+    octree *t = octree_build(&v, &def, &err);
+    assert_non_null(t);
+    octree_info info;
+    octree_get_info(t, &info);
+    assert_int_equal(info.max_level, def.max_depth);
+    assert_int_equal(info.depth_clamped, 1);
+    assert_true(ldexp(info.resolution, info.max_level) == info.world_size);
+    octree_free(t);
+    mesh_data_free(&a);
+}
+
+static void test_children_follow_the_seed_octant_order(void **state)
+{
+    (void)state;
+    mesh_data m = meshgen_icosphere((vec3){0, 0, 0}, 1.0, 2);
+    octree *t = build_or_fail(&m, 0.25, ACCURACY_EXACT);
+    octree_node root = t->nodes[0];
+    assert_int_equal(root.count, NODE_INTERIOR);
+    assert_int_equal(root.first, 1); /* appended right after the root */
+    box3 w = t->world;
+    vec3 c = vec3_scale(vec3_add(w.lo, w.hi), 0.5);
+    box3 first = box_octant(w, 0), seventh = box_octant(w, 6);
+    /* The seed's octant 1 is the upper corner [C, Pmax], octant 7 the lower [Pmin, C]. */
+    assert_true(vec3_equal(first.lo, c) && vec3_equal(first.hi, w.hi));
+    assert_true(vec3_equal(seventh.lo, w.lo) && vec3_equal(seventh.hi, c));
+    octree_free(t);
+    mesh_data_free(&m);
+}
+
+/* ---------- membership ---------- */
+
+typedef struct leaf_ref {
+    uint32_t node;
+    box3 box;
+} leaf_ref;
+
+static size_t collect_leaves(const octree *t, leaf_ref *out, size_t cap)
+{
+    size_t n = 0;
+    leaf_ref stack[OCTREE_STACK_MAX];
+    size_t top = 0;
+    stack[top++] = (leaf_ref){0, t->world};
+    while (top) {
+        leaf_ref e = stack[--top];
+        octree_node nd = t->nodes[e.node];
+        if (nd.count != NODE_INTERIOR) {
+            if (n < cap)
+                out[n] = e;
+            n++;
+            continue;
+        }
+        for (int k = 0; k < 8; k++)
+            stack[top++] = (leaf_ref){nd.first + (uint32_t)k, box_octant(e.box, k)};
+    }
+    return n;
+}
+
+static int leaf_holds(const octree *t, uint32_t node, uint32_t id)
+{
+    octree_node nd = t->nodes[node];
+    for (uint32_t i = 0; i < nd.count; i++)
+        if (t->leaf_items[nd.first + i] == id)
+            return 1;
+    return 0;
+}
+
+static void check_membership(const mesh_data *m, double resolution, uint64_t seed, int oracle_samples)
+{
+    octree *t = build_or_fail(m, resolution, ACCURACY_EXACT);
+    size_t nleaves = collect_leaves(t, NULL, 0);
+    leaf_ref *leaves = malloc(nleaves * sizeof *leaves);
+    collect_leaves(t, leaves, nleaves);
+    rng r = rng_seeded(seed);
+    for (int s = 0; s < 200; s++) {
+        leaf_ref L = leaves[rng_next(&r) % nleaves];
+        for (size_t i = 0; i < m->triangle_count; i++) {
+            vec3 tri[3];
+            octree_triangle_vertices(t, (uint32_t)i, tri);
+            int touches = tri_box_overlap_exact(tri, L.box);
+            if (touches != leaf_holds(t, L.node, (uint32_t)i))
+                fail_msg("seed %llu: triangle %zu touches=%d but leaf %u holds=%d", (unsigned long long)seed, i,
+                         touches, L.node, !touches);
+            if (s < oracle_samples) {
+                box3 grown = L.box; /* the GMP oracle is slow: only near triangles */
+                vec3 lo = vec3_min(vec3_min(tri[0], tri[1]), tri[2]), hi = vec3_max(vec3_max(tri[0], tri[1]), tri[2]);
+                if (lo.x <= grown.hi.x && lo.y <= grown.hi.y && lo.z <= grown.hi.z && hi.x >= grown.lo.x &&
+                    hi.y >= grown.lo.y && hi.z >= grown.lo.z)
+                    assert_int_equal(oracle_tri_box(tri, L.box), touches);
+            }
+        }
+    }
+    free(leaves);
+    octree_free(t);
+}
+
+static void test_membership_is_exact_on_random_leaves(void **state)
+{
+    (void)state;
+    uint64_t seed = base_seed + 1;
+    printf("membership seed %llu\n", (unsigned long long)seed);
+    mesh_data soup = meshgen_soup(seed, 400, (box3){{-1, -1, -1}, {1, 1, 1}}, 0.2);
+    check_membership(&soup, 0.0, seed, 20);
+    mesh_data blocks = meshgen_blocks(seed, 4, 4, 3, 0.5);
+    check_membership(&blocks, 0.25, seed + 1, 20); /* block faces lie on node faces */
+    mesh_data far = meshgen_transformed(&soup, 1e-3, (vec3){1e6, -1e6, 1e6});
+    check_membership(&far, 0.0, seed + 2, 10);
+    mesh_data_free(&soup);
+    mesh_data_free(&blocks);
+    mesh_data_free(&far);
+}
+
+static void test_triangles_on_node_faces_are_in_both_neighbours(void **state)
+{
+    (void)state;
+    /* World [0, 4]^3 with d = 1. Triangles lying in the plane x = 2 (the root's centre
+     * plane), along the line y = z = 2, and a zero-area point at the centre (2, 2, 2). */
+    vec3 v[] = {{0, 0, 0}, {4, 4, 4}, {4, 0, 0},                 /* spans the world */
+                {2, 0.5, 0.5}, {2, 1.5, 0.5}, {2, 0.5, 1.5},     /* on x = 2 */
+                {0.5, 2, 2}, {1.5, 2, 2}, {1, 2, 2},             /* zero-area on a node edge */
+                {2, 2, 2}, {2, 2, 2}, {2, 2, 2}};                /* a point on a node corner */
+    uint32_t ix[] = {0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11};
+    mesh_view mv = {v, 12, ix, 4};
+    octree_def def = octree_default_def();
+    def.resolution = 1.0;
+    octree *t = octree_build(&mv, &def, NULL);
+    assert_non_null(t);
+    assert_true(t->world.lo.x == 0 && t->world.hi.x == 4);
+    size_t n = collect_leaves(t, NULL, 0);
+    leaf_ref *leaves = malloc(n * sizeof *leaves);
+    collect_leaves(t, leaves, n);
+    int face_leaves = 0, edge_leaves = 0, corner_leaves = 0;
+    for (size_t i = 0; i < n; i++) {
+        box3 b = leaves[i].box;
+        face_leaves += leaf_holds(t, leaves[i].node, 1);
+        edge_leaves += leaf_holds(t, leaves[i].node, 2);
+        corner_leaves += leaf_holds(t, leaves[i].node, 3);
+        /* the point (2,2,2) is a corner of exactly 8 leaves */
+        int at_corner = (b.lo.x == 2 || b.hi.x == 2) && (b.lo.y == 2 || b.hi.y == 2) && (b.lo.z == 2 || b.hi.z == 2);
+        assert_int_equal(leaf_holds(t, leaves[i].node, 3), at_corner);
+    }
+    /* x = 2 face: the triangle covers cells y, z in [0, 2] on both sides: 2 sides x 4 cells. */
+    assert_int_equal(face_leaves, 8);
+    /* segment y = z = 2, x in [0.5, 1.5]: 4 cells around the line, times 2 along x. */
+    assert_int_equal(edge_leaves, 8);
+    assert_int_equal(corner_leaves, 8);
+    free(leaves);
+
+    /* A query triangle touching the face triangle only at its vertex (2, 0.5, 0.5) from
+     * the x > 2 side finds it. */
+    vec3 q[3] = {{2, 0.5, 0.5}, {3, 0.5, 0.5}, {3, 0.25, 0.25}};
+    tri_contact c[8];
+    tri_output out = {.contacts = c, .capacity = 8};
+    assert_int_equal(octree_triangle(t, q, TRI_IDS, ACCURACY_EXACT, &out, NULL), OCTREE_OK);
+    assert_int_equal(out.count, 2);
+    assert_int_equal(c[0].triangle, 0); /* the spanning triangle passes through too */
+    assert_int_equal(c[1].triangle, 1);
+    /* A ray lying in the node face plane x = 2 (zero x direction) grazes the face
+     * triangle (parallel: no crossing) and crosses the spanning triangle. */
+    ray_hit h[4];
+    ray_output ro = {.hits = h, .max_hits = 4};
+    ray_input ray = {{2, 1, -1}, {0, 0, 1}, 0, INFINITY};
+    assert_int_equal(octree_ray(t, &ray, RAY_ALL, ACCURACY_EXACT, &ro, NULL), OCTREE_OK);
+    ray_hit bh[4];
+    size_t bn = brute_ray(&mv, &ray, RAY_ALL, ACCURACY_EXACT, 0, bh, 4);
+    assert_int_equal(ro.hit_count, bn);
+    for (size_t i = 0; i < bn; i++)
+        assert_int_equal(h[i].triangle, bh[i].triangle);
+    octree_free(t);
+}
+
+/* ---------- queries against brute force ---------- */
+
+typedef struct scene {
+    const char *name;
+    mesh_data mesh;
+    double resolution; /* 0: heuristic */
+} scene;
+
+static vec3 random_point_near(rng *r, box3 b)
+{
+    vec3 ext = vec3_sub(b.hi, b.lo);
+    box3 g = {vec3_sub(b.lo, vec3_scale(ext, 0.25)), vec3_add(b.hi, vec3_scale(ext, 0.25))};
+    return rng_point_in_box(r, g);
+}
+
+static box3 mesh_bounds(const mesh_data *m)
+{
+    box3 b = {m->vertices[0], m->vertices[0]};
+    for (size_t i = 1; i < m->vertex_count; i++) {
+        b.lo = vec3_min(b.lo, m->vertices[i]);
+        b.hi = vec3_max(b.hi, m->vertices[i]);
+    }
+    return b;
+}
+
+/* Rays of several kinds: toward a random vertex (through shared vertices), toward an edge
+ * midpoint, axis-aligned, and fully random. */
+static ray_input random_ray(rng *r, const mesh_data *m, box3 b)
+{
+    ray_input ray = {random_point_near(r, b), {0, 0, 0}, 0, INFINITY};
+    uint64_t kind = rng_next(r) % 4;
+    vec3 target;
+    if (kind == 0) {
+        target = m->vertices[rng_next(r) % m->vertex_count];
+    } else if (kind == 1) {
+        size_t t = rng_next(r) % m->triangle_count;
+        vec3 a = m->vertices[m->indices[3 * t]], c = m->vertices[m->indices[3 * t + 1]];
+        target = vec3_scale(vec3_add(a, c), 0.5);
+    } else if (kind == 2) {
+        target = ray.origin;
+        int axis = (int)(rng_next(r) % 3);
+        double s = (rng_next(r) & 1) ? 1.0 : -1.0;
+        if (axis == 0) target.x += s;
+        if (axis == 1) target.y += s;
+        if (axis == 2) target.z += s;
+    } else {
+        target = random_point_near(r, b);
+    }
+    ray.direction = vec3_sub(target, ray.origin);
+    if (ray.direction.x == 0 && ray.direction.y == 0 && ray.direction.z == 0)
+        ray.direction.x = 1;
+    if (rng_next(r) % 5 == 0)
+        ray.tmax = rng_uniform(r, 0.2, 1.5);
+    return ray;
+}
+
+static void random_triangle(rng *r, box3 b, double size, vec3 q[3])
+{
+    q[0] = random_point_near(r, b);
+    for (int k = 1; k < 3; k++)
+        q[k] = vec3_add(q[0], vec3_scale(rng_unit_vector(r), size * rng_uniform(r, 0.1, 1.0)));
+}
+
+static void compare_rays(const octree *t, const mesh_data *m, rng *r, int count, accuracy_mode mode)
+{
+    mesh_view v = mesh_data_view(m);
+    box3 b = mesh_bounds(m);
+    ray_hit got[64], want[64];
+    for (int i = 0; i < count; i++) {
+        ray_input ray = random_ray(r, m, b);
+        for (int detail = RAY_ANY; detail <= RAY_ALL; detail++) {
+            ray_output out = {.hits = got, .max_hits = 64};
+            assert_int_equal(octree_ray(t, &ray, (ray_detail)detail, mode, &out, NULL), OCTREE_OK);
+            size_t n = brute_ray(&v, &ray, (ray_detail)detail, mode, t->seed_epsilon, want, 64);
+            if (detail == RAY_ANY) {
+                assert_int_equal(out.hit_count > 0, n > 0);
+                continue;
+            }
+            if (out.hit_count != n)
+                fail_msg("ray %d detail %d: octree %zu hits, brute force %zu", i, detail, out.hit_count, n);
+            for (size_t k = 0; k < n && k < 64; k++) {
+                if (got[k].triangle != want[k].triangle)
+                    fail_msg("ray %d detail %d hit %zu: octree triangle %u, brute force %u", i, detail, k,
+                             got[k].triangle, want[k].triangle);
+                assert_true(got[k].t == want[k].t);
+            }
+        }
+    }
+}
+
+static void compare_triangles(const octree *t, const mesh_data *m, rng *r, int count, double size)
+{
+    mesh_view v = mesh_data_view(m);
+    box3 b = mesh_bounds(m);
+    size_t cap = m->triangle_count;
+    uint32_t *want = malloc(cap * sizeof *want);
+    tri_contact *got = malloc(cap * sizeof *got);
+    for (int i = 0; i < count; i++) {
+        vec3 q[3];
+        if (i % 4 == 0) {
+            /* a world triangle itself: touches at least itself and its neighbours */
+            size_t w = rng_next(r) % m->triangle_count;
+            for (int k = 0; k < 3; k++)
+                q[k] = m->vertices[m->indices[3 * w + (size_t)k]];
+        } else {
+            random_triangle(r, b, size, q);
+        }
+        size_t n = brute_triangle(&v, q, ACCURACY_EXACT, 0, want, cap);
+        tri_output out = {.contacts = got, .capacity = cap};
+        assert_int_equal(octree_triangle(t, q, TRI_IDS, ACCURACY_EXACT, &out, NULL), OCTREE_OK);
+        if (out.count != n)
+            fail_msg("triangle query %d: octree %zu ids, brute force %zu", i, out.count, n);
+        for (size_t k = 0; k < n; k++)
+            assert_int_equal(got[k].triangle, want[k]);
+        tri_output yn = {0};
+        assert_int_equal(octree_triangle(t, q, TRI_YESNO, ACCURACY_EXACT, &yn, NULL), OCTREE_OK);
+        assert_int_equal(yn.hit, n > 0);
+    }
+    free(want);
+    free(got);
+}
+
+static void run_scene(scene *s, uint64_t seed, int rays, int tris)
+{
+    printf("scene %s: %zu triangles, seed %llu\n", s->name, s->mesh.triangle_count, (unsigned long long)seed);
+    octree *t = build_or_fail(&s->mesh, s->resolution, ACCURACY_EXACT);
+    rng r = rng_seeded(seed);
+    compare_rays(t, &s->mesh, &r, rays, ACCURACY_EXACT);
+    box3 b = mesh_bounds(&s->mesh);
+    double size = 0.1 * fmax(b.hi.x - b.lo.x, fmax(b.hi.y - b.lo.y, b.hi.z - b.lo.z));
+    compare_triangles(t, &s->mesh, &r, tris, size);
+    octree_free(t);
+}
+
+static void test_random_scenes_equal_brute_force(void **state)
+{
+    (void)state;
+    uint64_t seed = base_seed + 2;
+    box3 unit = {{-1, -1, -1}, {1, 1, 1}};
+    mesh_data soup = meshgen_soup(seed, 600, unit, 0.3);
+    scene scenes[] = {
+        {"soup", meshgen_soup(seed, 600, unit, 0.3), 0},
+        {"soup far and small", meshgen_transformed(&soup, 1e-3, (vec3){1e6, 2e6, -1e6}), 0},
+        {"soup at 1e9", meshgen_transformed(&soup, 1.0, (vec3){1e9, 1e9, 1e9}), 0},
+        {"terrain", meshgen_terrain(seed, (box3){{0, 0, 0}, {8, 8, 1}}, 16, 16), 0},
+        {"icosphere", meshgen_icosphere((vec3){0.5, 0.25, 0}, 1.0, 3), 0},
+        {"blocks", meshgen_blocks(seed, 4, 3, 3, 0.5), 0.125},
+        {"torus coarse", meshgen_torus((vec3){0, 0, 0}, 2.0, 0.5, 24, 12), 2.0},
+    };
+    for (size_t i = 0; i < sizeof scenes / sizeof scenes[0]; i++) {
+        run_scene(&scenes[i], seed + i, 1500, 300);
+        mesh_data_free(&scenes[i].mesh);
+    }
+    mesh_data_free(&soup);
+}
+
+static void test_real_meshes_equal_brute_force(void **state)
+{
+    (void)state;
+    const char *files[] = {"/usr/share/assimp/models/PLY/Wuson.ply",
+                           "/usr/share/assimp/models/STL/Spider_binary.stl",
+                           "/usr/share/assimp/models/OBJ/spider.obj"};
+    for (size_t i = 0; i < sizeof files / sizeof files[0]; i++) {
+        scene s = {files[i], {0}, 0};
+        char err[256];
+        if (mesh_load_file(files[i], &s.mesh, NULL, err, sizeof err) != 0)
+            fail_msg("%s", err);
+        run_scene(&s, base_seed + 10 + i, 300, 60);
+        mesh_data_free(&s.mesh);
+    }
+}
+
+static void test_mesh_query_equals_per_triangle_brute_force(void **state)
+{
+    (void)state;
+    uint64_t seed = base_seed + 3;
+    mesh_data world = meshgen_terrain(seed, (box3){{0, 0, 0}, {8, 8, 1}}, 16, 16);
+    mesh_data shape = meshgen_icosphere((vec3){0, 0, 0}, 0.6, 1);
+    octree *t = build_or_fail(&world, 0, ACCURACY_EXACT);
+    mesh_view wv = mesh_data_view(&world), sv = mesh_data_view(&shape);
+    rng r = rng_seeded(seed);
+    mesh_pair pairs[4096];
+    uint32_t ids[4096];
+    int hits = 0;
+    for (int i = 0; i < 40; i++) {
+        double a = rng_uniform(&r, 0, 6.283185307179586);
+        pose p = {{cos(a), -sin(a), 0, sin(a), cos(a), 0, 0, 0, 1},
+                  {rng_uniform(&r, 0, 8), rng_uniform(&r, 0, 8), rng_uniform(&r, -0.5, 1.5)}};
+        mesh_output out = {.pairs = pairs, .capacity = 4096};
+        assert_int_equal(octree_mesh(t, &sv, &p, 1, ACCURACY_EXACT, &out, NULL), OCTREE_OK);
+        size_t k = 0;
+        for (size_t q = 0; q < shape.triangle_count; q++) {
+            vec3 tri[3];
+            for (int j = 0; j < 3; j++) {
+                vec3 s = shape.vertices[shape.indices[3 * q + (size_t)j]];
+                tri[j] = (vec3){p.r[0] * s.x + p.r[1] * s.y + p.r[2] * s.z + p.t.x,
+                                p.r[3] * s.x + p.r[4] * s.y + p.r[5] * s.z + p.t.y,
+                                p.r[6] * s.x + p.r[7] * s.y + p.r[8] * s.z + p.t.z};
+            }
+            size_t n = brute_triangle(&wv, tri, ACCURACY_EXACT, 0, ids, 4096);
+            for (size_t j = 0; j < n; j++, k++) {
+                assert_true(k < out.count);
+                assert_int_equal(pairs[k].query_triangle, q);
+                assert_int_equal(pairs[k].world_triangle, ids[j]);
+            }
+        }
+        assert_int_equal(out.count, k);
+        mesh_output yn = {0};
+        assert_int_equal(octree_mesh(t, &sv, &p, 0, ACCURACY_EXACT, &yn, NULL), OCTREE_OK);
+        assert_int_equal(yn.hit, k > 0);
+        hits += k > 0;
+    }
+    assert_true(hits > 0 && hits < 40); /* the poses exercise both answers */
+    octree_free(t);
+    mesh_data_free(&world);
+    mesh_data_free(&shape);
+}
+
+/* ---------- watertightness through the octree ---------- */
+
+static void test_rays_cross_closed_meshes_an_even_number_of_times(void **state)
+{
+    (void)state;
+    uint64_t seed = base_seed + 4;
+    mesh_data meshes[] = {meshgen_icosphere((vec3){0, 0, 0}, 1.0, 2), meshgen_torus((vec3){0, 0, 0}, 2, 0.5, 16, 8),
+                          meshgen_box((box3){{-1, -1, -1}, {1, 1, 1}})};
+    rng r = rng_seeded(seed);
+    ray_hit hits[64];
+    for (size_t m = 0; m < 3; m++) {
+        octree *t = build_or_fail(&meshes[m], 0, ACCURACY_EXACT);
+        box3 b = mesh_bounds(&meshes[m]);
+        int crossing = 0;
+        for (int i = 0; i < 2000; i++) {
+            ray_input ray = random_ray(&r, &meshes[m], b);
+            ray.tmax = INFINITY;
+            /* start outside the bounds so the crossing count must be even */
+            ray.origin = vec3_add(b.hi, vec3_make(1, 1.5, 2));
+            ray.direction = vec3_sub(i % 2 ? meshes[m].vertices[rng_next(&r) % meshes[m].vertex_count]
+                                           : random_point_near(&r, b),
+                                     ray.origin);
+            ray_output out = {.hits = hits, .max_hits = 64};
+            assert_int_equal(octree_ray(t, &ray, RAY_ALL, ACCURACY_EXACT, &out, NULL), OCTREE_OK);
+            if (out.hit_count % 2 != 0)
+                fail_msg("mesh %zu ray %d: %zu crossings (odd) toward (%a, %a, %a)", m, i, out.hit_count,
+                         ray.direction.x, ray.direction.y, ray.direction.z);
+            crossing += out.hit_count > 0;
+        }
+        assert_true(crossing > 100);
+        octree_free(t);
+        mesh_data_free(&meshes[m]);
+    }
+}
+
+/* ---------- bad queries ---------- */
+
+static void test_bad_queries_get_errors(void **state)
+{
+    (void)state;
+    mesh_data m = meshgen_box((box3){{0, 0, 0}, {1, 1, 1}});
+    octree *t = build_or_fail(&m, 0, ACCURACY_EXACT);
+    ray_hit h;
+    ray_output out = {.hits = &h, .max_hits = 1};
+    ray_input zero = {{0, 0, 0}, {0, 0, 0}, 0, 1};
+    assert_int_equal(octree_ray(t, &zero, RAY_CLOSEST, ACCURACY_EXACT, &out, NULL), OCTREE_ERR_INVALID);
+    ray_input nan = {{NAN, 0, 0}, {1, 0, 0}, 0, 1};
+    assert_int_equal(octree_ray(t, &nan, RAY_CLOSEST, ACCURACY_EXACT, &out, NULL), OCTREE_ERR_NONFINITE);
+    ray_input inf = {{0, 0, 0}, {INFINITY, 0, 0}, 0, 1};
+    assert_int_equal(octree_ray(t, &inf, RAY_CLOSEST, ACCURACY_EXACT, &out, NULL), OCTREE_ERR_NONFINITE);
+    ray_input backwards = {{0, 0, 0}, {1, 0, 0}, 2, 1};
+    assert_int_equal(octree_ray(t, &backwards, RAY_CLOSEST, ACCURACY_EXACT, &out, NULL), OCTREE_ERR_INVALID);
+    vec3 q[3] = {{0, 0, 0}, {NAN, 1, 1}, {1, 1, 1}};
+    tri_output to = {0};
+    assert_int_equal(octree_triangle(t, q, TRI_YESNO, ACCURACY_EXACT, &to, NULL), OCTREE_ERR_NONFINITE);
+    /* a zero-area query triangle acts as its segment: this one pierces the box's face */
+    vec3 seg[3] = {{0.5, 0.5, -1}, {0.5, 0.5, 0.5}, {0.5, 0.5, -0.25}};
+    assert_int_equal(octree_triangle(t, seg, TRI_YESNO, ACCURACY_EXACT, &to, NULL), OCTREE_OK);
+    assert_int_equal(to.hit, 1);
+    octree_free(t);
+    mesh_data_free(&m);
+}
+
+/* ---------- threads ---------- */
+
+typedef struct thread_job {
+    const octree *tree;
+    const mesh_data *mesh;
+    uint64_t seed;
+    int first, count;
+    uint64_t hash;
+} thread_job;
+
+static uint64_t mix(uint64_t h, uint64_t v)
+{
+    h ^= v + 0x9E3779B97F4A7C15ull + (h << 6) + (h >> 2);
+    return h;
+}
+
+static void *run_job(void *arg)
+{
+    thread_job *j = arg;
+    box3 b = mesh_bounds(j->mesh);
+    ray_hit hits[16];
+    uint64_t h = 0;
+    for (int i = j->first; i < j->first + j->count; i++) {
+        rng r = rng_seeded(j->seed + (uint64_t)i);
+        ray_input ray = random_ray(&r, j->mesh, b);
+        ray_output out = {.hits = hits, .max_hits = 16};
+        octree_ray(j->tree, &ray, RAY_ALL, ACCURACY_EXACT, &out, NULL);
+        h = mix(h, out.hit_count);
+        for (size_t k = 0; k < out.hit_count && k < 16; k++) {
+            uint64_t bits;
+            memcpy(&bits, &hits[k].t, sizeof bits);
+            h = mix(mix(h, hits[k].triangle), bits);
+        }
+        vec3 q[3];
+        random_triangle(&r, b, 0.3, q);
+        tri_contact c[64];
+        tri_output to = {.contacts = c, .capacity = 64};
+        octree_triangle(j->tree, q, TRI_IDS, ACCURACY_EXACT, &to, NULL);
+        h = mix(h, to.count);
+        for (size_t k = 0; k < to.count && k < 64; k++)
+            h = mix(h, c[k].triangle);
+    }
+    j->hash = h;
+    return NULL;
+}
+
+static void test_results_identical_for_one_and_four_threads(void **state)
+{
+    (void)state;
+    mesh_data m = meshgen_icosphere((vec3){0, 0, 0}, 1.0, 3);
+    octree *t = build_or_fail(&m, 0, ACCURACY_EXACT);
+    enum { N = 4000, THREADS = 4 };
+    thread_job single = {t, &m, base_seed + 5, 0, N, 0};
+    run_job(&single);
+    /* Four threads over the same queries in four slices; the per-slice hashes chained in
+     * slice order must equal one thread's hashes over the same slices. */
+    thread_job jobs[THREADS];
+    pthread_t th[THREADS];
+    for (int i = 0; i < THREADS; i++) {
+        jobs[i] = (thread_job){t, &m, base_seed + 5, i * (N / THREADS), N / THREADS, 0};
+        assert_int_equal(pthread_create(&th[i], NULL, run_job, &jobs[i]), 0);
+    }
+    uint64_t chained = 0, chained_single = 0;
+    for (int i = 0; i < THREADS; i++) {
+        pthread_join(th[i], NULL);
+        thread_job again = {t, &m, base_seed + 5, i * (N / THREADS), N / THREADS, 0};
+        run_job(&again);
+        chained = mix(chained, jobs[i].hash);
+        chained_single = mix(chained_single, again.hash);
+    }
+    assert_true(chained == chained_single);
+    assert_true(single.hash != 0);
+    octree_free(t);
+    mesh_data_free(&m);
+}
+
+int main(void)
+{
+    const char *s = getenv("TRIOCT_SEED");
+    if (s)
+        base_seed = strtoull(s, NULL, 10);
+    printf("test_octree base seed %llu (set TRIOCT_SEED to rerun)\n", (unsigned long long)base_seed);
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_levels_and_enlarged_world),
+        cmocka_unit_test(test_seed_heuristic_resolution),
+        cmocka_unit_test(test_nan_vertex_is_rejected_naming_the_triangle),
+        cmocka_unit_test(test_bad_index_and_empty_mesh_are_rejected),
+        cmocka_unit_test(test_depth_cap_errors_when_explicit_and_clamps_heuristic),
+        cmocka_unit_test(test_children_follow_the_seed_octant_order),
+        cmocka_unit_test(test_membership_is_exact_on_random_leaves),
+        cmocka_unit_test(test_triangles_on_node_faces_are_in_both_neighbours),
+        cmocka_unit_test(test_random_scenes_equal_brute_force),
+        cmocka_unit_test(test_real_meshes_equal_brute_force),
+        cmocka_unit_test(test_mesh_query_equals_per_triangle_brute_force),
+        cmocka_unit_test(test_rays_cross_closed_meshes_an_even_number_of_times),
+        cmocka_unit_test(test_bad_queries_get_errors),
+        cmocka_unit_test(test_results_identical_for_one_and_four_threads),
+    };
+    return cmocka_run_group_tests_name("octree", tests, NULL, NULL);
+}
