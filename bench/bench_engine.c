@@ -1,0 +1,231 @@
+/* Engine benchmark: build cost, memory, ray and triangle query throughput on generated and
+ * real meshes, single thread and all cores, and the speed-up over brute force. Prints
+ * figures beside the issue's targets; asserts nothing (machines are noisy). */
+#include <math.h>
+#include <pthread.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+#include <unistd.h>
+
+#include "engine.h"
+#include "support/brute_force.h"
+#include "support/meshgen.h"
+#include "world/mesh_load.h"
+
+static double now(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
+
+typedef struct workload {
+    ray_input *rays;
+    size_t ray_count;
+    vec3 (*tris)[3];
+    size_t tri_count;
+} workload;
+
+/* Rays from random points around the mesh toward random points on random triangles (the
+ * hit-heavy case a robot's sensor sees), and query triangles of about the leaf size placed
+ * on the surface (a contact check). */
+static workload make_workload(const mesh_data *m, double leaf, size_t rays, size_t tris, uint64_t seed)
+{
+    rng r = rng_seeded(seed);
+    box3 b = {m->vertices[0], m->vertices[0]};
+    for (size_t i = 1; i < m->vertex_count; i++) {
+        b.lo = vec3_min(b.lo, m->vertices[i]);
+        b.hi = vec3_max(b.hi, m->vertices[i]);
+    }
+    vec3 ext = vec3_sub(b.hi, b.lo);
+    box3 around = {vec3_sub(b.lo, vec3_scale(ext, 0.2)), vec3_add(b.hi, vec3_scale(ext, 0.2))};
+    workload w = {malloc(rays * sizeof *w.rays), rays, malloc(tris * sizeof *w.tris), tris};
+    for (size_t i = 0; i < rays; i++) {
+        size_t t = rng_next(&r) % m->triangle_count;
+        double u = rng_uniform(&r, 0, 1), v = rng_uniform(&r, 0, 1);
+        if (u + v > 1) {
+            u = 1 - u;
+            v = 1 - v;
+        }
+        vec3 a = m->vertices[m->indices[3 * t]], bb = m->vertices[m->indices[3 * t + 1]],
+             c = m->vertices[m->indices[3 * t + 2]];
+        vec3 target = vec3_add(a, vec3_add(vec3_scale(vec3_sub(bb, a), u), vec3_scale(vec3_sub(c, a), v)));
+        vec3 o = rng_point_in_box(&r, around);
+        w.rays[i] = (ray_input){o, vec3_sub(target, o), 0, INFINITY};
+    }
+    for (size_t i = 0; i < tris; i++) {
+        size_t t = rng_next(&r) % m->triangle_count;
+        vec3 p = m->vertices[m->indices[3 * t]];
+        vec3 q0 = vec3_add(p, vec3_scale(rng_unit_vector(&r), 0.5 * leaf * rng_uniform(&r, 0, 1)));
+        w.tris[i][0] = q0;
+        w.tris[i][1] = vec3_add(q0, vec3_scale(rng_unit_vector(&r), leaf));
+        w.tris[i][2] = vec3_add(q0, vec3_scale(rng_unit_vector(&r), leaf));
+    }
+    return w;
+}
+
+typedef struct job {
+    const octree *tree;
+    const workload *w;
+    int kind; /* 0 closest, 1 any, 2 tri yes/no, 3 tri ids */
+    size_t first, count;
+    query_stats stats;
+    size_t hits;
+} job;
+
+static void *run(void *arg)
+{
+    job *j = arg;
+    ray_hit hit;
+    tri_contact contacts[256];
+    for (size_t i = j->first; i < j->first + j->count; i++) {
+        if (j->kind <= 1) {
+            ray_output out = {.hits = &hit, .max_hits = 1};
+            octree_ray(j->tree, &j->w->rays[i % j->w->ray_count], j->kind == 0 ? RAY_CLOSEST : RAY_ANY,
+                       ACCURACY_EXACT, &out, &j->stats);
+            j->hits += out.hit_count > 0;
+        } else {
+            tri_output out = {.contacts = contacts, .capacity = 256};
+            octree_triangle(j->tree, j->w->tris[i % j->w->tri_count], j->kind == 2 ? TRI_YESNO : TRI_IDS,
+                            ACCURACY_EXACT, &out, &j->stats);
+            j->hits += out.hit;
+        }
+    }
+    return NULL;
+}
+
+/* Queries per second over `count` queries on `threads` threads. */
+static double throughput(const octree *t, const workload *w, int kind, size_t count, int threads, query_stats *stats,
+                         double *hit_rate)
+{
+    job jobs[64];
+    pthread_t th[64];
+    double start = now();
+    for (int i = 0; i < threads; i++) {
+        jobs[i] = (job){t, w, kind, (size_t)i * (count / (size_t)threads), count / (size_t)threads, {0}, 0};
+        if (threads == 1)
+            run(&jobs[i]);
+        else
+            pthread_create(&th[i], NULL, run, &jobs[i]);
+    }
+    size_t hits = 0;
+    *stats = (query_stats){0};
+    for (int i = 0; i < threads; i++) {
+        if (threads > 1)
+            pthread_join(th[i], NULL);
+        hits += jobs[i].hits;
+        stats->nodes_visited += jobs[i].stats.nodes_visited;
+        stats->candidates_tested += jobs[i].stats.candidates_tested;
+        stats->exact_fallbacks += jobs[i].stats.exact_fallbacks;
+    }
+    double secs = now() - start;
+    size_t done = (count / (size_t)threads) * (size_t)threads;
+    *hit_rate = (double)hits / (double)done;
+    return (double)done / secs;
+}
+
+/* Brute force per query, measured on a few queries (it is slow by design). */
+static double brute_rate(const mesh_data *m, const workload *w, int kind, size_t count)
+{
+    mesh_view v = mesh_data_view(m);
+    ray_hit h;
+    uint32_t ids[256];
+    double start = now();
+    for (size_t i = 0; i < count; i++) {
+        if (kind <= 1)
+            brute_ray(&v, &w->rays[i], kind == 0 ? RAY_CLOSEST : RAY_ANY, ACCURACY_EXACT, 0, &h, 1);
+        else
+            brute_triangle(&v, w->tris[i], ACCURACY_EXACT, 0, ids, 256);
+    }
+    return (double)count / (now() - start);
+}
+
+static void bench_scene(const char *name, mesh_data *m, int threads, size_t queries)
+{
+    mesh_view v = mesh_data_view(m);
+    octree_error err;
+    octree *t = octree_build(&v, NULL, &err);
+    if (!t) {
+        printf("%s: build failed: %s\n", name, err.message);
+        return;
+    }
+    octree_info info;
+    octree_get_info(t, &info);
+    double per_tri = (double)info.bytes_total / (double)info.triangle_count;
+    double build_per_m = info.build_seconds / ((double)info.triangle_count / 1e6);
+    printf("\n## %s: %zu triangles, %zu vertices\n", name, info.triangle_count, info.vertex_count);
+    printf("build %.3f s (%.3f s per million triangles; target <= 1.0)\n", info.build_seconds, build_per_m);
+    printf("d = %.6g, L_max = %d, D = %.6g, nodes %zu, leaves %zu (%zu non-empty), refs per triangle %.2f\n",
+           info.resolution, info.max_level, info.world_size, info.node_count, info.leaf_count,
+           info.nonempty_leaf_count, (double)info.leaf_refs / (double)info.triangle_count);
+    printf("memory %.1f bytes per triangle (target <= 120): nodes %zu, leaf lists %zu, triangles %zu\n", per_tri,
+           info.bytes_nodes, info.bytes_leaf_lists, info.bytes_triangles);
+
+    workload w = make_workload(m, info.resolution, queries, queries / 2, 7);
+    const char *names[] = {"closest-hit rays", "any-hit rays", "triangle yes/no", "triangle ids"};
+    const double targets[] = {1.2e6, 1.5e6, 5e5, 0};
+    printf("%-18s %12s %12s %9s %10s %10s %10s %12s\n", "query", "1 thread/s", "target", "all/s", "hit rate",
+           "cand/q", "nodes/q", "vs brute");
+    for (int kind = 0; kind < 4; kind++) {
+        size_t count = kind <= 1 ? w.ray_count : w.tri_count;
+        query_stats s1, sn;
+        double hr, hr2;
+        double one = throughput(t, &w, kind, count, 1, &s1, &hr);
+        double all = throughput(t, &w, kind, count, threads, &sn, &hr2);
+        size_t brute_n = info.triangle_count > 200000 ? 5 : 50;
+        double brute = brute_rate(m, &w, kind, brute_n);
+        char target[32] = "-";
+        if (targets[kind] > 0)
+            snprintf(target, sizeof target, "%.2fM", targets[kind] / 1e6);
+        printf("%-18s %11.3fM %12s %8.3fM %10.3f %10.2f %10.1f %11.0fx\n", names[kind], one / 1e6, target, all / 1e6,
+               hr, (double)s1.candidates_tested / (double)count, (double)s1.nodes_visited / (double)count,
+               one / brute);
+        if (kind == 0)
+            printf("%-18s exact fallbacks per query: %.5f\n", "", (double)s1.exact_fallbacks / (double)count);
+    }
+    free(w.rays);
+    free(w.tris);
+    octree_free(t);
+}
+
+int main(int argc, char **argv)
+{
+    int threads = (int)sysconf(_SC_NPROCESSORS_ONLN);
+    if (threads < 1)
+        threads = 1;
+    if (threads > 64)
+        threads = 64;
+    size_t queries = argc > 1 ? strtoull(argv[1], NULL, 10) : 200000;
+    printf("# trioct engine benchmark: %d cores, %zu ray queries per figure, exact mode\n", threads, queries);
+
+    mesh_data terrain = meshgen_terrain(1, (box3){{0, 0, 0}, {100, 100, 10}}, 708, 708);
+    bench_scene("terrain (generated)", &terrain, threads, queries);
+    mesh_data_free(&terrain);
+
+    mesh_data sphere = meshgen_icosphere((vec3){0, 0, 0}, 1.0, 7);
+    bench_scene("icosphere (generated)", &sphere, threads, queries);
+    mesh_data_free(&sphere);
+
+    const char *real[] = {"/usr/share/assimp/models/PLY/Wuson.ply", "/usr/share/assimp/models/STL/Spider_binary.stl"};
+    for (size_t i = 0; i < 2; i++) {
+        mesh_data m = {0};
+        char err[256];
+        if (mesh_load_file(real[i], &m, NULL, err, sizeof err) != 0) {
+            printf("%s\n", err);
+            continue;
+        }
+        /* Subdivided so the real shape reaches the 250k-1M range the targets speak of. */
+        int times = 0;
+        while ((m.triangle_count << (2 * (times + 1))) <= 1000000)
+            times++;
+        mesh_data big = meshgen_subdivide(&m, times);
+        char name[320];
+        snprintf(name, sizeof name, "%s (real, %zu triangles, subdivided x%d)", real[i], m.triangle_count, times);
+        bench_scene(name, &big, threads, queries);
+        mesh_data_free(&big);
+        mesh_data_free(&m);
+    }
+    return 0;
+}
