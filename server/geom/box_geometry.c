@@ -69,8 +69,7 @@ vec3 box_face_edge_normal(box3 box, int face, int j)
     return axis_vector(axis, (a & agreeing) ? 1 : -1);
 }
 
-/* Which half each seed octant 1..8 takes along x, y, z (1 = the upper half [C, hi]). */
-static const unsigned char octant_upper_bits[8] = {
+const unsigned char box_octant_upper_bits[8] = {
     7, /* 1: +x +y +z */
     6, /* 2: -x +y +z */
     4, /* 3: -x -y +z */
@@ -81,24 +80,14 @@ static const unsigned char octant_upper_bits[8] = {
     1, /* 8: +x -y -z */
 };
 
-/* The midpoint as the seed writes it, (lo + hi) / 2. Halving is exact, and rounding the sum
- * is monotone, so the result never leaves [lo, hi]; only a sum that overflows needs the
- * halves added instead. Every child computes its split from the same parent corners with
- * this one function, so two neighbours' shared face is the same double. */
-static double split_coordinate(double lo, double hi)
-{
-    double c = 0.5 * (lo + hi);
-    if (isinf(c) && isfinite(lo) && isfinite(hi))
-        c = 0.5 * lo + 0.5 * hi;
-    return c;
-}
+const unsigned char box_octant_of_upper_bits[8] = {6, 7, 5, 4, 2, 3, 1, 0};
 
 box3 box_octant(box3 box, int k)
 {
     assert(k >= 0 && k < 8);
-    vec3 c = vec3_make(split_coordinate(box.lo.x, box.hi.x), split_coordinate(box.lo.y, box.hi.y),
-                       split_coordinate(box.lo.z, box.hi.z));
-    int upper = octant_upper_bits[k];
+    vec3 c = vec3_make(box_split(box.lo.x, box.hi.x), box_split(box.lo.y, box.hi.y),
+                       box_split(box.lo.z, box.hi.z));
+    int upper = box_octant_upper_bits[k];
     box3 child;
     child.lo = vec3_make(upper & 1 ? c.x : box.lo.x, upper & 2 ? c.y : box.lo.y,
                          upper & 4 ? c.z : box.lo.z);

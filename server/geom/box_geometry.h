@@ -6,6 +6,24 @@
 
 #include "vec3.h"
 
+/* The midpoint as the seed writes it, (lo + hi) / 2. Halving is exact, and rounding the sum
+ * is monotone, so the result never leaves [lo, hi]; only a sum that overflows needs the
+ * halves added instead. Every split of a node, at build and in every query, goes through
+ * this one function, so two neighbours' shared face is the same double everywhere. */
+static inline double box_split(double lo, double hi)
+{
+    double c = 0.5 * (lo + hi);
+    if (isinf(c) && isfinite(lo) && isfinite(hi))
+        c = 0.5 * lo + 0.5 * hi;
+    return c;
+}
+
+/* Which half the seed's octant k (0..7 for 1..8) takes along each axis: bit 0 for x, bit 1
+ * for y, bit 2 for z, set for the upper half [C, hi]. And the inverse: the octant holding
+ * a given set of upper halves. */
+extern const unsigned char box_octant_upper_bits[8];
+extern const unsigned char box_octant_of_upper_bits[8];
+
 /* V_ij: vertex j (0..3) of face i (0..5), in the seed's anti-clockwise order. */
 vec3 box_face_vertex(box3 box, int face, int j);
 /* E_ij = V_i(j+1) - V_ij. */

@@ -126,14 +126,10 @@ typedef struct build_ctx {
 static int triangle_in_node(const build_ctx *ctx, uint32_t id, box3 box, box3 parent)
 {
     vec3 tri[3];
-    octree_triangle_vertices(ctx->tree, id, tri);
-    switch (ctx->def->mode) {
-    case ACCURACY_SEED:
-        return tri_box_overlap_seed(tri, box, ctx->def->seed_epsilon);
-    case ACCURACY_FAST:
-        return tri_box_overlap_fast(tri, box);
-    case ACCURACY_EXACT:
-        break;
+    if (ctx->def->mode != ACCURACY_EXACT) {
+        octree_triangle_vertices(ctx->tree, id, tri);
+        return ctx->def->mode == ACCURACY_SEED ? tri_box_overlap_seed(tri, box, ctx->def->seed_epsilon)
+                                               : tri_box_overlap_fast(tri, box);
     }
     triangle_bounds b = ctx->bounds[id];
     if (b.lo.x > box.hi.x || b.lo.y > box.hi.y || b.lo.z > box.hi.z ||
@@ -143,6 +139,8 @@ static int triangle_in_node(const build_ctx *ctx, uint32_t id, box3 box, box3 pa
     if (clo.x >= box.lo.x && clo.y >= box.lo.y && clo.z >= box.lo.z &&
         chi.x <= box.hi.x && chi.y <= box.hi.y && chi.z <= box.hi.z)
         return 1;
+    /* Only triangles straddling a split plane reach the full test and its vertex loads. */
+    octree_triangle_vertices(ctx->tree, id, tri);
     return tri_box_overlap_exact(tri, box);
 }
 

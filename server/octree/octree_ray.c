@@ -24,6 +24,14 @@ typedef struct ray_setup {
     int kind[3];
     double tmin, tmax;
     int widen; /* exact mode: widen every interval by its rounding error */
+    int near_upper[3]; /* 1 when the ray meets the upper half along the axis first */
+    /* Front-to-back visiting order of a node's children for this ray: the j-th child to
+     * visit takes the upper half along axis a when half[a][j], and is seed octant
+     * octant[j]. Along each axis the ray crosses the split plane at most once, so the near
+     * half's segment precedes the far half's: lexicographic order of "far along x, y, z"
+     * is front to back. */
+    unsigned char half[3][8];
+    unsigned char octant[8];
 } ray_setup;
 
 static void setup_ray(ray_setup *r, const ray_input *in, accuracy_mode mode)
@@ -47,6 +55,55 @@ static void setup_ray(ray_setup *r, const ray_input *in, accuracy_mode mode)
         }
         r->kind[a] = 0;
         r->inv[a] = inv;
+    }
+    for (int a = 0; a < 3; a++)
+        r->near_upper[a] = r->kind[a] == 0 && r->inv[a] < 0.0;
+    for (int j = 0; j < 8; j++) {
+        int hx = r->near_upper[0] ^ ((j >> 2) & 1), hy = r->near_upper[1] ^ ((j >> 1) & 1),
+            hz = r->near_upper[2] ^ (j & 1);
+        r->half[0][j] = (unsigned char)hx;
+        r->half[1][j] = (unsigned char)hy;
+        r->half[2][j] = (unsigned char)hz;
+        r->octant[j] = box_octant_of_upper_bits[hx | hy << 1 | hz << 2];
+    }
+}
+
+/* Plain comparisons: fmax/fmin are library calls that also order NaNs, which cannot occur
+ * here (every operand is a product of finite numbers or an infinity). */
+static inline double max3(double a, double b, double c)
+{
+    double m = a > b ? a : b;
+    return m > c ? m : c;
+}
+
+static inline double min3(double a, double b, double c)
+{
+    double m = a < b ? a : b;
+    return m < c ? m : c;
+}
+
+/* The parameter intervals of the lower half [lo, c] (index 0) and the upper half [c, hi]
+ * (index 1) of a node along one axis: three planes serve all eight children. */
+static inline void axis_halves(const ray_setup *r, int a, double lo, double c, double hi, double enter[2],
+                               double leave[2])
+{
+    double o = a == 0 ? r->o.x : a == 1 ? r->o.y : r->o.z;
+    if (r->kind[a] == 0) {
+        double inv = r->inv[a];
+        double tl = (lo - o) * inv, tc = (c - o) * inv, th = (hi - o) * inv;
+        if (inv > 0.0) {
+            enter[0] = tl, leave[0] = tc, enter[1] = tc, leave[1] = th;
+        } else {
+            enter[0] = tc, leave[0] = tl, enter[1] = th, leave[1] = tc;
+        }
+    } else if (r->kind[a] == 1) {
+        /* The ray keeps this coordinate: a half either always holds it or never. */
+        int in_lower = o >= lo && o <= c, in_upper = o >= c && o <= hi;
+        enter[0] = in_lower ? -INFINITY : INFINITY, leave[0] = in_lower ? INFINITY : -INFINITY;
+        enter[1] = in_upper ? -INFINITY : INFINITY, leave[1] = in_upper ? INFINITY : -INFINITY;
+    } else {
+        enter[0] = enter[1] = -INFINITY;
+        leave[0] = leave[1] = INFINITY;
     }
 }
 
@@ -293,24 +350,36 @@ octree_status octree_ray(const octree *tree, const ray_input *ray, ray_detail de
             }
             continue;
         }
-        /* Children that the ray meets within [tmin, bound], nearest pushed last. */
-        ray_entry kids[8];
-        int nk = 0;
-        for (int k = 0; k < 8; k++) {
-            box3 cb = box_octant(e.box, k);
-            slab(&r, cb, &tn, &tf);
-            if (!(tn <= tf && tn <= bound && tf >= r.tmin))
-                continue;
-            ray_entry c = {node.first + (uint32_t)k, tn, cb};
-            int j = nk++;
-            while (j > 0 && kids[j - 1].tnear < c.tnear) {
-                kids[j] = kids[j - 1];
-                j--;
-            }
-            kids[j] = c;
+        /* Children the ray meets within [tmin, bound], tested without branches (which
+         * child the ray meets is unpredictable), then pushed far to near so the nearest
+         * is popped first. Empty leaves never enter the stack. */
+        box3 b = e.box;
+        double c[3] = {box_split(b.lo.x, b.hi.x), box_split(b.lo.y, b.hi.y), box_split(b.lo.z, b.hi.z)};
+        double lo[3] = {b.lo.x, b.lo.y, b.lo.z}, hi[3] = {b.hi.x, b.hi.y, b.hi.z};
+        double enter[3][2], leave[3][2];
+        for (int a = 0; a < 3; a++)
+            axis_halves(&r, a, lo[a], c[a], hi[a], enter[a], leave[a]);
+        const octree_node *kids = &tree->nodes[node.first];
+        double widen = r.widen ? 4 * EPS : 0.0, tiny = r.widen ? TINY : 0.0;
+        double tnear[8];
+        unsigned accepted = 0;
+        for (int j = 0; j < 8; j++) {
+            double t0 = max3(enter[0][r.half[0][j]], enter[1][r.half[1][j]], enter[2][r.half[2][j]]);
+            double t1 = min3(leave[0][r.half[0][j]], leave[1][r.half[1][j]], leave[2][r.half[2][j]]);
+            t0 = t0 - fabs(t0) * widen - tiny;
+            t1 = t1 + fabs(t1) * widen + tiny;
+            tnear[j] = t0;
+            int ok = (t0 <= t1) & (t0 <= bound) & (t1 >= r.tmin) & (kids[r.octant[j]].count != 0);
+            accepted |= (unsigned)ok << j;
         }
-        for (int j = 0; j < nk; j++)
-            stack[top++] = kids[j];
+        while (accepted) {
+            int j = 31 - __builtin_clz(accepted);
+            accepted &= ~(1u << j);
+            int hx = r.half[0][j], hy = r.half[1][j], hz = r.half[2][j];
+            box3 cb = {{hx ? c[0] : lo[0], hy ? c[1] : lo[1], hz ? c[2] : lo[2]},
+                       {hx ? hi[0] : c[0], hy ? hi[1] : c[1], hz ? hi[2] : c[2]}};
+            stack[top++] = (ray_entry){node.first + r.octant[j], tnear[j], cb};
+        }
     }
 
     if (detail == RAY_ALL && st == OCTREE_OK) {

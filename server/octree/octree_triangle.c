@@ -91,8 +91,18 @@ static octree_status triangle_search(const octree *tree, const vec3 q[3], accura
             continue;
         octree_node node = tree->nodes[e.node];
         if (node.count == NODE_INTERIOR) {
-            for (int k = 0; k < 8; k++)
-                stack[top++] = (tri_entry){node.first + (uint32_t)k, box_octant(e.box, k)};
+            /* Empty leaves never enter the stack: most leaves of a surface mesh are empty. */
+            box3 b = e.box;
+            vec3 c = {box_split(b.lo.x, b.hi.x), box_split(b.lo.y, b.hi.y), box_split(b.lo.z, b.hi.z)};
+            const octree_node *kids = &tree->nodes[node.first];
+            for (int k = 0; k < 8; k++) {
+                if (kids[k].count == 0)
+                    continue;
+                int u = box_octant_upper_bits[k];
+                box3 cb = {{u & 1 ? c.x : b.lo.x, u & 2 ? c.y : b.lo.y, u & 4 ? c.z : b.lo.z},
+                           {u & 1 ? b.hi.x : c.x, u & 2 ? b.hi.y : c.y, u & 4 ? b.hi.z : c.z}};
+                stack[top++] = (tri_entry){node.first + (uint32_t)k, cb};
+            }
             continue;
         }
         stats->leaves_visited++;
