@@ -358,6 +358,10 @@ int ray_tri_exact(vec3 o, vec3 d, double tmin, double tmax, const vec3 tri[3], r
     if (!(tmin <= tmax) || tmin == INFINITY || tmax == -INFINITY)
         return 0;
     const vec3 v0 = tri[0], v1 = tri[1], v2 = tri[2];
+    /* A triangle with a repeated vertex has den == 0 exactly and is never hit; saying so
+     * here keeps its zero-length edge from sending every ray through the exact stage. */
+    if (vec3_equal(v0, v1) || vec3_equal(v1, v2) || vec3_equal(v2, v0))
+        return 0;
 
     double err01, err12, err20;
     double w01 = edge_function(vec3_sub(v0, o), vec3_sub(v1, v0), d, &err01);

@@ -99,11 +99,16 @@ typedef struct shared_list {
     uint32_t count;
     int pending_children;
     box3 box; /* the box of the node that owns the list: every listed triangle touches it */
+    /* Exact mode: per item, bit k set when the item's bounds, clipped to `box`, reach the
+     * seed's octant k. Computed once by the owner so that each of its eight children reads
+     * one byte per item instead of the item's bounds. NULL for the root's list. */
+    uint8_t *reach;
 } shared_list;
 
 typedef struct build_entry {
     uint32_t node;
     int level;
+    int octant; /* which of its parent's children this node is (0 for the root) */
     box3 box;
     shared_list *parent;
 } build_entry;
@@ -119,29 +124,51 @@ typedef struct build_ctx {
     size_t node_capacity;
 } build_ctx;
 
-/* Membership of triangle id in a node's closed box, in the tree's mode. In exact mode the
- * cheap box tests come first: they are exact comparisons and decide most triangles, and a
- * triangle known to touch the parent whose bounds, clipped to the parent, fit inside this
- * child touches this child (the touching point lies in that clipped region). */
-static int triangle_in_node(const build_ctx *ctx, uint32_t id, box3 box, box3 parent)
+/* Membership of the parent list's item i in a node's closed box, in the tree's mode. In
+ * exact mode the cheap tests come first and are exact comparisons: a triangle whose bounds
+ * miss the box misses it, and a triangle known to touch the parent whose bounds, clipped
+ * to the parent, reach only this child touches this child (the touching point lies in
+ * that clipped region). Only triangles straddling a split plane reach the full test. */
+static int triangle_in_node(const build_ctx *ctx, const shared_list *parent, uint32_t i, const build_entry *e)
 {
-    vec3 tri[3];
+    const vec3 *tri = octree_triangle_at(ctx->tree, parent->items[i]);
     if (ctx->def->mode != ACCURACY_EXACT) {
-        octree_triangle_vertices(ctx->tree, id, tri);
-        return ctx->def->mode == ACCURACY_SEED ? tri_box_overlap_seed(tri, box, ctx->def->seed_epsilon)
-                                               : tri_box_overlap_fast(tri, box);
+        return ctx->def->mode == ACCURACY_SEED ? tri_box_overlap_seed(tri, e->box, ctx->def->seed_epsilon)
+                                               : tri_box_overlap_fast(tri, e->box);
     }
-    triangle_bounds b = ctx->bounds[id];
-    if (b.lo.x > box.hi.x || b.lo.y > box.hi.y || b.lo.z > box.hi.z ||
-        b.hi.x < box.lo.x || b.hi.y < box.lo.y || b.hi.z < box.lo.z)
-        return 0;
-    vec3 clo = vec3_max(b.lo, parent.lo), chi = vec3_min(b.hi, parent.hi);
-    if (clo.x >= box.lo.x && clo.y >= box.lo.y && clo.z >= box.lo.z &&
-        chi.x <= box.hi.x && chi.y <= box.hi.y && chi.z <= box.hi.z)
-        return 1;
-    /* Only triangles straddling a split plane reach the full test and its vertex loads. */
-    octree_triangle_vertices(ctx->tree, id, tri);
-    return tri_box_overlap_exact(tri, box);
+    if (parent->reach) {
+        unsigned reach = parent->reach[i];
+        if (!(reach & (1u << e->octant)))
+            return 0;
+        if ((reach & (reach - 1)) == 0)
+            return 1;
+        return tri_box_overlap_exact(tri, e->box);
+    }
+    /* The root: every triangle lies inside the world cube. */
+    return 1;
+}
+
+/* The reach bytes of a new interior node's list (see shared_list). Along each axis a
+ * triangle's clipped bounds reach the lower half, the upper half or both (h = 1, 2, 3);
+ * octants_by_half[a][h] holds the octants whose half along axis a is among those, so a
+ * triangle's reach is the AND over the three axes. */
+static void compute_reach(const build_ctx *ctx, shared_list *list)
+{
+    uint8_t octants_by_half[3][4] = {{0}};
+    for (int a = 0; a < 3; a++)
+        for (unsigned h = 0; h < 4; h++)
+            for (int k = 0; k < 8; k++)
+                if ((h >> ((box_octant_upper_bits[k] >> a) & 1)) & 1)
+                    octants_by_half[a][h] |= (uint8_t)(1u << k);
+    box3 box = list->box;
+    vec3 c = {box_split(box.lo.x, box.hi.x), box_split(box.lo.y, box.hi.y), box_split(box.lo.z, box.hi.z)};
+    for (uint32_t i = 0; i < list->count; i++) {
+        triangle_bounds b = ctx->bounds[list->items[i]];
+        vec3 lo = vec3_max(b.lo, box.lo), hi = vec3_min(b.hi, box.hi);
+        unsigned hx = (lo.x <= c.x) | (hi.x >= c.x) << 1, hy = (lo.y <= c.y) | (hi.y >= c.y) << 1,
+                 hz = (lo.z <= c.z) | (hi.z >= c.z) << 1;
+        list->reach[i] = octants_by_half[0][hx] & octants_by_half[1][hy] & octants_by_half[2][hz];
+    }
 }
 
 static int add_children(build_ctx *ctx, uint32_t parent_node)
@@ -168,6 +195,7 @@ static void release_list(shared_list *list)
 {
     if (list && --list->pending_children == 0) {
         free(list->items);
+        free(list->reach);
         free(list);
     }
 }
@@ -187,6 +215,7 @@ static octree_status build_nodes(build_ctx *ctx, int max_level)
     all->count = (uint32_t)tree->triangle_count;
     all->pending_children = 1;
     all->box = tree->world;
+    all->reach = NULL;
     all->items = malloc((all->count ? all->count : 1) * sizeof *all->items);
     if (!all->items) {
         free(all);
@@ -197,7 +226,7 @@ static octree_status build_nodes(build_ctx *ctx, int max_level)
 
     build_entry stack[OCTREE_STACK_MAX];
     size_t top = 0;
-    stack[top++] = (build_entry){0, 0, tree->world, all};
+    stack[top++] = (build_entry){0, 0, 0, tree->world, all};
     tree->nodes[0] = (octree_node){0, 0};
     tree->node_count = 1;
 
@@ -209,11 +238,9 @@ static octree_status build_nodes(build_ctx *ctx, int max_level)
             release_list(e.parent);
             goto unwind;
         }
-        for (uint32_t i = 0; i < e.parent->count; i++) {
-            uint32_t id = e.parent->items[i];
-            if (triangle_in_node(ctx, id, e.box, e.parent->box))
-                scratch.items[scratch.count++] = id;
-        }
+        for (uint32_t i = 0; i < e.parent->count; i++)
+            if (triangle_in_node(ctx, e.parent, i, &e))
+                scratch.items[scratch.count++] = e.parent->items[i];
         release_list(e.parent);
 
         if (scratch.count == 0 || e.level >= max_level) {
@@ -240,11 +267,23 @@ static octree_status build_nodes(build_ctx *ctx, int max_level)
         list->count = (uint32_t)scratch.count;
         list->pending_children = 8;
         list->box = e.box;
+        list->reach = NULL;
         scratch = (u32_array){0};
+        if (ctx->def->mode == ACCURACY_EXACT) {
+            list->reach = malloc(list->count);
+            if (!list->reach) {
+                free(list->items);
+                free(list);
+                status = OCTREE_ERR_NOMEM;
+                goto unwind;
+            }
+            compute_reach(ctx, list);
+        }
 
         int added = add_children(ctx, e.node);
         if (added != 0) {
             free(list->items);
+            free(list->reach);
             free(list);
             status = added == -1 ? OCTREE_ERR_TOO_BIG : OCTREE_ERR_NOMEM;
             goto unwind;
@@ -252,7 +291,7 @@ static octree_status build_nodes(build_ctx *ctx, int max_level)
         uint32_t first = tree->nodes[e.node].first;
         /* Octants pushed 1..8, so the stack pops them 8..1, as the seed's loop does. */
         for (int k = 0; k < 8; k++)
-            stack[top++] = (build_entry){first + (uint32_t)k, e.level + 1, box_octant(e.box, k), list};
+            stack[top++] = (build_entry){first + (uint32_t)k, e.level + 1, k, box_octant(e.box, k), list};
     }
 
     free(scratch.items);
@@ -297,30 +336,95 @@ static double heuristic_resolution(const octree *tree)
 
 static octree_status copy_mesh(octree *tree, const mesh_view *mesh, octree_error *err)
 {
-    tree->vertex_count = mesh->vertex_count;
     tree->triangle_count = mesh->triangle_count;
-    tree->vertices = malloc((mesh->vertex_count ? mesh->vertex_count : 1) * sizeof *tree->vertices);
-    tree->indices = malloc(3 * mesh->triangle_count * sizeof *tree->indices);
-    if (!tree->vertices || !tree->indices) {
+    tree->triangles = malloc(mesh->triangle_count * sizeof *tree->triangles);
+    if (!tree->triangles) {
         fail(err, OCTREE_ERR_NOMEM, SIZE_MAX, "out of memory copying %zu triangles", mesh->triangle_count);
         return OCTREE_ERR_NOMEM;
     }
-    memcpy(tree->vertices, mesh->vertices, mesh->vertex_count * sizeof *tree->vertices);
-    memcpy(tree->indices, mesh->indices, 3 * mesh->triangle_count * sizeof *tree->indices);
     for (size_t i = 0; i < mesh->triangle_count; i++) {
         for (int k = 0; k < 3; k++) {
-            uint32_t v = tree->indices[3 * i + (size_t)k];
+            uint32_t v = mesh->indices[3 * i + (size_t)k];
             if (v >= mesh->vertex_count) {
                 fail(err, OCTREE_ERR_INDEX, i, "triangle %zu refers to vertex %u of %zu", i, v,
                      mesh->vertex_count);
                 return OCTREE_ERR_INDEX;
             }
-            if (!vec3_is_finite(tree->vertices[v])) {
+            if (!vec3_is_finite(mesh->vertices[v])) {
                 fail(err, OCTREE_ERR_NONFINITE, i, "triangle %zu has a NaN or infinite coordinate (vertex %u)", i, v);
                 return OCTREE_ERR_NONFINITE;
             }
+            tree->triangles[i][k] = mesh->vertices[v];
         }
     }
+    return OCTREE_OK;
+}
+
+/* Spreads the low 10 bits of v to every third bit. */
+static uint32_t spread_bits(uint32_t v)
+{
+    v &= 0x3ff;
+    v = (v | v << 16) & 0x030000ff;
+    v = (v | v << 8) & 0x0300f00f;
+    v = (v | v << 4) & 0x030c30c3;
+    v = (v | v << 2) & 0x09249249;
+    return v;
+}
+
+typedef struct keyed_id {
+    uint32_t key;
+    uint32_t id;
+} keyed_id;
+
+/* Renumbers the triangles in Morton order of their centroids (see octree_internal.h). The
+ * order only affects speed: every decision is made on the same triangles either way. */
+static octree_status reorder_triangles(octree *tree, vec3 lo, vec3 hi)
+{
+    size_t n = tree->triangle_count;
+    keyed_id *a = malloc(n * sizeof *a), *b = malloc(n * sizeof *b);
+    vec3(*sorted)[3] = malloc(n * sizeof *sorted);
+    tree->original_id = malloc(n * sizeof *tree->original_id);
+    if (!a || !b || !sorted || !tree->original_id) {
+        free(a);
+        free(b);
+        free(sorted);
+        return OCTREE_ERR_NOMEM;
+    }
+    vec3 ext = vec3_sub(hi, lo);
+    /* 1024 cells a side: finer orders gain nothing measurable for caches and cost sort
+     * passes. */
+    double scale[3] = {ext.x > 0 ? 1023.0 / ext.x : 0, ext.y > 0 ? 1023.0 / ext.y : 0, ext.z > 0 ? 1023.0 / ext.z : 0};
+    for (size_t i = 0; i < n; i++) {
+        const vec3 *t = tree->triangles[i];
+        vec3 c = vec3_scale(vec3_add(vec3_add(t[0], t[1]), t[2]), 1.0 / 3.0);
+        double q[3] = {(c.x - lo.x) * scale[0], (c.y - lo.y) * scale[1], (c.z - lo.z) * scale[2]};
+        uint32_t cell[3];
+        for (int k = 0; k < 3; k++)
+            cell[k] = q[k] <= 0 ? 0 : q[k] >= 1023.0 ? 1023 : (uint32_t)q[k];
+        a[i] = (keyed_id){spread_bits(cell[0]) | spread_bits(cell[1]) << 1 | spread_bits(cell[2]) << 2, (uint32_t)i};
+    }
+    /* LSD radix sort, 10 bits a pass over the 30-bit key; stable, so equal keys keep the
+     * caller's order and the build is deterministic. */
+    for (int shift = 0; shift < 30; shift += 10) {
+        size_t count[1025] = {0};
+        for (size_t i = 0; i < n; i++)
+            count[((a[i].key >> shift) & 0x3ff) + 1]++;
+        for (int d = 0; d < 1024; d++)
+            count[d + 1] += count[d];
+        for (size_t i = 0; i < n; i++)
+            b[count[(a[i].key >> shift) & 0x3ff]++] = a[i];
+        keyed_id *swap = a;
+        a = b;
+        b = swap;
+    }
+    for (size_t i = 0; i < n; i++) {
+        memcpy(sorted[i], tree->triangles[a[i].id], sizeof sorted[i]);
+        tree->original_id[i] = a[i].id;
+    }
+    free(tree->triangles);
+    tree->triangles = sorted;
+    free(a);
+    free(b);
     return OCTREE_OK;
 }
 
@@ -354,21 +458,24 @@ octree *octree_build(const mesh_view *mesh, const octree_def *def_in, octree_err
         return NULL;
     }
 
-    /* World bounds, and each triangle's bounds for the build's cheap exact tests. */
+    /* World bounds, the Morton renumbering, and each triangle's bounds for the build's
+     * cheap exact tests. */
+    vec3 lo = tree->triangles[0][0], hi = lo;
+    for (size_t i = 0; i < tree->triangle_count; i++)
+        for (int k = 0; k < 3; k++) {
+            lo = vec3_min(lo, tree->triangles[i][k]);
+            hi = vec3_max(hi, tree->triangles[i][k]);
+        }
     build_ctx ctx = {.tree = tree, .def = &def};
     ctx.bounds = malloc(tree->triangle_count * sizeof *ctx.bounds);
-    if (!ctx.bounds) {
+    if (!ctx.bounds || reorder_triangles(tree, lo, hi) != OCTREE_OK) {
+        free(ctx.bounds);
         octree_free(tree);
         return fail(err, OCTREE_ERR_NOMEM, SIZE_MAX, "out of memory");
     }
-    vec3 lo = tree->vertices[tree->indices[0]], hi = lo;
     for (size_t i = 0; i < tree->triangle_count; i++) {
-        vec3 t[3];
-        octree_triangle_vertices(tree, (uint32_t)i, t);
-        triangle_bounds b = {vec3_min(vec3_min(t[0], t[1]), t[2]), vec3_max(vec3_max(t[0], t[1]), t[2])};
-        ctx.bounds[i] = b;
-        lo = vec3_min(lo, b.lo);
-        hi = vec3_max(hi, b.hi);
+        const vec3 *t = tree->triangles[i];
+        ctx.bounds[i] = (triangle_bounds){vec3_min(vec3_min(t[0], t[1]), t[2]), vec3_max(vec3_max(t[0], t[1]), t[2])};
     }
     double extent = fmax(hi.x - lo.x, fmax(hi.y - lo.y, hi.z - lo.z));
     if (!isfinite(extent)) {
@@ -421,7 +528,7 @@ octree *octree_build(const mesh_view *mesh, const octree_def *def_in, octree_err
 
     octree_info *info = &tree->info;
     info->triangle_count = tree->triangle_count;
-    info->vertex_count = tree->vertex_count;
+    info->vertex_count = mesh->vertex_count;
     info->node_count = tree->node_count;
     for (size_t i = 0; i < tree->node_count; i++) {
         if (tree->nodes[i].count == NODE_INTERIOR)
@@ -437,7 +544,7 @@ octree *octree_build(const mesh_view *mesh, const octree_def *def_in, octree_err
     info->world_min = lo;
     info->bytes_nodes = tree->node_count * sizeof(octree_node);
     info->bytes_leaf_lists = tree->leaf_item_count * sizeof(uint32_t);
-    info->bytes_triangles = tree->vertex_count * sizeof(vec3) + 3 * tree->triangle_count * sizeof(uint32_t);
+    info->bytes_triangles = tree->triangle_count * (sizeof *tree->triangles + sizeof *tree->original_id);
     info->bytes_total = info->bytes_nodes + info->bytes_leaf_lists + info->bytes_triangles + sizeof *tree;
     info->mode = def.mode;
     tree->seed_epsilon = def.seed_epsilon;
@@ -449,8 +556,8 @@ void octree_free(octree *tree)
 {
     if (!tree)
         return;
-    free(tree->vertices);
-    free(tree->indices);
+    free(tree->triangles);
+    free(tree->original_id);
     free(tree->nodes);
     free(tree->leaf_items);
     free(tree);

@@ -19,10 +19,15 @@ typedef struct octree_node {
 } octree_node;
 
 struct octree {
-    vec3 *vertices;
-    size_t vertex_count;
-    uint32_t *indices; /* 3 per triangle */
+    /* Each triangle's three vertices side by side: a candidate test touches one place in
+     * memory instead of an index triple and three scattered vertices. */
+    vec3 (*triangles)[3];
     size_t triangle_count;
+    /* Triangles are stored, listed in leaves and tested under internal ids that follow a
+     * Morton order of their centroids, so that a node's list, a leaf's candidates and
+     * their vertices sit close together in memory. original_id maps an internal id back to
+     * the caller's, which is what every answer reports and every tie is broken by. */
+    uint32_t *original_id;
 
     octree_node *nodes;
     size_t node_count;
@@ -34,12 +39,17 @@ struct octree {
     octree_info info;
 };
 
+static inline const vec3 *octree_triangle_at(const struct octree *tree, uint32_t id)
+{
+    return tree->triangles[id];
+}
+
 static inline void octree_triangle_vertices(const struct octree *tree, uint32_t id, vec3 out[3])
 {
-    const uint32_t *ix = tree->indices + 3 * (size_t)id;
-    out[0] = tree->vertices[ix[0]];
-    out[1] = tree->vertices[ix[1]];
-    out[2] = tree->vertices[ix[2]];
+    const vec3 *t = tree->triangles[id];
+    out[0] = t[0];
+    out[1] = t[1];
+    out[2] = t[2];
 }
 
 /* Adds one query's counters to the caller's (when given), with the exact fallbacks this

@@ -170,8 +170,7 @@ static double exact_t_upper_bound(const ray_setup *r, const vec3 tri[3])
 static int test_triangle(const octree *tree, const ray_setup *r, accuracy_mode mode, uint32_t id,
                          ray_tri_hit *hit)
 {
-    vec3 tri[3];
-    octree_triangle_vertices(tree, id, tri);
+    const vec3 *tri = octree_triangle_at(tree, id);
     switch (mode) {
     case ACCURACY_SEED:
         return ray_tri_seed(r->o, r->d, r->tmin, r->tmax, tri, tree->seed_epsilon, hit);
@@ -189,24 +188,25 @@ static int hit_order(const octree *tree, const ray_setup *r, accuracy_mode mode,
 {
     int c;
     if (mode == ACCURACY_EXACT) {
-        vec3 ta[3], tb[3];
-        octree_triangle_vertices(tree, a->triangle, ta);
-        octree_triangle_vertices(tree, b->triangle, tb);
-        c = ray_tri_compare_t(r->o, r->d, ta, tb);
+        c = ray_tri_compare_t(r->o, r->d, octree_triangle_at(tree, a->triangle), octree_triangle_at(tree, b->triangle));
     } else {
         c = (a->t > b->t) - (a->t < b->t);
     }
-    if (c == 0)
-        c = (a->triangle > b->triangle) - (a->triangle < b->triangle);
+    if (c == 0) {
+        uint32_t ia = tree->original_id[a->triangle], ib = tree->original_id[b->triangle];
+        c = (ia > ib) - (ia < ib);
+    }
     return c;
 }
 
-static ray_hit make_hit(const octree *tree, uint32_t id, const ray_tri_hit *h)
+/* A hit as reported: the caller's triangle id, and the unit normal, which only reported
+ * hits pay for. */
+static ray_hit reported(const octree *tree, ray_hit hit)
 {
-    vec3 tri[3];
-    octree_triangle_vertices(tree, id, tri);
-    vec3 n = vec3_normalize(vec3_cross(vec3_sub(tri[1], tri[0]), vec3_sub(tri[2], tri[0])));
-    return (ray_hit){h->t, id, h->u, h->v, n};
+    const vec3 *tri = octree_triangle_at(tree, hit.triangle);
+    hit.normal = vec3_normalize(vec3_cross(vec3_sub(tri[1], tri[0]), vec3_sub(tri[2], tri[0])));
+    hit.triangle = tree->original_id[hit.triangle];
+    return hit;
 }
 
 /* A growable list of hits for RAY_ALL. */
@@ -325,7 +325,7 @@ octree_status octree_ray(const octree *tree, const ray_input *ray, ray_detail de
                 ray_tri_hit h;
                 if (!test_triangle(tree, &r, mode, id, &h))
                     continue;
-                ray_hit hit = make_hit(tree, id, &h);
+                ray_hit hit = {h.t, id, h.u, h.v, {0, 0, 0}};
                 if (detail == RAY_ANY) {
                     best = hit;
                     have_best = 1;
@@ -335,9 +335,7 @@ octree_status octree_ray(const octree *tree, const ray_input *ray, ray_detail de
                         best = hit;
                         have_best = 1;
                         if (mode == ACCURACY_EXACT) {
-                            vec3 tri[3];
-                            octree_triangle_vertices(tree, id, tri);
-                            double ub = exact_t_upper_bound(&r, tri);
+                            double ub = exact_t_upper_bound(&r, octree_triangle_at(tree, id));
                             bound = ub < bound ? ub : bound;
                         } else {
                             bound = hit.t < bound ? hit.t : bound;
@@ -393,13 +391,13 @@ octree_status octree_ray(const octree *tree, const ray_input *ray, ray_detail de
             out->hit_count = all.count;
             size_t keep = all.count < out->max_hits ? all.count : out->max_hits;
             out->truncated = keep < all.count;
-            if (keep)
-                memcpy(out->hits, all.items, keep * sizeof *all.items);
+            for (size_t i = 0; i < keep; i++)
+                out->hits[i] = reported(tree, all.items[i]);
         }
     } else if (have_best && st == OCTREE_OK) {
         out->hit_count = 1;
         if (out->max_hits > 0)
-            out->hits[0] = best;
+            out->hits[0] = reported(tree, best);
         else
             out->truncated = 1;
     }

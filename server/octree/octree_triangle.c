@@ -45,10 +45,23 @@ static int triangles_touch(const octree *tree, const vec3 q[3], const vec3 w[3],
     return tri_tri_overlap_exact(q, w);
 }
 
-static int compare_u32(const void *a, const void *b)
+static int compare_u64(const void *a, const void *b)
 {
-    uint32_t x = *(const uint32_t *)a, y = *(const uint32_t *)b;
+    uint64_t x = *(const uint64_t *)a, y = *(const uint64_t *)b;
     return (x > y) - (x < y);
+}
+
+/* Rewrites internal ids as (caller's id << 32 | internal id), sorted by the caller's id,
+ * which is the order answers are reported in. */
+static uint64_t *sort_by_original(const octree *tree, const uint32_t *ids, size_t n)
+{
+    uint64_t *keyed = malloc((n ? n : 1) * sizeof *keyed);
+    if (!keyed)
+        return NULL;
+    for (size_t i = 0; i < n; i++)
+        keyed[i] = (uint64_t)tree->original_id[ids[i]] << 32 | ids[i];
+    qsort(keyed, n, sizeof *keyed, compare_u64);
+    return keyed;
 }
 
 typedef struct id_list {
@@ -116,9 +129,7 @@ static octree_status triangle_search(const octree *tree, const vec3 q[3], accura
             if (fresh == 0)
                 continue;
             stats->candidates_tested++;
-            vec3 w[3];
-            octree_triangle_vertices(tree, id, w);
-            if (!triangles_touch(tree, q, w, mode))
+            if (!triangles_touch(tree, q, octree_triangle_at(tree, id), mode))
                 continue;
             *any = 1;
             if (stop_at_first)
@@ -155,21 +166,21 @@ octree_status octree_triangle(const octree *tree, const vec3 tri[3], tri_detail 
     out->hit = any;
     out->count = 0;
     out->truncated = 0;
-    if (st == OCTREE_OK && detail != TRI_YESNO) {
-        qsort(hits.items, hits.count, sizeof *hits.items, compare_u32);
+    uint64_t *sorted = NULL;
+    if (st == OCTREE_OK && detail != TRI_YESNO && !(sorted = sort_by_original(tree, hits.items, hits.count)))
+        st = OCTREE_ERR_NOMEM;
+    if (sorted) {
         out->count = hits.count;
         size_t keep = hits.count < out->capacity ? hits.count : out->capacity;
         out->truncated = keep < hits.count;
         for (size_t i = 0; i < keep; i++) {
             tri_contact *c = &out->contacts[i];
-            c->triangle = hits.items[i];
+            c->triangle = (uint32_t)(sorted[i] >> 32);
             c->p = c->q = (vec3){0, 0, 0};
-            if (detail == TRI_SEGMENTS) {
-                vec3 w[3];
-                octree_triangle_vertices(tree, c->triangle, w);
-                tri_tri_contact_segment(tri, w, &c->p, &c->q);
-            }
+            if (detail == TRI_SEGMENTS)
+                tri_tri_contact_segment(tri, octree_triangle_at(tree, (uint32_t)sorted[i]), &c->p, &c->q);
         }
+        free(sorted);
     }
     free(hits.items);
     query_stats_finish(stats, &local, fallbacks_before, predicates_fallback_count());
@@ -224,12 +235,17 @@ octree_status octree_mesh(const octree *tree, const mesh_view *shape, const pose
         out->hit = 1;
         if (!all_pairs)
             break;
-        qsort(hits.items, hits.count, sizeof *hits.items, compare_u32);
+        uint64_t *sorted = sort_by_original(tree, hits.items, hits.count);
+        if (!sorted) {
+            st = OCTREE_ERR_NOMEM;
+            break;
+        }
         for (size_t j = 0; j < hits.count; j++) {
             if (out->count < out->capacity)
-                out->pairs[out->count] = (mesh_pair){(uint32_t)i, hits.items[j]};
+                out->pairs[out->count] = (mesh_pair){(uint32_t)i, (uint32_t)(sorted[j] >> 32)};
             out->count++;
         }
+        free(sorted);
     }
     out->truncated = out->count > out->capacity;
     free(hits.items);
