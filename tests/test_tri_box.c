@@ -284,6 +284,40 @@ static void assert_octants_tile(box3 parent, const box3 child[8])
     }
 }
 
+/* The octree's descent and build classify a region against a box's split planes with
+ * box_octants_reached; it must name exactly the children whose closed boxes the closed
+ * region meets, including regions that only touch a split plane. */
+static void test_octants_reached_are_the_children_a_region_meets(void **state)
+{
+    rng r = test_rng(state, 9);
+    int touching = 0;
+    for (int n = 0; n < 20000; n++) {
+        box3 box = random_box(&r);
+        vec3 c = {box_split(box.lo.x, box.hi.x), box_split(box.lo.y, box.hi.y), box_split(box.lo.z, box.hi.z)};
+        double lo[3], hi[3];
+        for (int a = 0; a < 3; a++) {
+            double l = coord(box.lo, a), h = coord(box.hi, a), m = coord(c, a);
+            /* Endpoints drawn from the box's corners, its split and points between. */
+            double pick[5] = {l, m, h, l + (m - l) * 0.5, m + (h - m) * 0.5};
+            double x = pick[rng_int(&r, 0, 4)], y = pick[rng_int(&r, 0, 4)];
+            lo[a] = x < y ? x : y;
+            hi[a] = x < y ? y : x;
+            touching += lo[a] == m || hi[a] == m;
+        }
+        vec3 rlo = {lo[0], lo[1], lo[2]}, rhi = {hi[0], hi[1], hi[2]};
+        unsigned want = 0;
+        for (int k = 0; k < 8; k++) {
+            box3 child = box_octant(box, k);
+            int meets = 1;
+            for (int a = 0; a < 3; a++)
+                meets &= coord(rlo, a) <= coord(child.hi, a) && coord(rhi, a) >= coord(child.lo, a);
+            want |= (unsigned)meets << k;
+        }
+        assert_int_equal(box_octants_reached(rlo, rhi, c), want);
+    }
+    assert_true(touching > 1000);
+}
+
 static void test_box_octants_equal_seed_table_and_share_faces(void **state)
 {
     rng r = test_rng(state, 2);
@@ -861,6 +895,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_box_face_geometry_equals_seed_formulas),
         cmocka_unit_test(test_box_octants_equal_seed_table_and_share_faces),
+        cmocka_unit_test(test_octants_reached_are_the_children_a_region_meets),
         cmocka_unit_test(test_exact_triangle_inside_box),
         cmocka_unit_test(test_exact_large_triangle_cutting_through_box),
         cmocka_unit_test(test_exact_touching_face_edge_corner_from_outside),

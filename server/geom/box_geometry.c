@@ -82,6 +82,12 @@ const unsigned char box_octant_upper_bits[8] = {
 
 const unsigned char box_octant_of_upper_bits[8] = {6, 7, 5, 4, 2, 3, 1, 0};
 
+const unsigned char box_octants_by_half[3][4] = {
+    {0x00, 0x66, 0x99, 0xff}, /* x: octants 2,3,6,7 lie low; 1,4,5,8 high */
+    {0x00, 0xcc, 0x33, 0xff}, /* y: octants 3,4,7,8 lie low; 1,2,5,6 high */
+    {0x00, 0xf0, 0x0f, 0xff}, /* z: octants 5..8 lie low; 1..4 high */
+};
+
 box3 box_octant(box3 box, int k)
 {
     assert(k >= 0 && k < 8);

@@ -24,6 +24,20 @@ static inline double box_split(double lo, double hi)
 extern const unsigned char box_octant_upper_bits[8];
 extern const unsigned char box_octant_of_upper_bits[8];
 
+/* The octants a region reaches, as a bit mask over the seed's octants, when along each
+ * axis a it reaches the lower half (h = 1), the upper half (h = 2) or both (h = 3):
+ * box_octants_by_half[0][hx] & box_octants_by_half[1][hy] & box_octants_by_half[2][hz]. */
+extern const unsigned char box_octants_by_half[3][4];
+
+/* Which children of a box with split point c the closed region [lo, hi] (inside the box)
+ * reaches. */
+static inline unsigned box_octants_reached(vec3 lo, vec3 hi, vec3 c)
+{
+    return box_octants_by_half[0][(lo.x <= c.x) | (hi.x >= c.x) << 1] &
+           box_octants_by_half[1][(lo.y <= c.y) | (hi.y >= c.y) << 1] &
+           box_octants_by_half[2][(lo.z <= c.z) | (hi.z >= c.z) << 1];
+}
+
 /* V_ij: vertex j (0..3) of face i (0..5), in the seed's anti-clockwise order. */
 vec3 box_face_vertex(box3 box, int face, int j);
 /* E_ij = V_i(j+1) - V_ij. */

@@ -148,26 +148,14 @@ static int triangle_in_node(const build_ctx *ctx, const shared_list *parent, uin
     return 1;
 }
 
-/* The reach bytes of a new interior node's list (see shared_list). Along each axis a
- * triangle's clipped bounds reach the lower half, the upper half or both (h = 1, 2, 3);
- * octants_by_half[a][h] holds the octants whose half along axis a is among those, so a
- * triangle's reach is the AND over the three axes. */
+/* The reach bytes of a new interior node's list (see shared_list). */
 static void compute_reach(const build_ctx *ctx, shared_list *list)
 {
-    uint8_t octants_by_half[3][4] = {{0}};
-    for (int a = 0; a < 3; a++)
-        for (unsigned h = 0; h < 4; h++)
-            for (int k = 0; k < 8; k++)
-                if ((h >> ((box_octant_upper_bits[k] >> a) & 1)) & 1)
-                    octants_by_half[a][h] |= (uint8_t)(1u << k);
     box3 box = list->box;
     vec3 c = {box_split(box.lo.x, box.hi.x), box_split(box.lo.y, box.hi.y), box_split(box.lo.z, box.hi.z)};
     for (uint32_t i = 0; i < list->count; i++) {
         triangle_bounds b = ctx->bounds[list->items[i]];
-        vec3 lo = vec3_max(b.lo, box.lo), hi = vec3_min(b.hi, box.hi);
-        unsigned hx = (lo.x <= c.x) | (hi.x >= c.x) << 1, hy = (lo.y <= c.y) | (hi.y >= c.y) << 1,
-                 hz = (lo.z <= c.z) | (hi.z >= c.z) << 1;
-        list->reach[i] = octants_by_half[0][hx] & octants_by_half[1][hy] & octants_by_half[2][hz];
+        list->reach[i] = (uint8_t)box_octants_reached(vec3_max(b.lo, box.lo), vec3_min(b.hi, box.hi), c);
     }
 }
 

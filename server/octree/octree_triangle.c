@@ -84,7 +84,13 @@ static int id_list_push(id_list *l, uint32_t id)
 }
 
 /* Finds the world triangles q touches: stops at the first when stop_at_first, else appends
- * all of them (unsorted) to hits. Returns OCTREE_OK or OCTREE_ERR_NOMEM. */
+ * all of them (unsorted, internal ids) to hits. Returns OCTREE_OK or OCTREE_ERR_NOMEM.
+ *
+ * Every node on the stack is touched by q (exact mode: exactly; other modes: by their own
+ * test). A touched interior node classifies q's bounds, clipped to its box, against its
+ * split planes once: children those bounds miss are not touched; when they reach a single
+ * child, q touches that child (the touching point lies in the clipped bounds); only when
+ * they reach several does a child need the full triangle-box test. */
 static octree_status triangle_search(const octree *tree, const vec3 q[3], accuracy_mode mode, int stop_at_first,
                                      id_list *hits, int *any, query_stats *stats)
 {
@@ -96,25 +102,28 @@ static octree_status triangle_search(const octree *tree, const vec3 q[3], accura
 
     tri_entry stack[OCTREE_STACK_MAX];
     size_t top = 0;
-    stack[top++] = (tri_entry){0, tree->world};
+    stats->nodes_visited++;
+    if (node_touched(tree, q, qb, tree->world, mode))
+        stack[top++] = (tri_entry){0, tree->world};
     while (top > 0) {
         tri_entry e = stack[--top];
-        stats->nodes_visited++;
-        if (!node_touched(tree, q, qb, e.box, mode))
-            continue;
         octree_node node = tree->nodes[e.node];
         if (node.count == NODE_INTERIOR) {
-            /* Empty leaves never enter the stack: most leaves of a surface mesh are empty. */
             box3 b = e.box;
             vec3 c = {box_split(b.lo.x, b.hi.x), box_split(b.lo.y, b.hi.y), box_split(b.lo.z, b.hi.z)};
+            vec3 lo = vec3_max(qb.lo, b.lo), hi = vec3_min(qb.hi, b.hi);
+            unsigned reach = box_octants_reached(lo, hi, c);
+            int single = (reach & (reach - 1)) == 0;
             const octree_node *kids = &tree->nodes[node.first];
             for (int k = 0; k < 8; k++) {
-                if (kids[k].count == 0)
+                if (!((reach >> k) & 1) || kids[k].count == 0)
                     continue;
                 int u = box_octant_upper_bits[k];
                 box3 cb = {{u & 1 ? c.x : b.lo.x, u & 2 ? c.y : b.lo.y, u & 4 ? c.z : b.lo.z},
                            {u & 1 ? b.hi.x : c.x, u & 2 ? b.hi.y : c.y, u & 4 ? b.hi.z : c.z}};
-                stack[top++] = (tri_entry){node.first + (uint32_t)k, cb};
+                stats->nodes_visited++;
+                if ((single && mode == ACCURACY_EXACT) || node_touched(tree, q, qb, cb, mode))
+                    stack[top++] = (tri_entry){node.first + (uint32_t)k, cb};
             }
             continue;
         }
