@@ -241,7 +241,8 @@ static octree_status build_nodes(build_ctx *ctx, int max_level)
                 goto unwind;
             }
             tree->nodes[e.node] = (octree_node){(uint32_t)leaves.count, (uint32_t)scratch.count};
-            memcpy(leaves.items + leaves.count, scratch.items, scratch.count * sizeof *scratch.items);
+            if (scratch.count) /* an empty leaf may come before any list exists */
+                memcpy(leaves.items + leaves.count, scratch.items, scratch.count * sizeof *scratch.items);
             leaves.count += scratch.count;
             continue;
         }
