@@ -17,6 +17,7 @@ WORLD_SRC  := $(wildcard server/world/*.c)
 SUPPORT_SRC := $(wildcard tests/support/*.c)
 TEST_SRC   := $(wildcard tests/test_*.c)
 BENCH_SRC  := $(wildcard bench/bench_*.c)
+DEMO_BIN   := $(BUILD)/trioct-demo
 
 ENGINE_OBJ  := $(ENGINE_SRC:%.c=$(BUILD)/%.o)
 WORLD_OBJ   := $(WORLD_SRC:%.c=$(BUILD)/%.o)
@@ -29,8 +30,8 @@ WORLD_LIB   := $(BUILD)/libtrioct_world.a
 SUPPORT_LIB := $(BUILD)/libtestsupport.a
 DEPS_STAMP  := $(BUILD)/.deps-ok
 
-.PHONY: all deps test asan bench clean
-all: $(ENGINE_LIB) $(WORLD_LIB) $(TEST_BIN) $(BENCH_BIN)
+.PHONY: all deps test asan bench run clean
+all: $(ENGINE_LIB) $(WORLD_LIB) $(TEST_BIN) $(BENCH_BIN) $(DEMO_BIN)
 
 deps: $(DEPS_STAMP)
 $(DEPS_STAMP): scripts/deps.sh
@@ -59,6 +60,13 @@ $(BUILD)/tests/%: $(BUILD)/tests/%.o $(SUPPORT_LIB) $(WORLD_LIB) $(ENGINE_LIB)
 BENCH_LIBS = $(SUPPORT_LIB) $(WORLD_LIB) $(ENGINE_LIB) -lgmp -lassimp $(LDLIBS_ENGINE)
 $(BUILD)/bench/%: $(BUILD)/bench/%.o $(SUPPORT_LIB) $(WORLD_LIB) $(ENGINE_LIB)
 	$(CC) $(ALL_CFLAGS) $< $(BENCH_LIBS) -o $@
+
+$(DEMO_BIN): $(BUILD)/tools/trioct_demo.o $(SUPPORT_LIB) $(WORLD_LIB) $(ENGINE_LIB)
+	$(CC) $(ALL_CFLAGS) $< $(BENCH_LIBS) -o $@
+
+# Until the daemon exists (issue 4), run shows the engine on a real and a generated mesh.
+run: $(DEMO_BIN)
+	$(DEMO_BIN)
 
 # Every test binary runs even when one fails; the target fails if any did.
 test: $(TEST_BIN)
