@@ -1033,79 +1033,6 @@ static void test_predicates_extreme_magnitudes_match_gmp(void **state)
     ref_clear(&c);
 }
 
-/* ---------- worst roundings found ---------- */
-
-/* The filters' own expressions in plain doubles, in the filters' operation order, so the
- * test can show that its inputs fool them. *permanent is the sum the bound multiplies. */
-static double plain_determinant(const pred_case *pc, double *permanent)
-{
-    const double *v = pc->v;
-    switch (pc->kind) {
-    case PRED_ORIENT2D:
-    case PRED_DIFF_PRODUCTS: {
-        /* orient2d is (ax-cx)(by-cy) - (ay-cy)(bx-cx) */
-        static const int orient2d_operands[8] = {0, 4, 3, 5, 1, 5, 2, 4};
-        double x[8];
-        for (int i = 0; i < 8; i++)
-            x[i] = pc->kind == PRED_ORIENT2D ? v[orient2d_operands[i]] : v[i];
-        double left = (x[0] - x[1]) * (x[2] - x[3]), right = (x[4] - x[5]) * (x[6] - x[7]);
-        *permanent = fabs(left) + fabs(right);
-        return left - right;
-    }
-    case PRED_ORIENT3D: {
-        vec3 da = vec3_sub(vec_at(v, 3), vec_at(v, 0)), db = vec3_sub(vec_at(v, 3), vec_at(v, 1)),
-             dc = vec3_sub(vec_at(v, 3), vec_at(v, 2));
-        double bc_1 = db.x * dc.y, bc_2 = dc.x * db.y, ca_1 = dc.x * da.y, ca_2 = da.x * dc.y,
-               ab_1 = da.x * db.y, ab_2 = db.x * da.y;
-        *permanent = (fabs(bc_1) + fabs(bc_2)) * fabs(da.z) + (fabs(ca_1) + fabs(ca_2)) * fabs(db.z) +
-                     (fabs(ab_1) + fabs(ab_2)) * fabs(dc.z);
-        return da.z * (bc_1 - bc_2) + db.z * (ca_1 - ca_2) + dc.z * (ab_1 - ab_2);
-    }
-    case PRED_RAY_EDGE: {
-        vec3 op = vec3_sub(vec_at(v, 0), vec_at(v, 2)), oq = vec3_sub(vec_at(v, 1), vec_at(v, 2)),
-             dir = vec_at(v, 3);
-        double x_1 = op.y * oq.z, x_2 = op.z * oq.y, y_1 = op.z * oq.x, y_2 = op.x * oq.z,
-               z_1 = op.x * oq.y, z_2 = op.y * oq.x;
-        *permanent = (fabs(x_1) + fabs(x_2)) * fabs(dir.x) + (fabs(y_1) + fabs(y_2)) * fabs(dir.y) +
-                     (fabs(z_1) + fabs(z_2)) * fabs(dir.z);
-        return dir.x * (x_1 - x_2) + dir.y * (y_1 - y_2) + dir.z * (z_1 - z_2);
-    }
-    default:
-        fail();
-        return 0.0;
-    }
-}
-
-/* Found by a randomized ulp-by-ulp search for the largest |det^| / permanent among inputs
- * whose plain double determinant det^ has the wrong sign. A filter constant below the
- * margin (in units of 2^-53) would accept that wrong sign; the constants in use are
- * 3 (two products), 7 (orient3d) and 6 (ray_edge_sign), from the worst-case analysis. */
-static const struct {
-    pred_case pc;
-    double margin;
-} worst_rounding_cases[] = {
-    WORST_ROUNDING_CASES
-};
-
-static void test_filters_reject_worst_roundings_found(void **state)
-{
-    (void)state;
-    ref_ctx c;
-    ref_init(&c);
-    for (size_t i = 0; i < sizeof worst_rounding_cases / sizeof worst_rounding_cases[0]; i++) {
-        const pred_case *pc = &worst_rounding_cases[i].pc;
-        int want = eval_ref(&c, pc);
-        double permanent, plain = plain_determinant(pc, &permanent);
-        int plain_sign = (plain > 0) - (plain < 0);
-        printf("  %-20s plain sign %+d, exact %+d, |det^| = %.3f u * permanent\n",
-               pred_names[pc->kind], plain_sign, want, fabs(plain) / permanent / EXPANSION_EPS);
-        assert_int_not_equal(plain_sign, want);
-        assert_true(fabs(plain) >= worst_rounding_cases[i].margin * EXPANSION_EPS * permanent);
-        assert_int_equal(eval_impl(pc), want);
-    }
-    ref_clear(&c);
-}
-
 /* ---------- fallback counter ---------- */
 
 static const pred_case degenerate_inputs[] = {
@@ -1229,7 +1156,6 @@ int main(void)
         cmocka_unit_test(test_orient2d_kettner_grid_matches_gmp),
         cmocka_unit_test(test_predicates_permutations_flip_sign),
         cmocka_unit_test(test_predicates_extreme_magnitudes_match_gmp),
-        cmocka_unit_test(test_filters_reject_worst_roundings_found),
         cmocka_unit_test(test_fallback_counter_counts_only_undecided_inputs),
         cmocka_unit_test(test_axis_aligned_degeneracies_need_no_fallback),
         cmocka_unit_test(test_fallback_counter_is_per_thread),
