@@ -852,7 +852,7 @@ static void test_predicates_random_inputs_match_gmp(void **state)
     for (int kind = 0; kind < PRED_KIND_COUNT; kind++) {
         tally t = {0};
         pred_case pc;
-        for (int i = 0; i < 6000; i++) {
+        for (int i = 0; i < 20000; i++) {
             /* plain unit-box inputs, then coordinates of very different sizes */
             gen_random(&r, (pred_kind)kind, 0.0, 1.0, &pc);
             if (i % 2)
@@ -974,7 +974,7 @@ static void test_predicates_permutations_flip_sign(void **state)
     for (int kind = 0; kind < PRED_KIND_COUNT; kind++) {
         tally t = {0};
         pred_case pc;
-        for (int i = 0; i < 3000; i++) {
+        for (int i = 0; i < 6000; i++) {
             int style = i % 3;
             if (style == 0)
                 gen_near_degenerate(&r, (pred_kind)kind, i % 2 ? 1e6 : 0.0, 1e-3, &pc);
@@ -1013,7 +1013,7 @@ static void test_predicates_extreme_magnitudes_match_gmp(void **state)
         tally t = {0};
         pred_case pc;
         for (size_t s = 0; s < sizeof scales / sizeof scales[0]; s++)
-            for (int i = 0; i < 800; i++) {
+            for (int i = 0; i < 2000; i++) {
                 if (i % 2)
                     gen_near_degenerate(&r, (pred_kind)kind, 0.0, 1.0, &pc);
                 else
@@ -1029,6 +1029,100 @@ static void test_predicates_extreme_magnitudes_match_gmp(void **state)
                 check_case(&c, &pc, &t, "extreme magnitudes");
             }
         finish_tally(&t, "extreme magnitudes", (pred_kind)kind);
+    }
+    ref_clear(&c);
+}
+
+/* ---------- worst roundings found ---------- */
+
+/* The filters' own expressions in plain doubles, in the filters' operation order, so the
+ * test can show that its inputs fool them. *permanent is the sum the bound multiplies. */
+static double plain_determinant(const pred_case *pc, double *permanent)
+{
+    const double *v = pc->v;
+    switch (pc->kind) {
+    case PRED_ORIENT2D:
+    case PRED_DIFF_PRODUCTS: {
+        /* orient2d is (ax-cx)(by-cy) - (ay-cy)(bx-cx) */
+        static const int orient2d_operands[8] = {0, 4, 3, 5, 1, 5, 2, 4};
+        double x[8];
+        for (int i = 0; i < 8; i++)
+            x[i] = pc->kind == PRED_ORIENT2D ? v[orient2d_operands[i]] : v[i];
+        double left = (x[0] - x[1]) * (x[2] - x[3]), right = (x[4] - x[5]) * (x[6] - x[7]);
+        *permanent = fabs(left) + fabs(right);
+        return left - right;
+    }
+    case PRED_ORIENT3D: {
+        vec3 da = vec3_sub(vec_at(v, 3), vec_at(v, 0)), db = vec3_sub(vec_at(v, 3), vec_at(v, 1)),
+             dc = vec3_sub(vec_at(v, 3), vec_at(v, 2));
+        double bc_1 = db.x * dc.y, bc_2 = dc.x * db.y, ca_1 = dc.x * da.y, ca_2 = da.x * dc.y,
+               ab_1 = da.x * db.y, ab_2 = db.x * da.y;
+        *permanent = (fabs(bc_1) + fabs(bc_2)) * fabs(da.z) + (fabs(ca_1) + fabs(ca_2)) * fabs(db.z) +
+                     (fabs(ab_1) + fabs(ab_2)) * fabs(dc.z);
+        return da.z * (bc_1 - bc_2) + db.z * (ca_1 - ca_2) + dc.z * (ab_1 - ab_2);
+    }
+    case PRED_RAY_EDGE: {
+        vec3 op = vec3_sub(vec_at(v, 0), vec_at(v, 2)), oq = vec3_sub(vec_at(v, 1), vec_at(v, 2)),
+             dir = vec_at(v, 3);
+        double x_1 = op.y * oq.z, x_2 = op.z * oq.y, y_1 = op.z * oq.x, y_2 = op.x * oq.z,
+               z_1 = op.x * oq.y, z_2 = op.y * oq.x;
+        *permanent = (fabs(x_1) + fabs(x_2)) * fabs(dir.x) + (fabs(y_1) + fabs(y_2)) * fabs(dir.y) +
+                     (fabs(z_1) + fabs(z_2)) * fabs(dir.z);
+        return dir.x * (x_1 - x_2) + dir.y * (y_1 - y_2) + dir.z * (z_1 - z_2);
+    }
+    default:
+        fail();
+        *permanent = 0.0;
+        return 0.0;
+    }
+}
+
+/* Found by a randomized ulp-by-ulp search for the largest |det^| / permanent among inputs
+ * whose plain double determinant det^ has the wrong sign. A filter constant below the
+ * margin (in units of 2^-53) would accept that wrong sign; the constants in use are
+ * 3 (two products), 7 (orient3d) and 6 (ray_edge_sign), from the worst-case analysis. */
+static const struct {
+    pred_case pc;
+    double margin;
+} worst_rounding_cases[] = {
+    {{PRED_ORIENT2D, 0,
+          {0x1.85d8097f79789p-1, -0x1.ed483d9868c4dp-1, -0x1.b8c851e785718p-5,
+           0x1.64d6395a277f1p-1, -0x1.792915e5e703ep-1, 0x1.0b39d0aa0e27ep+1}},
+     1.9},
+    {{PRED_DIFF_PRODUCTS, 0,
+          {0x1.39da863594410p-1, -0x1.6494b779b5b67p-1, 0x1.cdc1fd5883a20p-5,
+           -0x1.ee810b4313df1p-1, 0x1.cdc1fd58839aep-5, -0x1.ee810b4313e00p-1,
+           0x1.39da8635943dep-1, -0x1.6494b779b5b8fp-1}},
+     2.2},
+    {{PRED_ORIENT3D, 0,
+          {0x1.24619b04c5ba7p-3, 0x1.c4d1cf01e4a35p-1, 0x1.e7bba1c7cd0abp-2,
+           0x1.1fb3afe35dd6cp-5, -0x1.69600e2a6378dp-3, 0x1.212dd767cba66p-4,
+           0x1.67b846e1bdb58p-2, -0x1.e69e5f35ce9e7p-5, -0x1.8989dd6122434p-2,
+           -0x1.054a622973837p-2, -0x1.1b817501a53c3p-2, 0x1.f7f68cf270d01p-2}},
+     3.0},
+    {{PRED_RAY_EDGE, 0,
+          {0x1.93cb15dbb705ep-2, 0x1.5a2b0e1eabee5p-3, -0x1.736431c48af4cp-2,
+           0x1.41d6530f881e4p-1, 0x1.a924412b0d902p-2, 0x1.5dcb5faec680ap-1,
+           -0x1.875baf4b72372p-4, 0x1.08606e32c0f51p-1, 0x1.d45a647341483p-5,
+           0x1.0eb996d9c6143p-1, -0x1.3bb3c1adf66d4p-2, -0x1.01d34b8286650p-2}},
+     2.15},
+};
+
+static void test_filters_reject_worst_roundings_found(void **state)
+{
+    (void)state;
+    ref_ctx c;
+    ref_init(&c);
+    for (size_t i = 0; i < sizeof worst_rounding_cases / sizeof worst_rounding_cases[0]; i++) {
+        const pred_case *pc = &worst_rounding_cases[i].pc;
+        int want = eval_ref(&c, pc);
+        double permanent, plain = plain_determinant(pc, &permanent);
+        int plain_sign = (plain > 0) - (plain < 0);
+        printf("  %-20s plain sign %+d, exact %+d, |det^| = %.3f u * permanent\n",
+               pred_names[pc->kind], plain_sign, want, fabs(plain) / permanent / EXPANSION_EPS);
+        assert_int_not_equal(plain_sign, want);
+        assert_true(fabs(plain) >= worst_rounding_cases[i].margin * EXPANSION_EPS * permanent);
+        assert_int_equal(eval_impl(pc), want);
     }
     ref_clear(&c);
 }
@@ -1156,6 +1250,7 @@ int main(void)
         cmocka_unit_test(test_orient2d_kettner_grid_matches_gmp),
         cmocka_unit_test(test_predicates_permutations_flip_sign),
         cmocka_unit_test(test_predicates_extreme_magnitudes_match_gmp),
+        cmocka_unit_test(test_filters_reject_worst_roundings_found),
         cmocka_unit_test(test_fallback_counter_counts_only_undecided_inputs),
         cmocka_unit_test(test_axis_aligned_degeneracies_need_no_fallback),
         cmocka_unit_test(test_fallback_counter_is_per_thread),

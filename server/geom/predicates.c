@@ -19,7 +19,7 @@
  *   and with no underflow  fl(s) >= (1-u) s  for s >= 0.
  * The filter returns sign(det^) when |det^| > bound^, which is right whenever
  * |det - det^| < |det^|. Each constant below makes bound^ exceed the error even after
- * the roundings made while computing bound^ itself; the eps^2 coefficients were checked
+ * the roundings made while computing bound^ itself; the u^2 coefficients were checked
  * with exact rational arithmetic and then rounded up.
  *
  * Two products, (a-b)(c-d) - (e-f)(g-h):
@@ -59,10 +59,11 @@
  *     G = 6u + 9u^2 + 5u^3 + u^4,  E >= G/(1-u)^8 = 6u + 57u^2 + O(u^3) -> E = (6 + 64u) u,
  *     with PAD = 2^-1020 (needs ~2^-1023.6) and ABS = 2^-1070 as for orient3d.
  *
- * Range: the bounds above hold for every finite input. Underflow is covered by ABS and
- * PAD (they only matter once products drop near 2^-1000, below which the filter gives up
- * and the exact stage decides); overflow turns the computed permanent into inf or NaN, so
- * the comparison fails and the exact stage decides.
+ * Range: the bounds above hold for every finite input. Underflow is covered by PAD and
+ * ABS, which stop the filter from deciding once a minor's products fall toward 2^-1020
+ * or a determinant toward 2^-1070 (coordinates near 1e-300 always go to the exact stage).
+ * Overflow makes the computed permanent inf or NaN, so the comparison fails and the
+ * exact stage decides.
  * ------------------------------------------------------------------------------------- */
 #define U EXPANSION_EPS
 static const double ERRBOUND_DIFF_PRODUCTS = (3.0 + 16.0 * U) * U;
