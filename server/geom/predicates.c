@@ -65,13 +65,8 @@
  * Overflow makes the computed permanent inf or NaN, so the comparison fails and the
  * exact stage decides.
  * ------------------------------------------------------------------------------------- */
-#define U EXPANSION_EPS
-static const double ERRBOUND_DIFF_PRODUCTS = (3.0 + 16.0 * U) * U;
-static const double ERRBOUND_ORIENT3D = (7.0 + 80.0 * U) * U;
-static const double ERRBOUND_RAY_EDGE = (6.0 + 64.0 * U) * U;
-static const double UNDERFLOW_ABSOLUTE = 0x1p-1070;
-static const double UNDERFLOW_MINOR_PAD = 0x1p-1020;
-#undef U
+/* The constants derived above are PREDICATES_ERRBOUND_* and PREDICATES_UNDERFLOW_* in
+ * predicates.h, where the inline filters that use them live. */
 
 /* ---------------------------------------------------------------------------------------
  * Exact stage
@@ -184,7 +179,7 @@ static inline int products_difference_is_zero(double p, double q, double r, doub
 
 /* ---------- (a - b)(c - d) - (e - f)(g - h) ---------- */
 
-static PREDICATES_COLD int diff_products_undecided(double a, double b, double c, double d,
+PREDICATES_COLD int sign_diff_products_undecided(double a, double b, double c, double d,
                                                    double e, double f, double g, double h)
 {
     if (products_difference_is_zero(a - b, c - d, e - f, g - h))
@@ -205,46 +200,13 @@ static PREDICATES_COLD int diff_products_undecided(double a, double b, double c,
     return expansion_sign(n, det);
 }
 
-static inline int diff_products_sign(double a, double b, double c, double d, double e,
-                                     double f, double g, double h)
-{
-    double left = (a - b) * (c - d);
-    double right = (e - f) * (g - h);
-    double det = left - right;
-    double bound = ERRBOUND_DIFF_PRODUCTS * (fabs(left) + fabs(right)) + UNDERFLOW_ABSOLUTE;
-    if (fabs(det) > bound)
-        return (det > 0.0) - (det < 0.0);
-    return diff_products_undecided(a, b, c, d, e, f, g, h);
-}
 
-int sign_diff_products(double a, double b, double c, double d, double e, double f, double g,
-                       double h)
-{
-    return diff_products_sign(a, b, c, d, e, f, g, h);
-}
 
-int orient2d(double ax, double ay, double bx, double by, double cx, double cy)
-{
-    return diff_products_sign(ax, cx, by, cy, ay, cy, bx, cx);
-}
 
-int orient2d_axis(vec3 a, vec3 b, vec3 c, int axis)
-{
-    assert(axis >= 0 && axis <= 2);
-    /* Cyclic order (y,z), (z,x), (x,y) keeps each projection's orientation equal to the
-     * sign of that component of the 3D cross product. */
-    double au = axis == 0 ? a.y : axis == 1 ? a.z : a.x;
-    double av = axis == 0 ? a.z : axis == 1 ? a.x : a.y;
-    double bu = axis == 0 ? b.y : axis == 1 ? b.z : b.x;
-    double bv = axis == 0 ? b.z : axis == 1 ? b.x : b.y;
-    double cu = axis == 0 ? c.y : axis == 1 ? c.z : c.x;
-    double cv = axis == 0 ? c.z : axis == 1 ? c.x : c.y;
-    return diff_products_sign(au, cu, bv, cv, av, cv, bu, cu);
-}
 
 /* ---------- orient3d ---------- */
 
-static PREDICATES_COLD int orient3d_undecided(vec3 a, vec3 b, vec3 c, vec3 d)
+PREDICATES_COLD int orient3d_undecided(vec3 a, vec3 b, vec3 c, vec3 d)
 {
     /* Triangles sharing vertices test each other's corners all the time. */
     if (vec3_equal(a, b) || vec3_equal(a, c) || vec3_equal(a, d) || vec3_equal(b, c) ||
@@ -277,26 +239,10 @@ static PREDICATES_COLD int orient3d_undecided(vec3 a, vec3 b, vec3 c, vec3 d)
     return expansion_sign(det_n, det);
 }
 
-int orient3d(vec3 a, vec3 b, vec3 c, vec3 d)
-{
-    /* det[d-a; d-b; d-c] equals det[b-a; c-a; d-a], expanded along z. */
-    vec3 da = vec3_sub(d, a), db = vec3_sub(d, b), dc = vec3_sub(d, c);
-    double bc_1 = db.x * dc.y, bc_2 = dc.x * db.y;
-    double ca_1 = dc.x * da.y, ca_2 = da.x * dc.y;
-    double ab_1 = da.x * db.y, ab_2 = db.x * da.y;
-    double det = da.z * (bc_1 - bc_2) + db.z * (ca_1 - ca_2) + dc.z * (ab_1 - ab_2);
-    double permanent = (fabs(bc_1) + fabs(bc_2) + UNDERFLOW_MINOR_PAD) * fabs(da.z) +
-                       (fabs(ca_1) + fabs(ca_2) + UNDERFLOW_MINOR_PAD) * fabs(db.z) +
-                       (fabs(ab_1) + fabs(ab_2) + UNDERFLOW_MINOR_PAD) * fabs(dc.z);
-    double bound = ERRBOUND_ORIENT3D * permanent + UNDERFLOW_ABSOLUTE;
-    if (fabs(det) > bound)
-        return (det > 0.0) - (det < 0.0);
-    return orient3d_undecided(a, b, c, d);
-}
 
 /* ---------- ((p - o) x (q - o)) . dir ---------- */
 
-static PREDICATES_COLD int ray_edge_undecided(vec3 p, vec3 q, vec3 o, vec3 dir)
+PREDICATES_COLD int ray_edge_sign_undecided(vec3 p, vec3 q, vec3 o, vec3 dir)
 {
     if (vec3_equal(p, q))
         return 0;
@@ -329,18 +275,3 @@ static PREDICATES_COLD int ray_edge_undecided(vec3 p, vec3 q, vec3 o, vec3 dir)
     return expansion_sign(det_n, det);
 }
 
-int ray_edge_sign(vec3 p, vec3 q, vec3 o, vec3 dir)
-{
-    vec3 op = vec3_sub(p, o), oq = vec3_sub(q, o);
-    double x_1 = op.y * oq.z, x_2 = op.z * oq.y;
-    double y_1 = op.z * oq.x, y_2 = op.x * oq.z;
-    double z_1 = op.x * oq.y, z_2 = op.y * oq.x;
-    double det = dir.x * (x_1 - x_2) + dir.y * (y_1 - y_2) + dir.z * (z_1 - z_2);
-    double permanent = (fabs(x_1) + fabs(x_2) + UNDERFLOW_MINOR_PAD) * fabs(dir.x) +
-                       (fabs(y_1) + fabs(y_2) + UNDERFLOW_MINOR_PAD) * fabs(dir.y) +
-                       (fabs(z_1) + fabs(z_2) + UNDERFLOW_MINOR_PAD) * fabs(dir.z);
-    double bound = ERRBOUND_RAY_EDGE * permanent + UNDERFLOW_ABSOLUTE;
-    if (fabs(det) > bound)
-        return (det > 0.0) - (det < 0.0);
-    return ray_edge_undecided(p, q, o, dir);
-}

@@ -8,26 +8,92 @@
 
 #include "vec3.h"
 
-/* sign of (a - c) x (b - c) = (ax-cx)(by-cy) - (ay-cy)(bx-cx): +1 when a, b, c turn
- * counter-clockwise. */
-int orient2d(double ax, double ay, double bx, double by, double cx, double cy);
+/* Each predicate below is a float filter, inline because it sits in the innermost loops
+ * of every query and of the build, followed by an exact stage out of line (the
+ * *_undecided functions, which only the filters should call). The filters' error bounds
+ * are derived at the top of predicates.c; u = 2^-53. The underflow terms keep the filter
+ * from deciding once products fall toward 2^-1020 and determinants toward 2^-1070. */
+#define PREDICATES_ERRBOUND_DIFF_PRODUCTS ((3.0 + 16.0 * 0x1p-53) * 0x1p-53)
+#define PREDICATES_ERRBOUND_ORIENT3D ((7.0 + 80.0 * 0x1p-53) * 0x1p-53)
+#define PREDICATES_ERRBOUND_RAY_EDGE ((6.0 + 64.0 * 0x1p-53) * 0x1p-53)
+#define PREDICATES_UNDERFLOW_ABSOLUTE 0x1p-1070
+#define PREDICATES_UNDERFLOW_MINOR_PAD 0x1p-1020
 
-/* sign of det[b - a, c - a, d - a] = ((b-a) x (c-a)) . (d-a): +1 when d lies on the side
- * the normal of the counter-clockwise triangle a, b, c points to. */
-int orient3d(vec3 a, vec3 b, vec3 c, vec3 d);
+int sign_diff_products_undecided(double a, double b, double c, double d, double e, double f, double g,
+                                 double h);
+int orient3d_undecided(vec3 a, vec3 b, vec3 c, vec3 d);
+int ray_edge_sign_undecided(vec3 p, vec3 q, vec3 o, vec3 dir);
 
 /* sign of (a - b)(c - d) - (e - f)(g - h): the shape of every 2D separating-axis test. */
-int sign_diff_products(double a, double b, double c, double d,
-                       double e, double f, double g, double h);
+static inline int sign_diff_products(double a, double b, double c, double d, double e, double f, double g,
+                                     double h)
+{
+    double left = (a - b) * (c - d);
+    double right = (e - f) * (g - h);
+    double det = left - right;
+    double bound = PREDICATES_ERRBOUND_DIFF_PRODUCTS * (fabs(left) + fabs(right)) + PREDICATES_UNDERFLOW_ABSOLUTE;
+    if (fabs(det) > bound)
+        return (det > 0.0) - (det < 0.0);
+    return sign_diff_products_undecided(a, b, c, d, e, f, g, h);
+}
+
+/* sign of (a - c) x (b - c) = (ax-cx)(by-cy) - (ay-cy)(bx-cx): +1 when a, b, c turn
+ * counter-clockwise. */
+static inline int orient2d(double ax, double ay, double bx, double by, double cx, double cy)
+{
+    return sign_diff_products(ax, cx, by, cy, ay, cy, bx, cx);
+}
+
+/* The orient2d of a, b, c projected onto the plane normal to `axis` (0 = x, 1 = y, 2 = z),
+ * with the projected coordinates taken in cyclic order (y,z), (z,x), (x,y), which keeps
+ * each projection's orientation equal to the sign of component `axis` of (a - c) x (b - c). */
+static inline int orient2d_axis(vec3 a, vec3 b, vec3 c, int axis)
+{
+    double au = axis == 0 ? a.y : axis == 1 ? a.z : a.x;
+    double av = axis == 0 ? a.z : axis == 1 ? a.x : a.y;
+    double bu = axis == 0 ? b.y : axis == 1 ? b.z : b.x;
+    double bv = axis == 0 ? b.z : axis == 1 ? b.x : b.y;
+    double cu = axis == 0 ? c.y : axis == 1 ? c.z : c.x;
+    double cv = axis == 0 ? c.z : axis == 1 ? c.x : c.y;
+    return sign_diff_products(au, cu, bv, cv, av, cv, bu, cu);
+}
+
+/* sign of det[b - a, c - a, d - a] = ((b-a) x (c-a)) . (d-a): +1 when d lies on the side
+ * the normal of the counter-clockwise triangle a, b, c points to. Evaluated as
+ * det[d-a; d-b; d-c], which is equal, expanded along z. */
+static inline int orient3d(vec3 a, vec3 b, vec3 c, vec3 d)
+{
+    vec3 da = vec3_sub(d, a), db = vec3_sub(d, b), dc = vec3_sub(d, c);
+    double bc_1 = db.x * dc.y, bc_2 = dc.x * db.y;
+    double ca_1 = dc.x * da.y, ca_2 = da.x * dc.y;
+    double ab_1 = da.x * db.y, ab_2 = db.x * da.y;
+    double det = da.z * (bc_1 - bc_2) + db.z * (ca_1 - ca_2) + dc.z * (ab_1 - ab_2);
+    double permanent = (fabs(bc_1) + fabs(bc_2) + PREDICATES_UNDERFLOW_MINOR_PAD) * fabs(da.z) +
+                       (fabs(ca_1) + fabs(ca_2) + PREDICATES_UNDERFLOW_MINOR_PAD) * fabs(db.z) +
+                       (fabs(ab_1) + fabs(ab_2) + PREDICATES_UNDERFLOW_MINOR_PAD) * fabs(dc.z);
+    double bound = PREDICATES_ERRBOUND_ORIENT3D * permanent + PREDICATES_UNDERFLOW_ABSOLUTE;
+    if (fabs(det) > bound)
+        return (det > 0.0) - (det < 0.0);
+    return orient3d_undecided(a, b, c, d);
+}
 
 /* sign of ((p - o) x (q - o)) . dir: which side of the directed line through o along dir
  * the edge p->q passes (the ray-triangle edge function). */
-int ray_edge_sign(vec3 p, vec3 q, vec3 o, vec3 dir);
-
-/* The orient2d of a, b, c projected onto the plane normal to `axis` (0 = x, 1 = y, 2 = z),
- * with the projected coordinates taken in cyclic order (y,z), (z,x), (x,y). This is the
- * exact sign of component `axis` of (a - c) x (b - c). */
-int orient2d_axis(vec3 a, vec3 b, vec3 c, int axis);
+static inline int ray_edge_sign(vec3 p, vec3 q, vec3 o, vec3 dir)
+{
+    vec3 op = vec3_sub(p, o), oq = vec3_sub(q, o);
+    double x_1 = op.y * oq.z, x_2 = op.z * oq.y;
+    double y_1 = op.z * oq.x, y_2 = op.x * oq.z;
+    double z_1 = op.x * oq.y, z_2 = op.y * oq.x;
+    double det = dir.x * (x_1 - x_2) + dir.y * (y_1 - y_2) + dir.z * (z_1 - z_2);
+    double permanent = (fabs(x_1) + fabs(x_2) + PREDICATES_UNDERFLOW_MINOR_PAD) * fabs(dir.x) +
+                       (fabs(y_1) + fabs(y_2) + PREDICATES_UNDERFLOW_MINOR_PAD) * fabs(dir.y) +
+                       (fabs(z_1) + fabs(z_2) + PREDICATES_UNDERFLOW_MINOR_PAD) * fabs(dir.z);
+    double bound = PREDICATES_ERRBOUND_RAY_EDGE * permanent + PREDICATES_UNDERFLOW_ABSOLUTE;
+    if (fabs(det) > bound)
+        return (det > 0.0) - (det < 0.0);
+    return ray_edge_sign_undecided(p, q, o, dir);
+}
 
 /* How many evaluations on this thread needed the exact fallback since the thread began.
  * Thread-local, so concurrent queries never share it; callers report differences. */
