@@ -1,5 +1,6 @@
 /* Batch forms of the queries: one call, many items, each with its own status. */
 #include "../engine.h"
+#include "octree_internal.h"
 
 /* OCTREE_ERR_NOMEM is the one item error that says the batch itself could not go on. */
 #define BATCH_LOOP(call)                                   \
@@ -14,7 +15,7 @@
 octree_status octree_ray_batch(const octree *tree, const ray_input *rays, size_t count, ray_detail detail,
                                accuracy_mode mode, ray_output *outs, octree_status *statuses, query_stats *stats)
 {
-    BATCH_LOOP(octree_ray(tree, &rays[i], detail, mode, &outs[i], stats));
+    return octree_ray_stream(tree, rays, count, detail, mode, outs, statuses, stats);
 }
 
 octree_status octree_triangle_batch(const octree *tree, const vec3 (*tris)[3], size_t count, tri_detail detail,

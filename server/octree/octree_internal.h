@@ -66,6 +66,12 @@ static inline void query_stats_finish(query_stats *caller, query_stats *local, u
     caller->exact_fallbacks += local->exact_fallbacks;
 }
 
+/* Answers a batch of rays as octree_ray answers each, with several rays' traversals in
+ * flight at once so that one ray's memory latency hides behind the others' work. */
+octree_status octree_ray_stream(const struct octree *tree, const ray_input *rays, size_t count, ray_detail detail,
+                                accuracy_mode mode, ray_output *outs, octree_status *statuses,
+                                query_stats *stats);
+
 /* Deepest traversal stack a query needs: 7 siblings waiting per level plus the node. */
 #define OCTREE_STACK_MAX (8 * (OCTREE_MAX_DEPTH_CAP + 1) + 1)
 
