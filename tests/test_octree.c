@@ -581,6 +581,155 @@ static void test_bad_queries_get_errors(void **state)
     mesh_data_free(&m);
 }
 
+/* ---------- batches ---------- */
+
+static uint64_t bits_of(double x)
+{
+    uint64_t b;
+    memcpy(&b, &x, sizeof b);
+    return b;
+}
+
+/* Every field of two reported hits, compared as bits (padding aside). */
+static void assert_same_hit(const ray_hit *a, const ray_hit *b, size_t ray, size_t k)
+{
+    if (a->triangle != b->triangle || bits_of(a->t) != bits_of(b->t) || bits_of(a->u) != bits_of(b->u) ||
+        bits_of(a->v) != bits_of(b->v) || bits_of(a->normal.x) != bits_of(b->normal.x) ||
+        bits_of(a->normal.y) != bits_of(b->normal.y) || bits_of(a->normal.z) != bits_of(b->normal.z))
+        fail_msg("ray %zu hit %zu: batch (%u, %a) differs from single (%u, %a)", ray, k, a->triangle, a->t,
+                 b->triangle, b->t);
+}
+
+/* A ray octree_ray refuses, of the four kinds it checks for. */
+static ray_input invalid_ray(size_t i)
+{
+    switch (i % 4) {
+    case 0:
+        return (ray_input){{0, 0, 0}, {0, 0, 0}, 0, 1};
+    case 1:
+        return (ray_input){{NAN, 0, 0}, {1, 0, 0}, 0, 1};
+    case 2:
+        return (ray_input){{0, 0, 0}, {0, INFINITY, 0}, 0, 1};
+    default:
+        return (ray_input){{0, 0, 0}, {1, 1, 1}, 2, 1};
+    }
+}
+
+enum { BATCH_HIT_CAP = 6 };
+
+typedef struct batch_tally {
+    size_t rays, invalid, hit_rays, truncated;
+    uint64_t fallbacks;
+} batch_tally;
+
+/* Answers `rays` through octree_ray_batch in batches of uneven sizes (so the stream starts,
+ * refills and drains at every phase) and through octree_ray one by one, and demands the
+ * same statuses, outputs and summed counters to the bit. */
+static void compare_batch_with_single(const octree *t, const ray_input *rays, size_t count, ray_detail detail,
+                                      accuracy_mode mode, batch_tally *tally)
+{
+    ray_hit *batch_hits = malloc(count * BATCH_HIT_CAP * sizeof *batch_hits);
+    ray_hit *single_hits = malloc(count * BATCH_HIT_CAP * sizeof *single_hits);
+    ray_output *outs = malloc(count * sizeof *outs);
+    octree_status *statuses = malloc(count * sizeof *statuses);
+    /* Untouched outputs must stay untouched (invalid rays): both start from the same junk. */
+    memset(batch_hits, 0x5a, count * BATCH_HIT_CAP * sizeof *batch_hits);
+    memset(single_hits, 0x5a, count * BATCH_HIT_CAP * sizeof *single_hits);
+    for (size_t i = 0; i < count; i++) {
+        outs[i] = (ray_output){.hit_count = 777, .truncated = 3, .hits = &batch_hits[i * BATCH_HIT_CAP],
+                               .max_hits = i % 7 == 3 ? 0 : i % 3 == 1 ? 1 : BATCH_HIT_CAP};
+        statuses[i] = (octree_status)99;
+    }
+    const size_t sizes[] = {1, 3, 17, 256, 5, 1000};
+    query_stats batch_stats = {0}, single_stats = {0};
+    size_t done = 0;
+    for (size_t b = 0; done < count; b++) {
+        size_t n = b < sizeof sizes / sizeof sizes[0] ? sizes[b] : count;
+        n = n < count - done ? n : count - done;
+        assert_int_equal(octree_ray_batch(t, &rays[done], n, detail, mode, &outs[done], &statuses[done], &batch_stats),
+                         OCTREE_OK);
+        done += n;
+    }
+    assert_int_equal(octree_ray_batch(t, rays, 0, detail, mode, outs, statuses, &batch_stats), OCTREE_OK);
+    for (size_t i = 0; i < count; i++) {
+        ray_output one = {.hit_count = 777, .truncated = 3, .hits = &single_hits[i * BATCH_HIT_CAP],
+                          .max_hits = outs[i].max_hits};
+        octree_status st = octree_ray(t, &rays[i], detail, mode, &one, &single_stats);
+        if (statuses[i] != st)
+            fail_msg("ray %zu detail %d mode %d: batch status %d, single %d", i, detail, mode, statuses[i], st);
+        assert_int_equal(outs[i].hit_count, one.hit_count);
+        assert_int_equal(outs[i].truncated, one.truncated);
+        size_t stored = one.hit_count < one.max_hits ? one.hit_count : one.max_hits;
+        for (size_t k = 0; k < stored; k++)
+            assert_same_hit(&outs[i].hits[k], &one.hits[k], i, k);
+        /* past the stored hits both buffers keep their junk */
+        assert_memory_equal(&outs[i].hits[stored], &one.hits[stored], (BATCH_HIT_CAP - stored) * sizeof(ray_hit));
+        tally->rays++;
+        tally->invalid += st != OCTREE_OK;
+        tally->hit_rays += st == OCTREE_OK && one.hit_count > 0;
+        tally->truncated += one.truncated == 1;
+    }
+    assert_true(batch_stats.nodes_visited == single_stats.nodes_visited);
+    assert_true(batch_stats.leaves_visited == single_stats.leaves_visited);
+    assert_true(batch_stats.candidates_tested == single_stats.candidates_tested);
+    assert_true(batch_stats.exact_fallbacks == single_stats.exact_fallbacks);
+    assert_true(single_stats.nodes_visited > 0 && single_stats.candidates_tested > 0);
+    tally->fallbacks += single_stats.exact_fallbacks;
+    free(batch_hits);
+    free(single_hits);
+    free(outs);
+    free(statuses);
+}
+
+static void test_ray_batch_equals_single_rays_bit_for_bit(void **state)
+{
+    (void)state;
+    uint64_t seed = base_seed + 6;
+    printf("ray batch seed %llu\n", (unsigned long long)seed);
+    box3 unit = {{-1, -1, -1}, {1, 1, 1}};
+    mesh_data soup = meshgen_soup(seed, 800, unit, 0.3);
+    scene scenes[] = {
+        {"soup", meshgen_soup(seed, 800, unit, 0.3), 0},
+        {"soup far and small", meshgen_transformed(&soup, 1e-3, (vec3){1e6, 2e6, -1e6}), 0},
+        {"icosphere", meshgen_icosphere((vec3){0.5, 0.25, 0}, 1.0, 4), 0},
+        {"terrain", meshgen_terrain(seed, (box3){{0, 0, 0}, {8, 8, 1}}, 32, 32), 0},
+        {"blocks", meshgen_blocks(seed, 4, 3, 3, 0.5), 0.125},
+    };
+    const accuracy_mode modes[] = {ACCURACY_EXACT, ACCURACY_SEED};
+    enum { RAYS = 2500 };
+    batch_tally tally = {0};
+    ray_input *rays = malloc(RAYS * sizeof *rays);
+    for (size_t s = 0; s < sizeof scenes / sizeof scenes[0]; s++) {
+        octree *t = build_or_fail(&scenes[s].mesh, scenes[s].resolution, ACCURACY_EXACT);
+        rng r = rng_seeded(seed + s);
+        box3 b = mesh_bounds(&scenes[s].mesh);
+        for (size_t i = 0; i < RAYS; i++) {
+            rays[i] = i % 41 == 40 ? invalid_ray(i / 41) : random_ray(&r, &scenes[s].mesh, b);
+            if (i % 53 == 52) /* pointing away from the world: answered with no hit */
+                rays[i].direction = vec3_sub(rays[i].origin, vec3_scale(vec3_add(b.lo, b.hi), 0.5));
+        }
+        for (size_t m = 0; m < 2; m++)
+            for (int detail = RAY_ANY; detail <= RAY_ALL; detail++)
+                compare_batch_with_single(t, rays, RAYS, (ray_detail)detail, modes[m], &tally);
+        /* A sensor's sweep: every ray from one origin takes the batch's other path. */
+        vec3 eye = vec3_add(b.hi, vec3_make(0.5, 0.75, 1.0));
+        for (size_t i = 0; i < RAYS; i++)
+            rays[i] = i % 41 == 40 ? (ray_input){eye, {0, 0, 0}, 0, INFINITY}
+                                   : (ray_input){eye, vec3_sub(random_point_near(&r, b), eye), 0, INFINITY};
+        for (int detail = RAY_ANY; detail <= RAY_ALL; detail++)
+            compare_batch_with_single(t, rays, RAYS, (ray_detail)detail, ACCURACY_EXACT, &tally);
+        octree_free(t);
+        mesh_data_free(&scenes[s].mesh);
+    }
+    printf("ray batch: %zu rays, %zu invalid, %zu with hits, %zu truncated, %llu exact fallbacks\n", tally.rays,
+           tally.invalid, tally.hit_rays, tally.truncated, (unsigned long long)tally.fallbacks);
+    /* the comparison saw every kind of answer */
+    assert_true(tally.invalid > 0 && tally.hit_rays > tally.rays / 4 && tally.truncated > 0);
+    assert_true(tally.hit_rays < tally.rays - tally.invalid);
+    free(rays);
+    mesh_data_free(&soup);
+}
+
 /* ---------- threads ---------- */
 
 typedef struct thread_job {
@@ -677,6 +826,7 @@ int main(void)
         cmocka_unit_test(test_mesh_query_equals_per_triangle_brute_force),
         cmocka_unit_test(test_rays_cross_closed_meshes_an_even_number_of_times),
         cmocka_unit_test(test_bad_queries_get_errors),
+        cmocka_unit_test(test_ray_batch_equals_single_rays_bit_for_bit),
         cmocka_unit_test(test_results_identical_for_one_and_four_threads),
     };
     return cmocka_run_group_tests_name("octree", tests, NULL, NULL);

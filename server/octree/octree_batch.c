@@ -12,10 +12,25 @@
     }                                                      \
     return batch
 
+/* Rays from one origin (a lidar scan, a camera image) walk the same nodes one after the
+ * other, so their memory is already in cache and interleaving only adds bookkeeping: on a
+ * camera sweep the stream measured 0.67-0.90x one ray at a time. Scattered rays gain
+ * 1.2-1.6x from it. */
+static int share_one_origin(const ray_input *rays, size_t count)
+{
+    for (size_t i = 1; i < count; i++)
+        if (rays[i].origin.x != rays[0].origin.x || rays[i].origin.y != rays[0].origin.y ||
+            rays[i].origin.z != rays[0].origin.z)
+            return 0;
+    return 1;
+}
+
 octree_status octree_ray_batch(const octree *tree, const ray_input *rays, size_t count, ray_detail detail,
                                accuracy_mode mode, ray_output *outs, octree_status *statuses, query_stats *stats)
 {
-    return octree_ray_stream(tree, rays, count, detail, mode, outs, statuses, stats);
+    if (!share_one_origin(rays, count))
+        return octree_ray_stream(tree, rays, count, detail, mode, outs, statuses, stats);
+    BATCH_LOOP(octree_ray(tree, &rays[i], detail, mode, &outs[i], stats));
 }
 
 octree_status octree_triangle_batch(const octree *tree, const vec3 (*tris)[3], size_t count, tri_detail detail,
