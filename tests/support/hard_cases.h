@@ -28,12 +28,20 @@ typedef struct hard_case {
     vec3 origin, direction;
     double tmin, tmax;
     int expected; /* 1 touch / hit, 0 not */
-    unsigned transform; /* which exact-preserving transform produced it (0 = the base case) */
+    unsigned transform; /* which exact-preserving transform produced it (0 = the base case):
+                           bits 0-2 negate x, y, z; bits 3-5 the axis permutation (0..5);
+                           bits 6 and up one extra step: 1, 2 scale points and direction by
+                           2^-20, 2^20; 3, 4 offset points by (2^20, -2^20, 2^20),
+                           (3, -3, 3) * 2^30; 5 swap a and b; 6 rotate vertex orders;
+                           7 reverse a's order; 8 swap and reverse both. A variant that
+                           would round any coordinate is left out. */
 } hard_case;
 
 /* Every case of every category, base cases and their transforms (axis permutations,
- * reflections, power-of-two scalings, exactly representable offsets). Returns the count
- * and sets *out (free() it), or 0 with *out NULL when memory runs out. */
+ * reflections, power-of-two scalings, exactly representable offsets). Each base case
+ * (transform 0) is followed by its variants, all with its expected answer. Deterministic;
+ * takes milliseconds. Returns the count and sets *out (free() it), or 0 with *out NULL
+ * when memory runs out. */
 size_t hard_cases_generate(hard_case **out);
 
 /* The category names, in a fixed order. */
