@@ -113,7 +113,7 @@ typedef enum ray_detail {
 typedef struct ray_input {
     vec3 origin;
     vec3 direction;   /* need not be unit length; t is in units of |direction| */
-    double tmin, tmax; /* closed interval */
+    double tmin, tmax; /* closed interval; tmin finite, tmax may be INFINITY */
 } ray_input;
 
 typedef struct ray_hit {
