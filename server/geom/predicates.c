@@ -177,6 +177,38 @@ static inline int products_difference_is_zero(double p, double q, double r, doub
     return (p == 0.0 || q == 0.0) && (r == 0.0 || s == 0.0);
 }
 
+/* ---------- exact stage for exact differences ----------
+ * Undecided inputs are mostly points close together (shared or nearly shared vertices,
+ * nearly coplanar neighbours), whose coordinate differences are computed without rounding.
+ * Then the determinant is a sum of products of doubles, which two_product makes exact
+ * with short expansions, at a fraction of the general exact stage's cost (this is the idea
+ * of the paper's adaptive "stage B"). It applies when every difference is exact and every
+ * nonzero one lies in [2^-SAFE, 2^SAFE], so that no product overflows or loses bits below
+ * 2^-1074; otherwise the general stage runs. */
+static inline int difference_is_safe(double hi, double lo)
+{
+    double m = fabs(hi);
+    return lo == 0.0 && (m == 0.0 || (m >= 0x1p-300 && m <= 0x1p300));
+}
+
+/* The exact p*q - r*s as an expansion of at most 4 components; returns its length. */
+static size_t products_difference_exact(double p, double q, double r, double s, double out[4])
+{
+    double x[2], y[2], hi, lo;
+    size_t xn = 0, yn = 0;
+    two_product(p, q, &hi, &lo);
+    if (lo != 0.0)
+        x[xn++] = lo;
+    if (hi != 0.0)
+        x[xn++] = hi;
+    two_product(r, s, &hi, &lo);
+    if (lo != 0.0)
+        y[yn++] = -lo;
+    if (hi != 0.0)
+        y[yn++] = -hi;
+    return expansion_sum(xn, x, yn, y, out);
+}
+
 /* ---------- (a - b)(c - d) - (e - f)(g - h) ---------- */
 
 PREDICATES_COLD int sign_diff_products_undecided(double a, double b, double c, double d,
@@ -188,6 +220,19 @@ PREDICATES_COLD int sign_diff_products_undecided(double a, double b, double c, d
     if ((a == e && b == f && c == g && d == h) || (a == g && b == h && c == e && d == f))
         return 0;
     predicates_note_fallback();
+    {
+        double ab, cd, ef, gh, t0, t1, t2, t3;
+        two_diff(a, b, &ab, &t0);
+        two_diff(c, d, &cd, &t1);
+        two_diff(e, f, &ef, &t2);
+        two_diff(g, h, &gh, &t3);
+        if (difference_is_safe(ab, t0) && difference_is_safe(cd, t1) && difference_is_safe(ef, t2) &&
+            difference_is_safe(gh, t3)) {
+            double det[4];
+            size_t n = products_difference_exact(ab, cd, ef, gh, det);
+            return expansion_sign(n, det);
+        }
+    }
     double first[4] = {a, b, e, f}, second[4] = {c, d, g, h};
     scale_into_exact_range(first, 4, DEGREE2_MAX_EXP, DEGREE2_MIN_LSB);
     scale_into_exact_range(second, 4, DEGREE2_MAX_EXP, DEGREE2_MIN_LSB);
@@ -218,6 +263,35 @@ PREDICATES_COLD int orient3d_undecided(vec3 a, vec3 b, vec3 c, vec3 d)
         (dc.z == 0.0 || products_difference_is_zero(da.x, db.y, db.x, da.y)))
         return 0;
     predicates_note_fallback();
+    {
+        /* The differences d - a, d - b, d - c, as the filter formed them. */
+        double ax, ay, az, bx, by, bz, cx, cy, cz, t[9];
+        two_diff(d.x, a.x, &ax, &t[0]);
+        two_diff(d.y, a.y, &ay, &t[1]);
+        two_diff(d.z, a.z, &az, &t[2]);
+        two_diff(d.x, b.x, &bx, &t[3]);
+        two_diff(d.y, b.y, &by, &t[4]);
+        two_diff(d.z, b.z, &bz, &t[5]);
+        two_diff(d.x, c.x, &cx, &t[6]);
+        two_diff(d.y, c.y, &cy, &t[7]);
+        two_diff(d.z, c.z, &cz, &t[8]);
+        double h[9] = {ax, ay, az, bx, by, bz, cx, cy, cz};
+        int safe = 1;
+        for (int i = 0; i < 9; i++)
+            safe &= difference_is_safe(h[i], t[i]);
+        if (safe) {
+            double minor[4], term_a[8], term_b[8], term_c[8], partial[16], det[24];
+            size_t m = products_difference_exact(bx, cy, cx, by, minor);
+            size_t na = expansion_scale(m, minor, az, term_a);
+            m = products_difference_exact(cx, ay, ax, cy, minor);
+            size_t nb = expansion_scale(m, minor, bz, term_b);
+            m = products_difference_exact(ax, by, bx, ay, minor);
+            size_t nc = expansion_scale(m, minor, cz, term_c);
+            size_t np = expansion_sum(na, term_a, nb, term_b, partial);
+            size_t nd = expansion_sum(np, partial, nc, term_c, det);
+            return expansion_sign(nd, det);
+        }
+    }
     double v[12] = {a.x, a.y, a.z, b.x, b.y, b.z, c.x, c.y, c.z, d.x, d.y, d.z};
     scale_into_exact_range(v, 12, DEGREE3_MAX_EXP, DEGREE3_MIN_LSB);
     exact_diff ax = exact_difference(v[9], v[0]), ay = exact_difference(v[10], v[1]),
