@@ -326,6 +326,31 @@ PREDICATES_COLD int ray_edge_sign_undecided(vec3 p, vec3 q, vec3 o, vec3 dir)
         (dir.z == 0.0 || products_difference_is_zero(op.x, oq.y, op.y, oq.x)))
         return 0;
     predicates_note_fallback();
+    {
+        double px, py, pz, qx, qy, qz, t[6];
+        two_diff(p.x, o.x, &px, &t[0]);
+        two_diff(p.y, o.y, &py, &t[1]);
+        two_diff(p.z, o.z, &pz, &t[2]);
+        two_diff(q.x, o.x, &qx, &t[3]);
+        two_diff(q.y, o.y, &qy, &t[4]);
+        two_diff(q.z, o.z, &qz, &t[5]);
+        double h[6] = {px, py, pz, qx, qy, qz};
+        int safe = difference_is_safe(dir.x, 0.0) && difference_is_safe(dir.y, 0.0) && difference_is_safe(dir.z, 0.0);
+        for (int i = 0; i < 6; i++)
+            safe &= difference_is_safe(h[i], t[i]);
+        if (safe) {
+            double minor[4], term_x[8], term_y[8], term_z[8], partial[16], det[24];
+            size_t m = products_difference_exact(py, qz, pz, qy, minor);
+            size_t nx = expansion_scale(m, minor, dir.x, term_x);
+            m = products_difference_exact(pz, qx, px, qz, minor);
+            size_t ny = expansion_scale(m, minor, dir.y, term_y);
+            m = products_difference_exact(px, qy, py, qx, minor);
+            size_t nz = expansion_scale(m, minor, dir.z, term_z);
+            size_t np = expansion_sum(nx, term_x, ny, term_y, partial);
+            size_t nd = expansion_sum(np, partial, nz, term_z, det);
+            return expansion_sign(nd, det);
+        }
+    }
     double points[9] = {p.x, p.y, p.z, q.x, q.y, q.z, o.x, o.y, o.z};
     double direction[3] = {dir.x, dir.y, dir.z};
     scale_into_exact_range(points, 9, DEGREE3_MAX_EXP, DEGREE3_MIN_LSB);
