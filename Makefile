@@ -18,6 +18,7 @@ SUPPORT_SRC := $(wildcard tests/support/*.c)
 TEST_SRC   := $(wildcard tests/test_*.c)
 BENCH_SRC  := $(wildcard bench/bench_*.c)
 DEMO_BIN   := $(BUILD)/trioct-demo
+ACC_BIN    := $(BUILD)/bench/report_accuracy
 
 ENGINE_OBJ  := $(ENGINE_SRC:%.c=$(BUILD)/%.o)
 WORLD_OBJ   := $(WORLD_SRC:%.c=$(BUILD)/%.o)
@@ -30,7 +31,7 @@ WORLD_LIB   := $(BUILD)/libtrioct_world.a
 SUPPORT_LIB := $(BUILD)/libtestsupport.a
 DEPS_STAMP  := $(BUILD)/.deps-ok
 
-.PHONY: all deps test asan bench run clean
+.PHONY: all deps test asan bench run clean accuracy-report
 all: $(ENGINE_LIB) $(WORLD_LIB) $(TEST_BIN) $(BENCH_BIN) $(DEMO_BIN)
 
 deps: $(DEPS_STAMP)
@@ -61,6 +62,9 @@ BENCH_LIBS = $(SUPPORT_LIB) $(WORLD_LIB) $(ENGINE_LIB) -lgmp -lassimp $(LDLIBS_E
 $(BUILD)/bench/%: $(BUILD)/bench/%.o $(SUPPORT_LIB) $(WORLD_LIB) $(ENGINE_LIB)
 	$(CC) $(ALL_CFLAGS) $< $(BENCH_LIBS) -o $@
 
+$(ACC_BIN): $(BUILD)/bench/report_accuracy.o $(SUPPORT_LIB) $(WORLD_LIB) $(ENGINE_LIB)
+	$(CC) $(ALL_CFLAGS) $< $(BENCH_LIBS) -o $@
+
 $(DEMO_BIN): $(BUILD)/tools/trioct_demo.o $(SUPPORT_LIB) $(WORLD_LIB) $(ENGINE_LIB)
 	$(CC) $(ALL_CFLAGS) $< $(BENCH_LIBS) -o $@
 
@@ -80,6 +84,10 @@ asan:
 
 bench: $(BENCH_BIN)
 	@for b in $(BENCH_BIN); do echo "== $$b"; $$b || exit 1; done
+
+# Issue 3: what accuracy costs in time. Writes docs/accuracy.md and its plots.
+accuracy-report: $(ACC_BIN)
+	sh scripts/accuracy_report.sh $(ACC_BIN) $(BUILD)/accuracy
 
 clean:
 	rm -rf build build-asan
