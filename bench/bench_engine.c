@@ -35,11 +35,7 @@ typedef struct workload {
 static workload make_workload(const mesh_data *m, double leaf, size_t rays, size_t tris, uint64_t seed)
 {
     rng r = rng_seeded(seed);
-    box3 b = {m->vertices[0], m->vertices[0]};
-    for (size_t i = 1; i < m->vertex_count; i++) {
-        b.lo = vec3_min(b.lo, m->vertices[i]);
-        b.hi = vec3_max(b.hi, m->vertices[i]);
-    }
+    box3 b = mesh_data_bounds(m);
     vec3 ext = vec3_sub(b.hi, b.lo);
     box3 around = {vec3_sub(b.lo, vec3_scale(ext, 0.2)), vec3_add(b.hi, vec3_scale(ext, 0.2))};
     workload w = {.rays = malloc(rays * sizeof *w.rays), .ray_count = rays, .tris = malloc(tris * sizeof *w.tris), .tri_count = tris};
@@ -71,11 +67,7 @@ static workload make_workload(const mesh_data *m, double leaf, size_t rays, size
  * directions across it, row by row, as a depth camera or a lidar scan sends them. */
 static ray_input *make_sensor_rays(const mesh_data *m, size_t count)
 {
-    box3 b = {m->vertices[0], m->vertices[0]};
-    for (size_t i = 1; i < m->vertex_count; i++) {
-        b.lo = vec3_min(b.lo, m->vertices[i]);
-        b.hi = vec3_max(b.hi, m->vertices[i]);
-    }
+    box3 b = mesh_data_bounds(m);
     vec3 centre = vec3_scale(vec3_add(b.lo, b.hi), 0.5);
     double radius = 0.5 * vec3_length(vec3_sub(b.hi, b.lo));
     /* The field of view frames the vertices' RMS radius, so most rays hit, as a sensor

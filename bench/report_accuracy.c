@@ -87,16 +87,6 @@ static double now(void)
     return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
 }
 
-static box3 mesh_bounds(const mesh_data *m)
-{
-    box3 b = {m->vertices[0], m->vertices[0]};
-    for (size_t i = 1; i < m->vertex_count; i++) {
-        b.lo = vec3_min(b.lo, m->vertices[i]);
-        b.hi = vec3_max(b.hi, m->vertices[i]);
-    }
-    return b;
-}
-
 static vec3 tri_vertex(const mesh_data *m, size_t t, int k)
 {
     return m->vertices[m->indices[3 * t + (size_t)k]];
@@ -152,17 +142,6 @@ static int flat_axis(vec3 a, vec3 b, vec3 c)
     return -1;
 }
 
-static vec3 with_axis(vec3 p, int axis, double value)
-{
-    if (axis == 0)
-        p.x = value;
-    else if (axis == 1)
-        p.y = value;
-    else
-        p.z = value;
-    return p;
-}
-
 static void make_ray(const scene *s, rng *r, box3 around, int cat, ray_input *out)
 {
     const mesh_data *m = &s->mesh;
@@ -204,10 +183,10 @@ static void make_ray(const scene *s, rng *r, box3 around, int cat, ray_input *ou
         int u = (n + 1 + (int)(rng_next(r) & 1)) % 3, w = 3 - n - u;
         double half = 0.5 * s->cad_cell;
         double wmin = fmin(vec3_get(a, w), fmin(vec3_get(b, w), vec3_get(c, w)));
-        vec3 p = with_axis(a, w, wmin + half);
+        vec3 p = vec3_with(a, w, wmin + half);
         int negative = (int)(rng_next(r) & 1);
-        p = with_axis(p, u, negative ? vec3_get(around.hi, u) : vec3_get(around.lo, u));
-        vec3 d = with_axis((vec3){0, 0, 0}, u, negative ? -1.0 : 1.0);
+        p = vec3_with(p, u, negative ? vec3_get(around.hi, u) : vec3_get(around.lo, u));
+        vec3 d = vec3_with((vec3){0, 0, 0}, u, negative ? -1.0 : 1.0);
         *out = (ray_input){p, d, 0.0, INFINITY};
         return;
     }
@@ -248,10 +227,10 @@ static void make_tri(const scene *s, rng *r, double leaf, int cat, vec3 out[3])
         int u = (n + 1) % 3, w = (n + 2) % 3;
         double half = 0.5 * s->cad_cell, cell = s->cad_cell;
         double su = (rng_next(r) & 1) ? half : -half, sw = (rng_next(r) & 1) ? half : -half;
-        vec3 p0 = with_axis(with_axis(a, u, vec3_get(a, u) + su), w, vec3_get(a, w) + sw);
+        vec3 p0 = vec3_with(vec3_with(a, u, vec3_get(a, u) + su), w, vec3_get(a, w) + sw);
         out[0] = p0;
-        out[1] = with_axis(p0, u, vec3_get(p0, u) + ((rng_next(r) & 1) ? cell : -cell));
-        out[2] = with_axis(p0, w, vec3_get(p0, w) + ((rng_next(r) & 1) ? cell : -cell));
+        out[1] = vec3_with(p0, u, vec3_get(p0, u) + ((rng_next(r) & 1) ? cell : -cell));
+        out[2] = vec3_with(p0, w, vec3_get(p0, w) + ((rng_next(r) & 1) ? cell : -cell));
         return;
     }
     }
@@ -261,7 +240,7 @@ static void make_tri(const scene *s, rng *r, double leaf, int cat, vec3 out[3])
 static workload make_workload(const scene *s, double leaf, size_t rays, size_t tris, uint64_t seed)
 {
     rng r = rng_seeded(seed);
-    box3 b = mesh_bounds(&s->mesh);
+    box3 b = mesh_data_bounds(&s->mesh);
     vec3 ext = vec3_sub(b.hi, b.lo);
     box3 around = {vec3_sub(b.lo, vec3_scale(ext, 0.2)), vec3_add(b.hi, vec3_scale(ext, 0.2))};
     int ray_cats = s->cad ? RC_COUNT : RC_FACE_PLANE;

@@ -315,16 +315,6 @@ static vec3 random_point_near(rng *r, box3 b)
     return rng_point_in_box(r, g);
 }
 
-static box3 mesh_bounds(const mesh_data *m)
-{
-    box3 b = {m->vertices[0], m->vertices[0]};
-    for (size_t i = 1; i < m->vertex_count; i++) {
-        b.lo = vec3_min(b.lo, m->vertices[i]);
-        b.hi = vec3_max(b.hi, m->vertices[i]);
-    }
-    return b;
-}
-
 /* Rays of several kinds: toward a random vertex (through shared vertices), toward an edge
  * midpoint, axis-aligned, and fully random. */
 static ray_input random_ray(rng *r, const mesh_data *m, box3 b)
@@ -366,7 +356,7 @@ static void random_triangle(rng *r, box3 b, double size, vec3 q[3])
 static void compare_rays(const octree *t, const mesh_data *m, rng *r, int count, accuracy_mode mode)
 {
     mesh_view v = mesh_data_view(m);
-    box3 b = mesh_bounds(m);
+    box3 b = mesh_data_bounds(m);
     ray_hit got[64], want[64];
     for (int i = 0; i < count; i++) {
         ray_input ray = random_ray(r, m, b);
@@ -393,7 +383,7 @@ static void compare_rays(const octree *t, const mesh_data *m, rng *r, int count,
 static void compare_triangles(const octree *t, const mesh_data *m, rng *r, int count, double size)
 {
     mesh_view v = mesh_data_view(m);
-    box3 b = mesh_bounds(m);
+    box3 b = mesh_data_bounds(m);
     size_t cap = m->triangle_count;
     uint32_t *want = malloc(cap * sizeof *want);
     tri_contact *got = malloc(cap * sizeof *got);
@@ -428,7 +418,7 @@ static void run_scene(scene *s, uint64_t seed, int rays, int tris)
     octree *t = build_or_fail(&s->mesh, s->resolution, ACCURACY_EXACT);
     rng r = rng_seeded(seed);
     compare_rays(t, &s->mesh, &r, rays, ACCURACY_EXACT);
-    box3 b = mesh_bounds(&s->mesh);
+    box3 b = mesh_data_bounds(&s->mesh);
     double size = 0.1 * fmax(b.hi.x - b.lo.x, fmax(b.hi.y - b.lo.y, b.hi.z - b.lo.z));
     compare_triangles(t, &s->mesh, &r, tris, size);
     octree_free(t);
@@ -530,7 +520,7 @@ static void test_rays_cross_closed_meshes_an_even_number_of_times(void **state)
     ray_hit hits[64];
     for (size_t m = 0; m < 3; m++) {
         octree *t = build_or_fail(&meshes[m], 0, ACCURACY_EXACT);
-        box3 b = mesh_bounds(&meshes[m]);
+        box3 b = mesh_data_bounds(&meshes[m]);
         int crossing = 0;
         for (int i = 0; i < 2000; i++) {
             ray_input ray = random_ray(&r, &meshes[m], b);
@@ -702,7 +692,7 @@ static void test_ray_batch_equals_single_rays_bit_for_bit(void **state)
     for (size_t s = 0; s < sizeof scenes / sizeof scenes[0]; s++) {
         octree *t = build_or_fail(&scenes[s].mesh, scenes[s].resolution, ACCURACY_EXACT);
         rng r = rng_seeded(seed + s);
-        box3 b = mesh_bounds(&scenes[s].mesh);
+        box3 b = mesh_data_bounds(&scenes[s].mesh);
         for (size_t i = 0; i < RAYS; i++) {
             rays[i] = i % 41 == 40 ? invalid_ray(i / 41) : random_ray(&r, &scenes[s].mesh, b);
             if (i % 53 == 52) /* pointing away from the world: answered with no hit */
@@ -749,7 +739,7 @@ static uint64_t mix(uint64_t h, uint64_t v)
 static void *run_job(void *arg)
 {
     thread_job *j = arg;
-    box3 b = mesh_bounds(j->mesh);
+    box3 b = mesh_data_bounds(j->mesh);
     ray_hit hits[16];
     uint64_t h = 0;
     for (int i = j->first; i < j->first + j->count; i++) {

@@ -22,11 +22,7 @@ static void show(const char *name, mesh_data *m)
     printf("\n%s: %zu triangles, d = %.4g, L_max = %d, %zu nodes, %.1f bytes/triangle, built in %.3f s\n", name,
            info.triangle_count, info.resolution, info.max_level, info.node_count,
            (double)info.bytes_total / (double)info.triangle_count, info.build_seconds);
-    box3 b = {m->vertices[0], m->vertices[0]};
-    for (size_t i = 1; i < m->vertex_count; i++) {
-        b.lo = vec3_min(b.lo, m->vertices[i]);
-        b.hi = vec3_max(b.hi, m->vertices[i]);
-    }
+    box3 b = mesh_data_bounds(m);
     vec3 c = vec3_scale(vec3_add(b.lo, b.hi), 0.5), size = vec3_sub(b.hi, b.lo);
     vec3 from = vec3_make(c.x, c.y, b.hi.z + size.z + 1);
     for (int i = 0; i < 3; i++) {

@@ -16,6 +16,18 @@ mesh_view mesh_data_view(const mesh_data *mesh)
     return (mesh_view){mesh->vertices, mesh->vertex_count, mesh->indices, mesh->triangle_count};
 }
 
+box3 mesh_data_bounds(const mesh_data *mesh)
+{
+    if (mesh->vertex_count == 0)
+        return (box3){{0, 0, 0}, {0, 0, 0}};
+    box3 b = {mesh->vertices[0], mesh->vertices[0]};
+    for (size_t i = 1; i < mesh->vertex_count; i++) {
+        b.lo = vec3_min(b.lo, mesh->vertices[i]);
+        b.hi = vec3_max(b.hi, mesh->vertices[i]);
+    }
+    return b;
+}
+
 int mesh_data_append(mesh_data *dst, const mesh_data *src)
 {
     size_t nv = dst->vertex_count + src->vertex_count;

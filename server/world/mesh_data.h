@@ -6,6 +6,7 @@
 #include <stdint.h>
 
 #include "../engine.h"
+#include "../geom/vec3.h"
 
 typedef struct mesh_data {
     vec3 *vertices;
@@ -18,6 +19,8 @@ typedef struct mesh_data {
 void mesh_data_free(mesh_data *mesh);
 /* A borrowed view for octree_build and the queries. */
 mesh_view mesh_data_view(const mesh_data *mesh);
+/* The axis-aligned bounds of the vertices (a zero box for an empty mesh). */
+box3 mesh_data_bounds(const mesh_data *mesh);
 /* Appends src's triangles to dst (vertices copied, indices shifted). 0 or -1 (no memory). */
 int mesh_data_append(mesh_data *dst, const mesh_data *src);
 
