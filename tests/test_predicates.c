@@ -316,17 +316,6 @@ static vec3 nudge_point(rng *r, vec3 p, int max_ulps)
                      nudge_ulps(p.z, rng_int(r, -max_ulps, max_ulps)));
 }
 
-static vec3 with_component(vec3 p, int axis, double value)
-{
-    if (axis == 0)
-        p.x = value;
-    else if (axis == 1)
-        p.y = value;
-    else
-        p.z = value;
-    return p;
-}
-
 /* Point on the line through a and b (rounded), at parameter t. */
 static vec3 lerp_point(vec3 a, vec3 b, double t)
 {
@@ -379,9 +368,9 @@ static void gen_near_degenerate(rng *r, pred_kind kind, double offset, double si
             d = nudge_point(r, lerp_point(a, c, 2.0 * rng_sym(r)), ulps);
             double shared = rng_sym(r) * size + offset;
             int axis = rng_int(r, 0, 2);
-            a = with_component(a, axis, shared);
-            c = with_component(c, axis, shared);
-            d = with_component(d, axis, shared);
+            a = vec3_with(a, axis, shared);
+            c = vec3_with(c, axis, shared);
+            d = vec3_with(d, axis, shared);
         } else {
             d = vec3_add(a, vec3_add(vec3_scale(vec3_sub(b, a), 2.0 * rng_sym(r)),
                                      vec3_scale(vec3_sub(c, a), 2.0 * rng_sym(r))));
@@ -413,9 +402,9 @@ static void gen_near_degenerate(rng *r, pred_kind kind, double offset, double si
         int zeros = rng_int(r, 0, 3);
         if (zeros == 1 || zeros == 2) {
             int axis = rng_int(r, 0, 2);
-            dir = with_component(dir, axis, 0.0);
+            dir = vec3_with(dir, axis, 0.0);
             if (zeros == 2)
-                dir = with_component(dir, (axis + 1) % 3, 0.0);
+                dir = vec3_with(dir, (axis + 1) % 3, 0.0);
         }
         vec3 on_edge = lerp_point(a, b, rng_unit(r));
         vec3 o = nudge_point(r, vec3_sub(on_edge, vec3_scale(dir, size * rng_sym(r))), ulps);

@@ -55,16 +55,6 @@ static rng test_rng(void **state, uint64_t stream)
 }
 
 static double coord(vec3 v, int k) { return k == 0 ? v.x : k == 1 ? v.y : v.z; }
-static void set_coord(vec3 *v, int k, double value)
-{
-    if (k == 0)
-        v->x = value;
-    else if (k == 1)
-        v->y = value;
-    else
-        v->z = value;
-}
-
 /* ---------- exact reference ---------- */
 
 /* The closed triangle meets the closed box iff some convex combination of its vertices is
@@ -202,8 +192,8 @@ static box3 random_box(rng *r)
     for (int k = 0; k < 3; k++) {
         double lo = rng_range(r, -1e6, 1e6);
         double extent = ldexp(rng_range(r, 1.0, 2.0), rng_int(r, -20, 20));
-        set_coord(&box.lo, k, lo);
-        set_coord(&box.hi, k, lo + extent);
+        box.lo = vec3_with(box.lo, k, lo);
+        box.hi = vec3_with(box.hi, k, lo + extent);
     }
     return box;
 }
@@ -364,13 +354,13 @@ static void symmetric_copy(const vec3 tri[3], box3 box, int variant, vec3 out_tr
         vec3 src = tri[vertex_order[t]];
         for (int k = 0; k < 3; k++) {
             double value = coord(src, axis_order[k]);
-            set_coord(&out_tri[t], k, (mirror >> k) & 1 ? -value : value);
+            out_tri[t] = vec3_with(out_tri[t], k, (mirror >> k) & 1 ? -value : value);
         }
     }
     for (int k = 0; k < 3; k++) {
         double lo = coord(box.lo, axis_order[k]), hi = coord(box.hi, axis_order[k]);
-        set_coord(&out_box->lo, k, (mirror >> k) & 1 ? -hi : lo);
-        set_coord(&out_box->hi, k, (mirror >> k) & 1 ? -lo : hi);
+        out_box->lo = vec3_with(out_box->lo, k, (mirror >> k) & 1 ? -hi : lo);
+        out_box->hi = vec3_with(out_box->hi, k, (mirror >> k) & 1 ? -lo : hi);
     }
 }
 
@@ -608,13 +598,13 @@ static void uniform_case(rng *r, vec3 tri[3], box3 *box)
 {
     for (int k = 0; k < 3; k++) {
         double lo = rng_range(r, -1, 1);
-        set_coord(&box->lo, k, lo);
-        set_coord(&box->hi, k, lo + rng_range(r, 0.1, 2));
+        box->lo = vec3_with(box->lo, k, lo);
+        box->hi = vec3_with(box->hi, k, lo + rng_range(r, 0.1, 2));
     }
     for (int t = 0; t < 3; t++)
         for (int k = 0; k < 3; k++) {
             double lo = coord(box->lo, k), hi = coord(box->hi, k), size = hi - lo;
-            set_coord(&tri[t], k, rng_range(r, lo - size, hi + size));
+            tri[t] = vec3_with(tri[t], k, rng_range(r, lo - size, hi + size));
         }
 }
 
@@ -636,18 +626,18 @@ static void near_degenerate_case(rng *r, vec3 tri[3], box3 *box)
     for (int k = 0; k < 3; k++) {
         int lo = rng_int(r, 0, 4);
         int extent = rng_int(r, 0, 9) == 0 ? 0 : rng_int(r, 1, 4); /* a few flat boxes */
-        set_coord(&box->lo, k, lo);
-        set_coord(&box->hi, k, lo + extent);
+        box->lo = vec3_with(box->lo, k, lo);
+        box->hi = vec3_with(box->hi, k, lo + extent);
     }
     for (int t = 0; t < 3; t++)
         for (int k = 0; k < 3; k++)
-            set_coord(&tri[t], k, grid_value(r, coord(box->lo, k), coord(box->hi, k)));
+            tri[t] = vec3_with(tri[t], k, grid_value(r, coord(box->lo, k), coord(box->hi, k)));
 
     vec3 anchor; /* a box corner or a lattice point on a box edge */
     for (int k = 0; k < 3; k++)
-        set_coord(&anchor, k, rng_int(r, 0, 1) ? coord(box->lo, k) : coord(box->hi, k));
+        anchor = vec3_with(anchor, k, rng_int(r, 0, 1) ? coord(box->lo, k) : coord(box->hi, k));
     int along = rng_int(r, 0, 2);
-    set_coord(&anchor, along, grid_value(r, coord(box->lo, along), coord(box->hi, along)));
+    anchor = vec3_with(anchor, along, grid_value(r, coord(box->lo, along), coord(box->hi, along)));
     vec3 step = v3(rng_int(r, -3, 3), rng_int(r, -3, 3), rng_int(r, -3, 3));
 
     switch (rng_int(r, 0, 7)) {
@@ -674,7 +664,7 @@ static void near_degenerate_case(rng *r, vec3 tri[3], box3 *box)
             for (int k = 0; k < 3; k++) {
                 double lo = coord(box->lo, k), hi = coord(box->hi, k);
                 int pick = rng_int(r, 0, 3);
-                set_coord(&tri[t], k, pick == 0 ? lo : pick == 1 ? hi
+                tri[t] = vec3_with(tri[t], k, pick == 0 ? lo : pick == 1 ? hi
                                                      : rng_range(r, lo - 2, hi + 2));
             }
         break;
@@ -691,15 +681,17 @@ static void near_degenerate_case(rng *r, vec3 tri[3], box3 *box)
             double value = coord(tri[which], k);
             for (int n = 0; n < times; n++)
                 value = nextafter(value, dir);
-            set_coord(&tri[which], k, value);
+            tri[which] = vec3_with(tri[which], k, value);
         } else {
             vec3 *side = which == 3 ? &box->lo : &box->hi;
             double value = coord(*side, k);
             for (int n = 0; n < times; n++)
                 value = nextafter(value, dir);
-            set_coord(side, k, value);
-            if (coord(box->lo, k) > coord(box->hi, k))
-                set_coord(which == 3 ? &box->hi : &box->lo, k, value);
+            *side = vec3_with(*side, k, value);
+            if (coord(box->lo, k) > coord(box->hi, k)) {
+                vec3 *other = which == 3 ? &box->hi : &box->lo;
+                *other = vec3_with(*other, k, value);
+            }
         }
     }
 

@@ -34,6 +34,17 @@ static inline int vec3_is_finite(vec3 a) { return isfinite(a.x) && isfinite(a.y)
 static inline int vec3_equal(vec3 a, vec3 b) { return a.x == b.x && a.y == b.y && a.z == b.z; }
 /* Component by axis index 0, 1, 2. */
 static inline double vec3_get(vec3 a, int axis) { return axis == 0 ? a.x : axis == 1 ? a.y : a.z; }
+/* a with component `axis` replaced by value. */
+static inline vec3 vec3_with(vec3 a, int axis, double value)
+{
+    if (axis == 0)
+        a.x = value;
+    else if (axis == 1)
+        a.y = value;
+    else
+        a.z = value;
+    return a;
+}
 
 /* A closed axis-aligned box [lo, hi]. */
 typedef struct box3 {
