@@ -209,6 +209,34 @@ static size_t products_difference_exact(double p, double q, double r, double s, 
     return expansion_sum(xn, x, yn, y, out);
 }
 
+/* The exact sign of w . (u x v) for doubles whose nonzero values all lie in
+ * [2^-300, 2^300]: three minors from two_product, each scaled by a component of w. */
+static int triple_product_sign_exact(const double u[3], const double v[3], const double w[3])
+{
+    double minor[4], term_x[8], term_y[8], term_z[8], partial[16], det[24];
+    size_t m = products_difference_exact(u[1], v[2], u[2], v[1], minor);
+    size_t nx = expansion_scale(m, minor, w[0], term_x);
+    m = products_difference_exact(u[2], v[0], u[0], v[2], minor);
+    size_t ny = expansion_scale(m, minor, w[1], term_y);
+    m = products_difference_exact(u[0], v[1], u[1], v[0], minor);
+    size_t nz = expansion_scale(m, minor, w[2], term_z);
+    size_t np = expansion_sum(nx, term_x, ny, term_y, partial);
+    size_t nd = expansion_sum(np, partial, nz, term_z, det);
+    return expansion_sign(nd, det);
+}
+
+/* out = a - b component by component; 1 when every difference is exact and safe. */
+static int safe_exact_differences(const double *a, const double *b, size_t n, double *out)
+{
+    int safe = 1;
+    for (size_t i = 0; i < n; i++) {
+        double lo;
+        two_diff(a[i], b[i], &out[i], &lo);
+        safe &= difference_is_safe(out[i], lo);
+    }
+    return safe;
+}
+
 /* ---------- (a - b)(c - d) - (e - f)(g - h) ---------- */
 
 PREDICATES_COLD int sign_diff_products_undecided(double a, double b, double c, double d,
@@ -264,33 +292,13 @@ PREDICATES_COLD int orient3d_undecided(vec3 a, vec3 b, vec3 c, vec3 d)
         return 0;
     predicates_note_fallback();
     {
-        /* The differences d - a, d - b, d - c, as the filter formed them. */
-        double ax, ay, az, bx, by, bz, cx, cy, cz, t[9];
-        two_diff(d.x, a.x, &ax, &t[0]);
-        two_diff(d.y, a.y, &ay, &t[1]);
-        two_diff(d.z, a.z, &az, &t[2]);
-        two_diff(d.x, b.x, &bx, &t[3]);
-        two_diff(d.y, b.y, &by, &t[4]);
-        two_diff(d.z, b.z, &bz, &t[5]);
-        two_diff(d.x, c.x, &cx, &t[6]);
-        two_diff(d.y, c.y, &cy, &t[7]);
-        two_diff(d.z, c.z, &cz, &t[8]);
-        double h[9] = {ax, ay, az, bx, by, bz, cx, cy, cz};
-        int safe = 1;
-        for (int i = 0; i < 9; i++)
-            safe &= difference_is_safe(h[i], t[i]);
-        if (safe) {
-            double minor[4], term_a[8], term_b[8], term_c[8], partial[16], det[24];
-            size_t m = products_difference_exact(bx, cy, cx, by, minor);
-            size_t na = expansion_scale(m, minor, az, term_a);
-            m = products_difference_exact(cx, ay, ax, cy, minor);
-            size_t nb = expansion_scale(m, minor, bz, term_b);
-            m = products_difference_exact(ax, by, bx, ay, minor);
-            size_t nc = expansion_scale(m, minor, cz, term_c);
-            size_t np = expansion_sum(na, term_a, nb, term_b, partial);
-            size_t nd = expansion_sum(np, partial, nc, term_c, det);
-            return expansion_sign(nd, det);
-        }
+        /* The differences d - a, d - b, d - c, as the filter formed them; the determinant
+         * expanded along z is z . (x x y) over the columns x, y, z of those rows. */
+        double dd[9] = {d.x, d.x, d.x, d.y, d.y, d.y, d.z, d.z, d.z};
+        double abc[9] = {a.x, b.x, c.x, a.y, b.y, c.y, a.z, b.z, c.z};
+        double cols[9];
+        if (safe_exact_differences(dd, abc, 9, cols))
+            return triple_product_sign_exact(cols, cols + 3, cols + 6);
     }
     double v[12] = {a.x, a.y, a.z, b.x, b.y, b.z, c.x, c.y, c.z, d.x, d.y, d.z};
     scale_into_exact_range(v, 12, DEGREE3_MAX_EXP, DEGREE3_MIN_LSB);
@@ -327,29 +335,11 @@ PREDICATES_COLD int ray_edge_sign_undecided(vec3 p, vec3 q, vec3 o, vec3 dir)
         return 0;
     predicates_note_fallback();
     {
-        double px, py, pz, qx, qy, qz, t[6];
-        two_diff(p.x, o.x, &px, &t[0]);
-        two_diff(p.y, o.y, &py, &t[1]);
-        two_diff(p.z, o.z, &pz, &t[2]);
-        two_diff(q.x, o.x, &qx, &t[3]);
-        two_diff(q.y, o.y, &qy, &t[4]);
-        two_diff(q.z, o.z, &qz, &t[5]);
-        double h[6] = {px, py, pz, qx, qy, qz};
-        int safe = difference_is_safe(dir.x, 0.0) && difference_is_safe(dir.y, 0.0) && difference_is_safe(dir.z, 0.0);
-        for (int i = 0; i < 6; i++)
-            safe &= difference_is_safe(h[i], t[i]);
-        if (safe) {
-            double minor[4], term_x[8], term_y[8], term_z[8], partial[16], det[24];
-            size_t m = products_difference_exact(py, qz, pz, qy, minor);
-            size_t nx = expansion_scale(m, minor, dir.x, term_x);
-            m = products_difference_exact(pz, qx, px, qz, minor);
-            size_t ny = expansion_scale(m, minor, dir.y, term_y);
-            m = products_difference_exact(px, qy, py, qx, minor);
-            size_t nz = expansion_scale(m, minor, dir.z, term_z);
-            size_t np = expansion_sum(nx, term_x, ny, term_y, partial);
-            size_t nd = expansion_sum(np, partial, nz, term_z, det);
-            return expansion_sign(nd, det);
-        }
+        double pq[6] = {p.x, p.y, p.z, q.x, q.y, q.z}, oo[6] = {o.x, o.y, o.z, o.x, o.y, o.z};
+        double rows[6], w[3] = {dir.x, dir.y, dir.z};
+        if (safe_exact_differences(pq, oo, 6, rows) && difference_is_safe(w[0], 0.0) &&
+            difference_is_safe(w[1], 0.0) && difference_is_safe(w[2], 0.0))
+            return triple_product_sign_exact(rows, rows + 3, w);
     }
     double points[9] = {p.x, p.y, p.z, q.x, q.y, q.z, o.x, o.y, o.z};
     double direction[3] = {dir.x, dir.y, dir.z};
