@@ -203,6 +203,13 @@ static int tri_meets_degenerate(const vec3 t[3], tri_shape kt, const vec3 d[3], 
  * holds for crossing, coplanar and degenerate pairs alike. */
 int tri_tri_overlap_exact(const vec3 a[3], const vec3 b[3])
 {
+    /* A vertex common to both (equal doubles) is a common point. Neighbours in a mesh share
+     * vertices, and without this they would take the full edge tests, often through the
+     * exact stage, to find what nine comparisons say. */
+    for (int i = 0; i < 3; i++)
+        for (int j = 0; j < 3; j++)
+            if (vec3_equal(a[i], b[j]))
+                return 1;
     /* A nonzero orient3d proves the plane's triangle is non-degenerate, so these
      * rejections are sound without classifying first. */
     int sb[3], sa[3];
