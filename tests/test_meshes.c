@@ -7,6 +7,7 @@
 #include <cmocka.h>
 
 #include <dirent.h>
+#include <pthread.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -907,6 +908,66 @@ static void test_load_gltf_matches_assimp_pretransform(void **state)
     mesh_data_free(&l.mesh);
 }
 
+/* Concurrent loads each report their own error: assimp keeps one last-error string for
+ * the whole process, so without the loader's lock a thread could read another's. */
+enum { ERROR_FILES = 4, ERROR_ROUNDS = 200 };
+static const char *const error_files[ERROR_FILES] = {
+    "/usr/share/assimp/models/invalid/empty.obj", "/usr/share/assimp/models/invalid/empty.ply",
+    "/usr/share/assimp/models/invalid/malformed.obj", "/usr/share/assimp/models/invalid/empty.x"};
+
+typedef struct error_job {
+    int file;
+    char expected[512];
+    int mismatches;
+} error_job;
+
+static void *load_repeatedly(void *arg)
+{
+    error_job *job = arg;
+    for (int i = 0; i < ERROR_ROUNDS; i++) {
+        mesh_data m = {0};
+        char err[512];
+        if (mesh_load_file(error_files[job->file], &m, NULL, err, sizeof err) == 0) {
+            job->mismatches++;
+            mesh_data_free(&m);
+        } else if (strcmp(err, job->expected) != 0) {
+            job->mismatches++;
+        }
+    }
+    return NULL;
+}
+
+static void test_concurrent_loads_report_their_own_errors(void **state)
+{
+    (void)state;
+    error_job jobs[ERROR_FILES];
+    int distinct = 0;
+    for (int f = 0; f < ERROR_FILES; f++) {
+        mesh_data m = {0};
+        jobs[f] = (error_job){f, "", 0};
+        assert_int_equal(mesh_load_file(error_files[f], &m, NULL, jobs[f].expected, sizeof jobs[f].expected), -1);
+        assert_non_null(strstr(jobs[f].expected, error_files[f]));
+    }
+    /* assimp's reasons (after the path) differ from file to file, so a swapped one shows. */
+    for (int f = 0; f < ERROR_FILES; f++) {
+        const char *why_f = strstr(jobs[f].expected, error_files[f]) + strlen(error_files[f]);
+        int unique = 1;
+        for (int g = 0; g < ERROR_FILES; g++) {
+            const char *why_g = strstr(jobs[g].expected, error_files[g]) + strlen(error_files[g]);
+            unique &= g == f || strcmp(why_f, why_g) != 0;
+        }
+        distinct += unique;
+    }
+    assert_int_equal(distinct, ERROR_FILES);
+    pthread_t threads[ERROR_FILES];
+    for (int f = 0; f < ERROR_FILES; f++)
+        assert_int_equal(pthread_create(&threads[f], NULL, load_repeatedly, &jobs[f]), 0);
+    for (int f = 0; f < ERROR_FILES; f++) {
+        pthread_join(threads[f], NULL);
+        assert_int_equal(jobs[f].mismatches, 0);
+    }
+}
+
 int main(void)
 {
     printf("test_meshes: seed %llu (set TRIOCT_SEED to rerun with another)\n",
@@ -935,6 +996,7 @@ int main(void)
         cmocka_unit_test(test_load_reports_degenerate_and_duplicate_triangles),
         cmocka_unit_test(test_load_applies_nested_node_transforms),
         cmocka_unit_test(test_load_gltf_matches_assimp_pretransform),
+        cmocka_unit_test(test_concurrent_loads_report_their_own_errors),
     };
     return cmocka_run_group_tests_name("meshes", tests, NULL, NULL);
 }

@@ -3,6 +3,7 @@
 #include "mesh_load.h"
 
 #include <errno.h>
+#include <pthread.h>
 #include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -14,6 +15,8 @@
 #include <assimp/scene.h>
 
 #include "geom/vec3.h"
+
+static pthread_mutex_t import_lock = PTHREAD_MUTEX_INITIALIZER;
 
 /* Triangulate: the engine only knows triangles. SortByPType: points and lines end up in
  * meshes of their own, so they are skipped (and counted) without touching triangle order.
@@ -429,12 +432,18 @@ int mesh_load_file(const char *path, mesh_data *out, mesh_load_report *report, c
     if (check_readable(&ld) != 0)
         return -1;
 
-    /* aiGetErrorString is the importer's last error, shared by the process: read at once. */
+    /* aiGetErrorString is the importer's last error, one for the whole process: the import
+     * and the reading of its error happen under one lock, so loads on several threads
+     * (the daemon loads worlds off its loop) each report their own error. */
+    pthread_mutex_lock(&import_lock);
     const struct aiScene *scene = aiImportFile(path, MESH_LOAD_FLAGS);
     if (!scene) {
         const char *why = aiGetErrorString();
-        return fail(&ld, "cannot load %s: %s", path, why && *why ? why : "assimp failed");
+        fail(&ld, "cannot load %s: %s", path, why && *why ? why : "assimp failed");
+        pthread_mutex_unlock(&import_lock);
+        return -1;
     }
+    pthread_mutex_unlock(&import_lock);
     int status = scene->mRootNode ? walk_nodes(&ld, scene) : 0;
     aiReleaseImport(scene);
     free(ld.weld);
