@@ -25,15 +25,7 @@ static const signed char face_sign[6] = {-1, 1, 1, -1, 1, -1};
 
 static vec3 axis_vector(int axis, int sign)
 {
-    vec3 v = {0.0, 0.0, 0.0};
-    double s = sign > 0 ? 1.0 : -1.0;
-    if (axis == 0)
-        v.x = s;
-    else if (axis == 1)
-        v.y = s;
-    else
-        v.z = s;
-    return v;
+    return vec3_with((vec3){0.0, 0.0, 0.0}, axis, sign > 0 ? 1.0 : -1.0);
 }
 
 vec3 box_face_vertex(box3 box, int face, int j)
