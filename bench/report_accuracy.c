@@ -625,6 +625,18 @@ static const char *CONTRACTS =
     "edges and vertices (missed, or hitting the neighbour), touching and coplanar contacts, and triangles "
     "that only touch a node's box. |\n\n";
 
+/* The head of a table with a category, a count column and one column per setting. */
+static void settings_table_header(FILE *f, const char *count_name)
+{
+    fprintf(f, "| category | %s |", count_name);
+    for (size_t m = 0; m < SETTING_COUNT; m++)
+        fprintf(f, " %s |", SETTINGS[m].label);
+    fprintf(f, "\n| --- | ---: |");
+    for (size_t m = 0; m < SETTING_COUNT; m++)
+        fprintf(f, " ---: |");
+    fprintf(f, "\n");
+}
+
 static void point_row(FILE *f, const sweep *s, const char *lead, const point_result *p, int with_fallbacks)
 {
     if (!p->ran) {
@@ -772,13 +784,7 @@ static void write_markdown(const char *path, const sweep *s, const char *date, i
     fprintf(f, "Wrong queries; in brackets, ray ties (same point, other triangle). Seed at epsilons other than "
                "1e-9 covers only the fully swept scenes, so its column totals are not comparable with the "
                "others.\n\n");
-    fprintf(f, "| category | queries |");
-    for (size_t m = 0; m < SETTING_COUNT; m++)
-        fprintf(f, " %s |", SETTINGS[m].label);
-    fprintf(f, "\n| --- | ---: |");
-    for (size_t m = 0; m < SETTING_COUNT; m++)
-        fprintf(f, " ---: |");
-    fprintf(f, "\n");
+    settings_table_header(f, "queries");
     for (int c = 0; c < RC_COUNT + TC_COUNT; c++) {
         size_t total = 0;
         for (size_t i = 0; i < s->scene_count; i++) {
@@ -849,13 +855,7 @@ static void write_markdown(const char *path, const sweep *s, const char *date, i
         fprintf(f, "Cases from `tests/support/hard_cases.c` (each with an exact expected answer, expanded by "
                    "exact-preserving transforms), answered by each mode's primitive test "
                    "(`hard_case_answer`); wrong answers as missed/extra.\n\n");
-        fprintf(f, "| category | cases |");
-        for (size_t m = 0; m < SETTING_COUNT; m++)
-            fprintf(f, " %s |", SETTINGS[m].label);
-        fprintf(f, "\n| --- | ---: |");
-        for (size_t m = 0; m < SETTING_COUNT; m++)
-            fprintf(f, " ---: |");
-        fprintf(f, "\n");
+        settings_table_header(f, "cases");
         hard_tally total[SETTING_COUNT] = {{0}};
         for (size_t c = 0; c <= s->hard_category_count; c++) {
             if (!s->hard[c][0].cases)
