@@ -7,13 +7,23 @@ OPT     ?= -O2 -g
 # -ffp-contract=off: the predicates' error bounds assume every operation is rounded on its
 # own; a fused multiply-add would change the arithmetic under them.
 CFLAGS_BASE = -std=c11 -D_POSIX_C_SOURCE=200809L -Wall -Wextra -Werror -ffp-contract=off \
-              -fno-strict-aliasing -Iserver -Itests -pthread
+              -fno-strict-aliasing -Iserver -Itests -Icommon -I$(GEN_DIR) -pthread
 CFLAGS  ?=
 ALL_CFLAGS = $(CFLAGS_BASE) $(OPT) $(SAN) $(CFLAGS)
 LDLIBS_ENGINE = -lm -pthread
 
 ENGINE_SRC := $(wildcard server/geom/*.c server/octree/*.c)
 WORLD_SRC  := $(wildcard server/world/*.c)
+COMMON_SRC := $(wildcard common/*.c)
+SERVICE_SRC := $(filter-out server/service/trioctd.c,$(wildcard server/service/*.c))
+DAEMON_BIN := $(BUILD)/trioctd
+
+# The wire format: C generated from proto/*.lcm by lcm-gen into the build tree, never committed.
+PROTO      := $(wildcard proto/*.lcm)
+GEN_DIR    := $(BUILD)/gen
+GEN_STAMP  := $(GEN_DIR)/.stamp
+GEN_SRC    := $(PROTO:proto/%.lcm=$(GEN_DIR)/trioct_%.c)
+GEN_OBJ    := $(GEN_SRC:.c=.o)
 SUPPORT_SRC := $(wildcard tests/support/*.c)
 TEST_SRC   := $(wildcard tests/test_*.c)
 BENCH_SRC  := $(wildcard bench/bench_*.c)
@@ -22,17 +32,21 @@ ACC_BIN    := $(BUILD)/bench/report_accuracy
 
 ENGINE_OBJ  := $(ENGINE_SRC:%.c=$(BUILD)/%.o)
 WORLD_OBJ   := $(WORLD_SRC:%.c=$(BUILD)/%.o)
+COMMON_OBJ  := $(COMMON_SRC:%.c=$(BUILD)/%.o)
+SERVICE_OBJ := $(SERVICE_SRC:%.c=$(BUILD)/%.o)
 SUPPORT_OBJ := $(SUPPORT_SRC:%.c=$(BUILD)/%.o)
 TEST_BIN    := $(TEST_SRC:tests/%.c=$(BUILD)/tests/%)
 BENCH_BIN   := $(BENCH_SRC:bench/%.c=$(BUILD)/bench/%)
 
 ENGINE_LIB  := $(BUILD)/libtrioct_engine.a
 WORLD_LIB   := $(BUILD)/libtrioct_world.a
+PROTO_LIB   := $(BUILD)/libtrioct_proto.a
+SERVICE_LIB := $(BUILD)/libtrioct_service.a
 SUPPORT_LIB := $(BUILD)/libtestsupport.a
 DEPS_STAMP  := $(BUILD)/.deps-ok
 
 .PHONY: all deps test asan bench run clean accuracy-report
-all: $(ENGINE_LIB) $(WORLD_LIB) $(TEST_BIN) $(BENCH_BIN) $(DEMO_BIN)
+all: $(ENGINE_LIB) $(WORLD_LIB) $(PROTO_LIB) $(SERVICE_LIB) $(if $(wildcard server/service/trioctd.c),$(DAEMON_BIN)) $(TEST_BIN) $(BENCH_BIN) $(DEMO_BIN)
 
 deps: $(DEPS_STAMP)
 $(DEPS_STAMP): scripts/deps.sh
@@ -40,9 +54,18 @@ $(DEPS_STAMP): scripts/deps.sh
 	@sh scripts/deps.sh
 	@touch $@
 
-$(BUILD)/%.o: %.c | $(DEPS_STAMP)
+$(BUILD)/%.o: %.c | $(DEPS_STAMP) $(GEN_STAMP)
 	@mkdir -p $(dir $@)
 	$(CC) $(ALL_CFLAGS) -MMD -MP -c $< -o $@
+
+$(GEN_STAMP): $(PROTO) | $(DEPS_STAMP)
+	rm -rf $(GEN_DIR) && mkdir -p $(GEN_DIR)
+	lcm-gen -c --c-cpath $(GEN_DIR) --c-hpath $(GEN_DIR) $(PROTO)
+	@touch $@
+$(GEN_SRC): $(GEN_STAMP)
+# lcm-gen's C has unused parameters; only its warnings are relaxed.
+$(GEN_DIR)/%.o: $(GEN_DIR)/%.c
+	$(CC) $(ALL_CFLAGS) -Wno-unused-parameter -c $< -o $@
 
 $(ENGINE_LIB): $(ENGINE_OBJ)
 	@mkdir -p $(dir $@)
@@ -50,23 +73,32 @@ $(ENGINE_LIB): $(ENGINE_OBJ)
 $(WORLD_LIB): $(WORLD_OBJ)
 	@mkdir -p $(dir $@)
 	rm -f $@ && ar rcs $@ $^
+$(PROTO_LIB): $(GEN_OBJ) $(COMMON_OBJ)
+	@mkdir -p $(dir $@)
+	rm -f $@ && ar rcs $@ $^
+$(SERVICE_LIB): $(SERVICE_OBJ)
+	@mkdir -p $(dir $@)
+	rm -f $@ && ar rcs $@ $^
 $(SUPPORT_LIB): $(SUPPORT_OBJ)
 	@mkdir -p $(dir $@)
 	rm -f $@ && ar rcs $@ $^
 
-TEST_LIBS = $(SUPPORT_LIB) $(WORLD_LIB) $(ENGINE_LIB) -lcmocka -lgmp -lassimp $(LDLIBS_ENGINE)
-$(BUILD)/tests/%: $(BUILD)/tests/%.o $(SUPPORT_LIB) $(WORLD_LIB) $(ENGINE_LIB)
-	$(CC) $(ALL_CFLAGS) $< $(TEST_LIBS) -o $@
+ALL_LIBS = $(SUPPORT_LIB) $(SERVICE_LIB) $(WORLD_LIB) $(PROTO_LIB) $(ENGINE_LIB)
+SYS_LIBS = -lgmp -lassimp -llcm -luv -linih $(LDLIBS_ENGINE)
+$(BUILD)/tests/%: $(BUILD)/tests/%.o $(ALL_LIBS)
+	$(CC) $(ALL_CFLAGS) $< $(ALL_LIBS) -lcmocka $(SYS_LIBS) -o $@
 
-BENCH_LIBS = $(SUPPORT_LIB) $(WORLD_LIB) $(ENGINE_LIB) -lgmp -lassimp $(LDLIBS_ENGINE)
-$(BUILD)/bench/%: $(BUILD)/bench/%.o $(SUPPORT_LIB) $(WORLD_LIB) $(ENGINE_LIB)
-	$(CC) $(ALL_CFLAGS) $< $(BENCH_LIBS) -o $@
+$(BUILD)/bench/%: $(BUILD)/bench/%.o $(ALL_LIBS)
+	$(CC) $(ALL_CFLAGS) $< $(ALL_LIBS) $(SYS_LIBS) -o $@
 
-$(ACC_BIN): $(BUILD)/bench/report_accuracy.o $(SUPPORT_LIB) $(WORLD_LIB) $(ENGINE_LIB)
-	$(CC) $(ALL_CFLAGS) $< $(BENCH_LIBS) -o $@
+$(ACC_BIN): $(BUILD)/bench/report_accuracy.o $(ALL_LIBS)
+	$(CC) $(ALL_CFLAGS) $< $(ALL_LIBS) $(SYS_LIBS) -o $@
 
-$(DEMO_BIN): $(BUILD)/tools/trioct_demo.o $(SUPPORT_LIB) $(WORLD_LIB) $(ENGINE_LIB)
-	$(CC) $(ALL_CFLAGS) $< $(BENCH_LIBS) -o $@
+$(DEMO_BIN): $(BUILD)/tools/trioct_demo.o $(ALL_LIBS)
+	$(CC) $(ALL_CFLAGS) $< $(ALL_LIBS) $(SYS_LIBS) -o $@
+
+$(DAEMON_BIN): $(BUILD)/server/service/trioctd.o $(SERVICE_LIB) $(WORLD_LIB) $(PROTO_LIB) $(ENGINE_LIB)
+	$(CC) $(ALL_CFLAGS) $< $(SERVICE_LIB) $(WORLD_LIB) $(PROTO_LIB) $(ENGINE_LIB) $(SYS_LIBS) -o $@
 
 # Until the daemon exists (issue 4), run shows the engine on a real and a generated mesh.
 run: $(DEMO_BIN)

@@ -1,0 +1,42 @@
+/* A hand-written validator for every trioct message, run before any generated decoder: the
+ * lcm-gen decoders allocate count * size before checking the bytes exist, leak on failure
+ * and accept strings without a terminator, so hostile bytes must never reach them.
+ *
+ * wire_check accepts exactly the messages the generated encoder can produce for its type:
+ * the type's fingerprint first, every count >= 0 and backed by the bytes that remain,
+ * every string a length (>= 1, counting its NUL) followed by that many bytes of which only
+ * the last is NUL, and no byte left over. Semantic limits (caps, name characters, finite
+ * coordinates) are the dispatcher's, so they get an error reply rather than a silent drop. */
+#ifndef TRIOCT_WIRE_CHECK_H
+#define TRIOCT_WIRE_CHECK_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+typedef enum wire_type {
+    WIRE_RAY_REQUEST,
+    WIRE_TRIANGLE_REQUEST,
+    WIRE_MESH_REQUEST,
+    WIRE_ADMIN_REQUEST,
+    WIRE_RAY_REPLY,
+    WIRE_TRIANGLE_REPLY,
+    WIRE_MESH_REPLY,
+    WIRE_ADMIN_REPLY,
+    WIRE_STATUS,
+    WIRE_TYPE_COUNT
+} wire_type;
+
+typedef struct wire_error {
+    size_t offset;      /* byte where the message went wrong */
+    char what[160];     /* "ray_request_t: num_rays -5 is negative at byte 77" */
+} wire_error;
+
+/* 0 when bytes hold one well-formed message of type, else -1 with err (may be NULL). Safe
+ * on any bytes and any size, allocates nothing. */
+int wire_check(wire_type type, const void *bytes, size_t size, wire_error *err);
+
+/* The type's name ("ray_request_t") and its fingerprint as the generated code computes it. */
+const char *wire_type_name(wire_type type);
+int64_t wire_fingerprint(wire_type type);
+
+#endif

@@ -1,0 +1,97 @@
+/* From request bytes to reply bytes: the whole protocol of trioctd as pure functions of the
+ * message, the worlds held and the clock, so it is tested without a network or a loop. The
+ * daemon peeks on the loop thread (cheap: check the bytes, read the header) and handles on
+ * a worker thread; publishing stays on the loop thread. */
+#ifndef TRIOCT_SERVICE_DISPATCH_H
+#define TRIOCT_SERVICE_DISPATCH_H
+
+#include <pthread.h>
+#include <stddef.h>
+#include <stdint.h>
+
+#include "../../common/channels.h"
+#include "../world/registry.h"
+#include "../world/scene.h"
+
+typedef struct dispatch_ctx {
+    registry *worlds;
+    char prefix[TRIOCT_MAX_PREFIX_LEN + 1];
+    char daemon[TRIOCT_MAX_NAME_LEN + 1];
+    char world_dir[TRIOCT_MAX_PATH_LEN];
+    /* The scene LOAD reads sections from; swapped by the loop thread on SIGHUP. */
+    pthread_mutex_t scene_lock;
+    const scene *scene;
+} dispatch_ctx;
+
+/* Request types, for counters (status_t.served). */
+typedef enum request_type {
+    REQUEST_RAY = 0,
+    REQUEST_TRIANGLE = 1,
+    REQUEST_MESH = 2,
+    REQUEST_ADMIN = 3,
+    REQUEST_TYPE_COUNT
+} request_type;
+
+/* What peeking a message found. */
+typedef struct dispatch_request {
+    request_type type;
+    trioct_channel_kind channel_kind;
+    char channel_name[TRIOCT_MAX_NAME_LEN + 1]; /* world or daemon named by the channel */
+    int64_t client_id;
+    int64_t request_id;
+    char reply_channel[TRIOCT_MAX_CHANNEL_LEN + 1];
+    char world[TRIOCT_MAX_NAME_LEN + 1];
+    int64_t deadline_utime;
+    int8_t admin_op;          /* REQUEST_ADMIN only */
+} dispatch_request;
+
+typedef enum dispatch_peek_result {
+    PEEK_REQUEST = 0,     /* a well-formed request to answer */
+    PEEK_NOT_MINE = 1,    /* a protocol channel this daemon does not answer (a LOAD for
+                             another daemon, a status or reply message): ignore, no count */
+    PEEK_MALFORMED = -1,  /* bad bytes, wrong fingerprint, a header that cannot be answered
+                             (invalid reply channel): drop and count */
+} dispatch_peek_result;
+
+/* Checks the bytes with the hand-written validator and reads the header. Never decodes
+ * untrusted bytes with the generated decoders. */
+dispatch_peek_result dispatch_peek(const dispatch_ctx *ctx, const char *channel, const void *bytes,
+                                   size_t size, dispatch_request *req);
+
+typedef struct dispatch_chunk {
+    uint8_t *data;
+    size_t size;
+} dispatch_chunk;
+
+typedef struct dispatch_reply {
+    char channel[TRIOCT_MAX_CHANNEL_LEN + 1]; /* where to publish every chunk */
+    dispatch_chunk *chunks;                   /* each under TRIOCT_MAX_CHUNK_BYTES */
+    size_t chunk_count;
+    int status;                               /* the reply's trioct_status */
+    request_type type;
+    int worlds_changed;                       /* a LOAD or UNLOAD changed the registry:
+                                                 the loop re-syncs its subscriptions */
+} dispatch_reply;
+
+/* Answers a message that dispatch_peek accepted (it checks again: a pure function must not
+ * trust its caller). Runs on a worker thread; a LOAD builds the world here. Returns 0 with
+ * the reply in out, or -1 when the bytes are malformed (out empty). now_utime is the clock
+ * the deadline is checked against. */
+int dispatch_handle(dispatch_ctx *ctx, const char *channel, const void *bytes, size_t size,
+                    int64_t now_utime, dispatch_reply *out);
+
+/* An error reply to a peeked request without doing its work (BUSY, STOPPING). */
+int dispatch_error(const dispatch_ctx *ctx, const dispatch_request *req, int status,
+                   const char *message, dispatch_reply *out);
+
+void dispatch_reply_free(dispatch_reply *reply);
+
+/* Fills a world_info_t-shaped summary: used by INFO/LIST replies and the status message.
+ * Declared with the generated type to keep one conversion. */
+struct _trioct_world_info_t;
+/* Fills info from an entry; strings point into the entry (valid while it is held). */
+void dispatch_world_info(const dispatch_ctx *ctx, const registry_entry *entry,
+                         struct _trioct_world_info_t *info, char *effects_buf,
+                         char **shape_names);
+
+#endif

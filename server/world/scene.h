@@ -1,0 +1,99 @@
+/* Scene files: INI (parsed with inih) with a [daemon] section and one section per world.
+ *
+ *   [daemon]                 ; options of trioctd, applied by server/service/options.c
+ *   prefix = TRIOCT
+ *   world_dir = worlds
+ *
+ *   [warehouse]              ; a world; the section name is the world's name ([A-Za-z0-9_])
+ *   mesh = shelves.obj       ; one or more (repeat the key), relative to the world directory
+ *   mesh = floor.stl
+ *   scale = 0.001            ; optional transform: p' = R(rotate) (scale p) + translate
+ *   rotate = 0 0 90          ; degrees about x, then y, then z (fixed axes)
+ *   translate = 0 0 1.5
+ *   resolution = auto        ; or a length (the leaf side d)
+ *   max_depth = 16
+ *   accuracy = exact         ; exact | seed | fast
+ *   seed_epsilon = 1e-9      ; seed only
+ *   effects = rays triangles meshes  ; what the world serves, any of the three
+ *   shape.gripper = gripper.stl      ; query shapes for mesh queries (meshes effect)
+ */
+#ifndef TRIOCT_WORLD_SCENE_H
+#define TRIOCT_WORLD_SCENE_H
+
+#include <stddef.h>
+
+#include "../../common/trioct_limits.h"
+#include "../engine.h"
+
+#define SCENE_MAX_MESHES 16
+
+/* What a world serves. Queries of an effect a world does not serve are refused, and the
+ * world precomputes nothing for it. Bits equal world_info_t's EFFECT_* constants. */
+enum {
+    EFFECT_RAYS = 1,
+    EFFECT_TRIANGLES = 2,
+    EFFECT_MESHES = 4,
+    EFFECT_ALL = 7,
+};
+
+/* The text of an effects mask ("rays triangles"); buf of at least 32 bytes. */
+const char *effects_text(unsigned effects, char *buf, size_t len);
+/* Parses "rays triangles meshes" (spaces or commas); 0, or -1 naming the bad word in err. */
+int effects_parse(const char *text, unsigned *effects, char *err, size_t err_len);
+/* "exact" | "seed" | "fast"; 0 or -1. */
+int accuracy_parse(const char *text, accuracy_mode *mode);
+
+typedef struct world_transform {
+    double scale;  /* 1 when absent */
+    double r[9];   /* row-major rotation; identity when absent */
+    vec3 t;
+    int identity;  /* 1 when the transform changes nothing */
+} world_transform;
+
+typedef struct world_shape_spec {
+    char name[TRIOCT_MAX_NAME_LEN + 1];
+    char path[TRIOCT_MAX_PATH_LEN];
+} world_shape_spec;
+
+/* One world, as a scene section or an admin LOAD request describes it. Plain data: copy by
+ * assignment, compare with world_spec_equal. */
+typedef struct world_spec {
+    char name[TRIOCT_MAX_NAME_LEN + 1];
+    char source[TRIOCT_MAX_PATH_LEN];        /* "scene.ini [name]" or the mesh path */
+    char meshes[SCENE_MAX_MESHES][TRIOCT_MAX_PATH_LEN]; /* relative to the world directory */
+    size_t mesh_count;
+    world_shape_spec shapes[TRIOCT_MAX_SHAPES];
+    size_t shape_count;
+    world_transform transform;
+    octree_def def;      /* resolution (<= 0: heuristic), max_depth, mode, seed_epsilon */
+    unsigned effects;    /* EFFECT_* bits, never 0 */
+} world_spec;
+
+/* A spec with the defaults: no meshes, identity transform, octree_default_def(), all effects. */
+void world_spec_init(world_spec *spec, const char *name);
+/* 1 when building a and b would give the same world (the source text aside). */
+int world_spec_equal(const world_spec *a, const world_spec *b);
+
+typedef struct scene_option {
+    char key[64];
+    char value[TRIOCT_MAX_PATH_LEN];
+    int line;
+} scene_option;
+
+typedef struct scene {
+    char path[TRIOCT_MAX_PATH_LEN];
+    scene_option *daemon_options; /* the [daemon] section, in file order, unchecked */
+    size_t daemon_option_count;
+    world_spec *worlds;
+    size_t world_count;
+} scene;
+
+/* Reads a scene file. Returns 0, or -1 with err saying "file:line: what" for a syntax error,
+ * an unknown key in a world section, a bad value, a duplicate or invalid world name, a world
+ * without a mesh, or more than TRIOCT_MAX_WORLDS worlds. On error *out is left empty. */
+int scene_load(const char *path, scene *out, char *err, size_t err_len);
+void scene_free(scene *s);
+/* The world of that name, or NULL. */
+const world_spec *scene_find(const scene *s, const char *name);
+
+#endif
