@@ -16,6 +16,7 @@ ENGINE_SRC := $(wildcard server/geom/*.c server/octree/*.c)
 WORLD_SRC  := $(wildcard server/world/*.c)
 COMMON_SRC := $(wildcard common/*.c)
 SERVICE_SRC := $(filter-out server/service/trioctd.c,$(wildcard server/service/*.c))
+CLIENT_SRC := $(wildcard client/*.c)
 DAEMON_BIN := $(BUILD)/trioctd
 
 # The wire format: C generated from proto/*.lcm by lcm-gen into the build tree, never committed.
@@ -28,12 +29,15 @@ SUPPORT_SRC := $(wildcard tests/support/*.c)
 TEST_SRC   := $(wildcard tests/test_*.c)
 BENCH_SRC  := $(wildcard bench/bench_*.c)
 DEMO_BIN   := $(BUILD)/trioct-demo
+DEMO_WORLD_BIN := $(BUILD)/make-demo-world
+DEMO_DIR   := $(BUILD)/demo
 ACC_BIN    := $(BUILD)/bench/report_accuracy
 
 ENGINE_OBJ  := $(ENGINE_SRC:%.c=$(BUILD)/%.o)
 WORLD_OBJ   := $(WORLD_SRC:%.c=$(BUILD)/%.o)
 COMMON_OBJ  := $(COMMON_SRC:%.c=$(BUILD)/%.o)
 SERVICE_OBJ := $(SERVICE_SRC:%.c=$(BUILD)/%.o)
+CLIENT_OBJ  := $(CLIENT_SRC:%.c=$(BUILD)/%.o)
 SUPPORT_OBJ := $(SUPPORT_SRC:%.c=$(BUILD)/%.o)
 TEST_BIN    := $(TEST_SRC:tests/%.c=$(BUILD)/tests/%)
 BENCH_BIN   := $(BENCH_SRC:bench/%.c=$(BUILD)/bench/%)
@@ -42,6 +46,7 @@ ENGINE_LIB  := $(BUILD)/libtrioct_engine.a
 WORLD_LIB   := $(BUILD)/libtrioct_world.a
 PROTO_LIB   := $(BUILD)/libtrioct_proto.a
 SERVICE_LIB := $(BUILD)/libtrioct_service.a
+CLIENT_LIB  := $(BUILD)/libtrioct.a
 SUPPORT_LIB := $(BUILD)/libtestsupport.a
 DEPS_STAMP  := $(BUILD)/.deps-ok
 
@@ -82,8 +87,13 @@ $(SERVICE_LIB): $(SERVICE_OBJ)
 $(SUPPORT_LIB): $(SUPPORT_OBJ)
 	@mkdir -p $(dir $@)
 	rm -f $@ && ar rcs $@ $^
+# libtrioct, the client library: self-contained, so it carries the generated wire code and
+# common/ as well (a program linking it and libtrioct_proto.a gets each object once).
+$(CLIENT_LIB): $(CLIENT_OBJ) $(GEN_OBJ) $(COMMON_OBJ)
+	@mkdir -p $(dir $@)
+	rm -f $@ && ar rcs $@ $^
 
-ALL_LIBS = $(SUPPORT_LIB) $(SERVICE_LIB) $(WORLD_LIB) $(PROTO_LIB) $(ENGINE_LIB)
+ALL_LIBS = $(SUPPORT_LIB) $(SERVICE_LIB) $(WORLD_LIB) $(CLIENT_LIB) $(PROTO_LIB) $(ENGINE_LIB)
 SYS_LIBS = -lgmp -lassimp -llcm -luv -linih $(LDLIBS_ENGINE)
 $(BUILD)/tests/%: $(BUILD)/tests/%.o $(ALL_LIBS)
 	$(CC) $(ALL_CFLAGS) $< $(ALL_LIBS) -lcmocka $(SYS_LIBS) -o $@
@@ -96,6 +106,12 @@ $(ACC_BIN): $(BUILD)/bench/report_accuracy.o $(ALL_LIBS)
 
 $(DEMO_BIN): $(BUILD)/tools/trioct_demo.o $(ALL_LIBS)
 	$(CC) $(ALL_CFLAGS) $< $(ALL_LIBS) $(SYS_LIBS) -o $@
+
+$(DEMO_WORLD_BIN): $(BUILD)/tools/make_demo_world.o $(ALL_LIBS)
+	$(CC) $(ALL_CFLAGS) $< $(ALL_LIBS) $(SYS_LIBS) -o $@
+$(DEMO_DIR)/.stamp: $(DEMO_WORLD_BIN)
+	$(DEMO_WORLD_BIN) $(DEMO_DIR)
+	@touch $@
 
 $(DAEMON_BIN): $(BUILD)/server/service/trioctd.o $(SERVICE_LIB) $(WORLD_LIB) $(PROTO_LIB) $(ENGINE_LIB)
 	$(CC) $(ALL_CFLAGS) $< $(SERVICE_LIB) $(WORLD_LIB) $(PROTO_LIB) $(ENGINE_LIB) $(SYS_LIBS) -o $@
