@@ -32,10 +32,12 @@ typedef struct wire_error {
 } wire_error;
 
 /* 0 when bytes hold one well-formed message of type, else -1 with err (may be NULL). Safe
- * on any bytes and any size, allocates nothing. */
+ * on any bytes and any size, allocates nothing. An unknown type, NULL bytes and a size
+ * above INT32_MAX (more than the generated code can encode) are rejected too. */
 int wire_check(wire_type type, const void *bytes, size_t size, wire_error *err);
 
-/* The type's name ("ray_request_t") and its fingerprint as the generated code computes it. */
+/* The type's name ("ray_request_t") and its fingerprint as the generated code computes it;
+ * "unknown" and 0 for a value outside wire_type. */
 const char *wire_type_name(wire_type type);
 int64_t wire_fingerprint(wire_type type);
 
