@@ -35,7 +35,7 @@ int registry_remove(registry *r, const char *name);
 void registry_set_error(registry *r, const char *name, const char *message);
 
 /* Every world, sorted by name, each with a reference: fills at most cap entries and returns
- * how many there are. */
+ * how many there are (possibly more than cap: free only the min(returned, cap) filled). */
 size_t registry_entries(registry *r, registry_entry *out, size_t cap);
 void registry_entries_free(registry_entry *entries, size_t count);
 

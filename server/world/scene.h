@@ -16,6 +16,12 @@
  *   seed_epsilon = 1e-9      ; seed only
  *   effects = rays triangles meshes  ; what the world serves, any of the three
  *   shape.gripper = gripper.stl      ; query shapes for mesh queries (meshes effect)
+ *
+ * Keys may be indented; a value never continues on the next line, and a line holds at
+ * most 197 characters (inih's fixed line buffer). mesh and shape.<name> repeat (at most
+ * SCENE_MAX_MESHES and TRIOCT_MAX_SHAPES, shape names unique); every other world key is
+ * given at most once. scale > 0; resolution "auto" or > 0; max_depth 0..21; seed_epsilon
+ * >= 0. A rotation by a multiple of 90 degrees is exact (entries 0, 1, -1).
  */
 #ifndef TRIOCT_WORLD_SCENE_H
 #define TRIOCT_WORLD_SCENE_H

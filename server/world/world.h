@@ -38,8 +38,9 @@ int world_resolve_path(const char *world_dir, const char *rel, char *out, size_t
 /* Loads the spec's meshes (and shapes, for EFFECT_MESHES) from world_dir, applies the
  * transform and builds the octree with what the effects need. Returns the world with one
  * reference, or NULL with *status (a trioct_status: TRIOCT_ERR_BAD_PATH,
- * TRIOCT_ERR_LOAD_FAILED, TRIOCT_ERR_NOMEM) and err naming the file and, for NaN/Inf, the
- * triangle. Runs on any thread. */
+ * TRIOCT_ERR_LOAD_FAILED, TRIOCT_ERR_NOMEM, or TRIOCT_ERR_BAD_REQUEST for a spec that is
+ * itself invalid: bad name, no mesh, too many meshes or shapes, empty effects) and err
+ * naming the file and, for NaN/Inf, the triangle. Runs on any thread. */
 world *world_build(const world_spec *spec, const char *world_dir, int *status, char *err,
                    size_t err_len);
 
@@ -48,5 +49,9 @@ void world_retain(world *w);
 void world_release(world *w);
 
 const world_shape *world_find_shape(const world *w, const char *name);
+
+/* Worlds built and not yet freed, in the whole process: lets tests (and a leak check at
+ * shutdown) see that the last release of a replaced version really freed it. */
+size_t world_live_count(void);
 
 #endif
