@@ -1,0 +1,196 @@
+/* Ray batches: the request on <prefix>_RAY_<world>, the answer's chunks joined into one
+ * list of hits. */
+#include "client_internal.h"
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "trioct_ray_reply_t.h"
+#include "trioct_ray_request_t.h"
+
+_Static_assert(TRIOCT_RAY_ANY == TRIOCT_RAY_REQUEST_T_ANY &&
+                   TRIOCT_RAY_CLOSEST == TRIOCT_RAY_REQUEST_T_CLOSEST &&
+                   TRIOCT_RAY_ALL == TRIOCT_RAY_REQUEST_T_ALL,
+               "trioct.h's ray details are the wire's");
+_Static_assert(TRIOCT_ACCURACY_WORLD == TRIOCT_RAY_REQUEST_T_ACCURACY_WORLD &&
+                   TRIOCT_ACCURACY_EXACT == TRIOCT_RAY_REQUEST_T_EXACT &&
+                   TRIOCT_ACCURACY_SEED == TRIOCT_RAY_REQUEST_T_SEED &&
+                   TRIOCT_ACCURACY_FAST == TRIOCT_RAY_REQUEST_T_FAST,
+               "trioct.h's accuracy modes are the wire's");
+
+static int reply_decode(const void *buf, size_t size, void *msg)
+{
+    return trioct_ray_reply_t_decode(buf, 0, (int)size, msg) < 0 ? -1 : 0;
+}
+
+static void reply_cleanup(void *msg)
+{
+    trioct_ray_reply_t_decode_cleanup(msg);
+}
+
+static const reply_ops ray_reply_ops = {
+    .wire = WIRE_RAY_REPLY,
+    .msg_size = sizeof(trioct_ray_reply_t),
+    .decode = reply_decode,
+    .cleanup = reply_cleanup,
+};
+
+static int request_size(const void *msg)
+{
+    return trioct_ray_request_t_encoded_size(msg);
+}
+
+static int request_encode(void *buf, int size, const void *msg)
+{
+    return trioct_ray_request_t_encode(buf, 0, size, msg);
+}
+
+static const request_codec ray_codec = {request_size, request_encode};
+
+trioct_ray_query trioct_ray_query_default(const char *world)
+{
+    trioct_ray_query q = {
+        .world = world,
+        .detail = TRIOCT_RAY_CLOSEST,
+        .accuracy = TRIOCT_ACCURACY_WORLD,
+        .tmin = 0.0,
+        .tmax = INFINITY,
+        .max_hits = TRIOCT_MAX_HITS_PER_RAY,
+    };
+    return q;
+}
+
+static int check_query(const trioct_ray_query *q, trioct_reply *r)
+{
+    if (q == NULL)
+        return client_fail(r, TRIOCT_ERR_BAD_REQUEST, "no ray query given");
+    if (q->detail < TRIOCT_RAY_ANY || q->detail > TRIOCT_RAY_ALL)
+        return client_fail(r, TRIOCT_ERR_BAD_REQUEST,
+                           "unknown ray detail %d (TRIOCT_RAY_ANY, _CLOSEST or _ALL)", q->detail);
+    if (q->accuracy < TRIOCT_ACCURACY_WORLD || q->accuracy > TRIOCT_ACCURACY_FAST)
+        return client_fail(r, TRIOCT_ERR_BAD_REQUEST, "unknown accuracy %d", q->accuracy);
+    if (q->count > TRIOCT_MAX_RAYS)
+        return client_fail(r, TRIOCT_ERR_OVER_CAP,
+                           "%zu rays is over the cap of %d rays per request (TRIOCT_MAX_RAYS)",
+                           q->count, TRIOCT_MAX_RAYS);
+    if (q->count > 0 && (q->origins == NULL || q->directions == NULL))
+        return client_fail(r, TRIOCT_ERR_BAD_REQUEST, "%zu rays without origins or directions",
+                           q->count);
+    if (q->detail == TRIOCT_RAY_ALL) {
+        if (q->max_hits > TRIOCT_MAX_HITS_PER_RAY)
+            return client_fail(r, TRIOCT_ERR_OVER_CAP,
+                               "max_hits %d is over the cap of %d hits per ray "
+                               "(TRIOCT_MAX_HITS_PER_RAY)",
+                               q->max_hits, TRIOCT_MAX_HITS_PER_RAY);
+        if (q->max_hits < 1)
+            return client_fail(r, TRIOCT_ERR_BAD_REQUEST, "max_hits %d: ALL stores 1..%d hits",
+                               q->max_hits, TRIOCT_MAX_HITS_PER_RAY);
+    }
+    return TRIOCT_OK;
+}
+
+/* Joins the chunks' hits; found[] comes from chunk 0 only. */
+static int build_result(const assembly *a, size_t num_rays, trioct_ray_result *out)
+{
+    const trioct_ray_reply_t *first = a->chunks[0];
+    trioct_reply *r = &out->reply;
+    out->detail = first->detail;
+    if (first->num_rays < 0 || (size_t)first->num_rays != num_rays)
+        return client_fail(r, TRIOCT_ERR_BAD_REPLY,
+                           "the reply has %d found[] entries for %zu rays", first->num_rays,
+                           num_rays);
+    size_t total = 0;
+    for (int32_t i = 0; i < a->chunk_count; i++)
+        total += (size_t)((const trioct_ray_reply_t *)a->chunks[i])->num_hits;
+    out->found = calloc(num_rays ? num_rays : 1, sizeof *out->found);
+    out->hits = calloc(total ? total : 1, sizeof *out->hits);
+    if (out->found == NULL || out->hits == NULL)
+        return client_fail(r, TRIOCT_ERR_NOMEM, "out of memory for %zu hits", total);
+    out->num_rays = num_rays;
+    if (num_rays > 0)
+        memcpy(out->found, first->found, num_rays * sizeof *out->found);
+    size_t k = 0;
+    for (int32_t i = 0; i < a->chunk_count; i++) {
+        const trioct_ray_reply_t *chunk = a->chunks[i];
+        for (int32_t j = 0; j < chunk->num_hits; j++, k++) {
+            const trioct_ray_hit_t *h = &chunk->hits[j];
+            if (h->ray < 0 || (size_t)h->ray >= num_rays)
+                return client_fail(r, TRIOCT_ERR_BAD_REPLY, "hit %zu names ray %d of %zu", k,
+                                   h->ray, num_rays);
+            out->hits[k] = (trioct_ray_hit){
+                .ray = h->ray,
+                .t = h->t,
+                .triangle = h->triangle,
+                .u = h->u,
+                .v = h->v,
+                .normal = {h->normal.x, h->normal.y, h->normal.z},
+            };
+        }
+    }
+    out->num_hits = total;
+    return TRIOCT_OK;
+}
+
+int trioct_rays(trioct_client *c, const trioct_ray_query *q, int timeout_ms,
+                trioct_ray_result *out)
+{
+    memset(out, 0, sizeof *out);
+    trioct_reply *r = &out->reply;
+    char channel[TRIOCT_MAX_CHANNEL_LEN + 1];
+    if (check_query(q, r) != TRIOCT_OK ||
+        client_channel(c, TRIOCT_CHANNEL_RAY, q->world, channel, r, "world") != TRIOCT_OK)
+        return r->status;
+
+    size_t n = q->count;
+    trioct_ray_request_t msg = {
+        .detail = (int8_t)q->detail,
+        .accuracy = (int8_t)q->accuracy,
+        .tmin = q->tmin,
+        .tmax = q->tmax,
+        .max_hits = q->max_hits,
+        .num_rays = (int32_t)n,
+        .origin = calloc(n ? n : 1, sizeof(trioct_vec3_t)),
+        .direction = calloc(n ? n : 1, sizeof(trioct_vec3_t)),
+    };
+    if (msg.origin == NULL || msg.direction == NULL) {
+        free(msg.origin);
+        free(msg.direction);
+        return client_fail(r, TRIOCT_ERR_NOMEM, "out of memory for %zu rays", n);
+    }
+    for (size_t i = 0; i < n; i++) {
+        msg.origin[i] = (trioct_vec3_t){q->origins[i].x, q->origins[i].y, q->origins[i].z};
+        msg.direction[i] =
+            (trioct_vec3_t){q->directions[i].x, q->directions[i].y, q->directions[i].z};
+    }
+
+    pending p;
+    client_pending_begin(c, &p, &ray_reply_ops, client_next_request_id(c));
+    client_request_header(c, &msg.header, p.request_id, q->world);
+    char no_daemon[TRIOCT_MAX_MESSAGE_LEN + 1];
+    client_no_daemon_world(c, q->world, timeout_ms, no_daemon, sizeof no_daemon);
+    const assembly *answer;
+    int rc = client_call(c, &p, channel, &ray_codec, &msg, timeout_ms, no_daemon, r, &answer);
+    free(msg.origin);
+    free(msg.direction);
+    if (answer != NULL && rc == TRIOCT_OK)
+        rc = build_result(answer, n, out);
+    client_pending_end(c, &p);
+    if (rc != TRIOCT_OK)
+        trioct_ray_result_free(out); /* a failed call leaves no half result */
+    return rc;
+}
+
+/* Keeps .reply: the status and message stay readable after the arrays are gone. */
+void trioct_ray_result_free(trioct_ray_result *res)
+{
+    if (res == NULL)
+        return;
+    free(res->found);
+    free(res->hits);
+    res->found = NULL;
+    res->hits = NULL;
+    res->num_rays = 0;
+    res->num_hits = 0;
+}
