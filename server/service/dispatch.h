@@ -40,9 +40,10 @@ typedef struct dispatch_request {
     int64_t client_id;
     int64_t request_id;
     char reply_channel[TRIOCT_MAX_CHANNEL_LEN + 1];
-    char world[TRIOCT_MAX_NAME_LEN + 1];
+    char world[TRIOCT_MAX_NAME_LEN + 1]; /* header.world when it is a valid name, else "" */
     int64_t deadline_utime;
     int8_t admin_op;          /* REQUEST_ADMIN only */
+    int8_t detail;            /* REQUEST_RAY/TRIANGLE/MESH: the detail asked for, echoed */
 } dispatch_request;
 
 typedef enum dispatch_peek_result {
@@ -54,7 +55,9 @@ typedef enum dispatch_peek_result {
 } dispatch_peek_result;
 
 /* Checks the bytes with the hand-written validator and reads the header. Never decodes
- * untrusted bytes with the generated decoders. */
+ * untrusted bytes with the generated decoders. A reply channel that is not a valid name, or
+ * that is one of this prefix's protocol channels (a daemon would hear its own reply), cannot
+ * be answered: PEEK_MALFORMED. */
 dispatch_peek_result dispatch_peek(const dispatch_ctx *ctx, const char *channel, const void *bytes,
                                    size_t size, dispatch_request *req);
 
@@ -75,23 +78,27 @@ typedef struct dispatch_reply {
 
 /* Answers a message that dispatch_peek accepted (it checks again: a pure function must not
  * trust its caller). Runs on a worker thread; a LOAD builds the world here. Returns 0 with
- * the reply in out, or -1 when the bytes are malformed (out empty). now_utime is the clock
- * the deadline is checked against. */
+ * the reply in out (an error reply too: out->status says which), or -1 with out empty when
+ * peeking would not give PEEK_REQUEST, or when not even a one-chunk error reply could be
+ * allocated. now_utime is the clock the deadline is checked against. */
 int dispatch_handle(dispatch_ctx *ctx, const char *channel, const void *bytes, size_t size,
                     int64_t now_utime, dispatch_reply *out);
 
-/* An error reply to a peeked request without doing its work (BUSY, STOPPING). */
+/* An error reply to a peeked request without doing its work (BUSY, STOPPING): one chunk,
+ * world_version 0, message or, when NULL, the status table's text. 0, or -1 (no memory). */
 int dispatch_error(const dispatch_ctx *ctx, const dispatch_request *req, int status,
                    const char *message, dispatch_reply *out);
 
 void dispatch_reply_free(dispatch_reply *reply);
 
-/* Fills a world_info_t-shaped summary: used by INFO/LIST replies and the status message.
- * Declared with the generated type to keep one conversion. */
+/* Fills a world_info_t summary of an entry: used by INFO/LIST/LOAD replies and the status
+ * message, so there is one conversion. Declared with the generated type's tag so this header
+ * does not need the generated code. info's strings point into the entry, ctx and static
+ * text, and info->shapes into shape_names: all valid while the entry is held. Allocates
+ * nothing. */
 struct _trioct_world_info_t;
-/* Fills info from an entry; strings point into the entry (valid while it is held). */
 void dispatch_world_info(const dispatch_ctx *ctx, const registry_entry *entry,
-                         struct _trioct_world_info_t *info, char *effects_buf,
-                         char **shape_names);
+                         struct _trioct_world_info_t *info,
+                         char *shape_names[TRIOCT_MAX_SHAPES]);
 
 #endif

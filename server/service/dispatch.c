@@ -1,0 +1,381 @@
+/* The front of the protocol: which channel a message came on, whether its bytes are a
+ * message at all, and the checks every request passes before any work. Everything after
+ * the header is the handlers' (dispatch_query.c, dispatch_admin.c). */
+#include <ctype.h>
+#include <limits.h>
+#include <stdarg.h>
+#include <stdio.h>
+#include <string.h>
+
+#include "../../common/wire_check.h"
+#include "dispatch_internal.h"
+
+atomic_long dispatch_alloc_countdown;
+
+void dispatch_fail_allocation(long nth)
+{
+    atomic_store(&dispatch_alloc_countdown, nth > 0 ? nth : 0);
+}
+
+int job_fail(job *j, int status, const char *fmt, ...)
+{
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(j->message, sizeof j->message, fmt, ap);
+    va_end(ap);
+    j->status = status;
+    return status;
+}
+
+const char *dispatch_quote(const char *s, char *buf, size_t len)
+{
+    enum { SHOWN = 40 };
+    if (len < SHOWN + 4) {
+        if (len)
+            buf[0] = '\0';
+        return buf;
+    }
+    size_t n = 0;
+    for (; s[n] != '\0' && n < SHOWN; n++) {
+        unsigned char c = (unsigned char)s[n];
+        buf[n] = c < 128 && isprint(c) ? (char)c : '?';
+    }
+    if (s[n] != '\0') {
+        memcpy(&buf[n], "...", 3);
+        n += 3;
+    }
+    buf[n] = '\0';
+    return buf;
+}
+
+int job_engine_error(job *j, octree_status st, const char *item, size_t i)
+{
+    switch (st) {
+    case OCTREE_ERR_NOMEM:
+        return job_fail(j, TRIOCT_ERR_NOMEM, "out of memory answering %s %zu", item, i);
+    case OCTREE_ERR_NONFINITE:
+        return job_fail(j, TRIOCT_ERR_NONFINITE, "%s %zu has or produces a NaN or infinite coordinate",
+                        item, i);
+    default:
+        return job_fail(j, TRIOCT_ERR_BAD_REQUEST, "the engine refused %s %zu: %s", item, i,
+                        octree_status_text(st));
+    }
+}
+
+/* ---------- peek ---------- */
+
+static const wire_type wire_of[REQUEST_TYPE_COUNT] = {
+    [REQUEST_RAY] = WIRE_RAY_REQUEST,
+    [REQUEST_TRIANGLE] = WIRE_TRIANGLE_REQUEST,
+    [REQUEST_MESH] = WIRE_MESH_REQUEST,
+    [REQUEST_ADMIN] = WIRE_ADMIN_REQUEST,
+};
+
+/* Peeks and, on PEEK_REQUEST, leaves the decoded header in *hdr for the caller to clean up.
+ * The header decoder is safe here: wire_check has vouched for every byte it reads. */
+static dispatch_peek_result peek(const dispatch_ctx *ctx, const char *channel, const void *bytes, size_t size,
+                                 dispatch_request *req, trioct_request_header_t *hdr)
+{
+    memset(req, 0, sizeof *req);
+    memset(hdr, 0, sizeof *hdr);
+    trioct_channel_kind kind;
+    char name[TRIOCT_MAX_NAME_LEN + 1];
+    if (!channel || trioct_channel_parse(channel, ctx->prefix, &kind, name) != 0)
+        return PEEK_NOT_MINE;
+    request_type type;
+    switch (kind) {
+    case TRIOCT_CHANNEL_RAY:
+        type = REQUEST_RAY;
+        break;
+    case TRIOCT_CHANNEL_TRI:
+        type = REQUEST_TRIANGLE;
+        break;
+    case TRIOCT_CHANNEL_MESH:
+        type = REQUEST_MESH;
+        break;
+    case TRIOCT_CHANNEL_LOAD:
+        /* Every daemon of the fleet may hear every LOAD channel; only the named one builds. */
+        if (strcmp(name, ctx->daemon) != 0)
+            return PEEK_NOT_MINE;
+        type = REQUEST_ADMIN;
+        break;
+    case TRIOCT_CHANNEL_ADMIN:
+    case TRIOCT_CHANNEL_LIST:
+        type = REQUEST_ADMIN;
+        break;
+    default:
+        return PEEK_NOT_MINE; /* STATUS: another daemon's heartbeat */
+    }
+    /* The generated decoders count in int; LCM's own cap (256 MiB) is far below. */
+    if (!bytes || size > INT_MAX || wire_check(wire_of[type], bytes, size, NULL) != 0)
+        return PEEK_MALFORMED;
+
+    int len = __trioct_request_header_t_decode_array(bytes, 8, (int)size - 8, hdr, 1);
+    if (len < 0)
+        return PEEK_MALFORMED;
+    /* Every request type carries one int8 right after its header: detail, or the admin op. */
+    int8_t after = 0;
+    if (__int8_t_decode_array(bytes, 8 + len, (int)size - 8 - len, &after, 1) != 1) {
+        __trioct_request_header_t_decode_array_cleanup(hdr, 1);
+        return PEEK_MALFORMED;
+    }
+    trioct_channel_kind reply_kind;
+    char reply_name[TRIOCT_MAX_NAME_LEN + 1];
+    if (!trioct_name_valid(hdr->reply_channel, TRIOCT_MAX_CHANNEL_LEN) ||
+        trioct_channel_parse(hdr->reply_channel, ctx->prefix, &reply_kind, reply_name) == 0) {
+        __trioct_request_header_t_decode_array_cleanup(hdr, 1);
+        return PEEK_MALFORMED;
+    }
+
+    req->type = type;
+    req->channel_kind = kind;
+    strcpy(req->channel_name, name);
+    req->client_id = hdr->client_id;
+    req->request_id = hdr->request_id;
+    strcpy(req->reply_channel, hdr->reply_channel);
+    if (trioct_name_valid(hdr->world, TRIOCT_MAX_NAME_LEN))
+        strcpy(req->world, hdr->world);
+    req->deadline_utime = hdr->deadline_utime;
+    if (type == REQUEST_ADMIN)
+        req->admin_op = after;
+    else
+        req->detail = after;
+    return PEEK_REQUEST;
+}
+
+dispatch_peek_result dispatch_peek(const dispatch_ctx *ctx, const char *channel, const void *bytes, size_t size,
+                                   dispatch_request *req)
+{
+    trioct_request_header_t hdr;
+    dispatch_peek_result r = peek(ctx, channel, bytes, size, req, &hdr);
+    if (r == PEEK_REQUEST)
+        __trioct_request_header_t_decode_array_cleanup(&hdr, 1);
+    return r;
+}
+
+/* ---------- replies ---------- */
+
+static reply_head head_of(const dispatch_ctx *ctx, const dispatch_request *req, int64_t version, int status,
+                          const char *message)
+{
+    return (reply_head){
+        .client_id = req->client_id,
+        .request_id = req->request_id,
+        .daemon = ctx->daemon,
+        .world = req->world,
+        .world_version = version,
+        .status = status,
+        .message = message,
+    };
+}
+
+reply_head job_head(const job *j, int status, const char *message)
+{
+    return head_of(j->ctx, &j->req, j->world_version, status, message);
+}
+
+static int8_t echoed_detail(const dispatch_request *req)
+{
+    return req->type == REQUEST_ADMIN ? req->admin_op : req->detail;
+}
+
+static void reply_start(dispatch_reply *out, const dispatch_request *req)
+{
+    memset(out, 0, sizeof *out);
+    strcpy(out->channel, req->reply_channel);
+    out->type = req->type;
+}
+
+int dispatch_error(const dispatch_ctx *ctx, const dispatch_request *req, int status, const char *message,
+                   dispatch_reply *out)
+{
+    reply_start(out, req);
+    out->status = status;
+    reply_head h = head_of(ctx, req, 0, status, message ? message : trioct_status_text(status));
+    return encode_error_reply(out, req->type, &h, echoed_detail(req)) == TRIOCT_OK ? 0 : -1;
+}
+
+/* ---------- handle ---------- */
+
+static const char *const op_name[] = {"LIST", "INFO", "LOAD", "UNLOAD"};
+
+static const char *admin_op_name(int8_t op)
+{
+    return op >= 0 && op <= TRIOCT_ADMIN_REQUEST_T_UNLOAD ? op_name[op] : "unknown";
+}
+
+/* The op a channel admits: LIST on LIST, LOAD on LOAD, INFO and UNLOAD on ADMIN. Keeping
+ * them apart is what routes each to the right daemon of a fleet. */
+static int check_admin_channel(job *j)
+{
+    int8_t op = j->req.admin_op;
+    int ok;
+    const char *wants;
+    switch (j->req.channel_kind) {
+    case TRIOCT_CHANNEL_LIST:
+        ok = op == TRIOCT_ADMIN_REQUEST_T_LIST;
+        wants = "LIST (0)";
+        break;
+    case TRIOCT_CHANNEL_LOAD:
+        ok = op == TRIOCT_ADMIN_REQUEST_T_LOAD;
+        wants = "LOAD (2)";
+        break;
+    default:
+        ok = op == TRIOCT_ADMIN_REQUEST_T_INFO || op == TRIOCT_ADMIN_REQUEST_T_UNLOAD;
+        wants = "INFO (1) or UNLOAD (3)";
+        break;
+    }
+    if (ok)
+        return TRIOCT_OK;
+    return job_fail(j, TRIOCT_ERR_BAD_REQUEST, "admin op %d (%s) is not served on this channel, which takes %s",
+                    op, admin_op_name(op), wants);
+}
+
+static int channel_has_world(trioct_channel_kind kind)
+{
+    return kind == TRIOCT_CHANNEL_RAY || kind == TRIOCT_CHANNEL_TRI || kind == TRIOCT_CHANNEL_MESH ||
+           kind == TRIOCT_CHANNEL_ADMIN;
+}
+
+static const struct {
+    unsigned bit;
+    const char *effect;
+    const char *query;
+} effect_of[REQUEST_TYPE_COUNT] = {
+    [REQUEST_RAY] = {EFFECT_RAYS, "rays", "ray"},
+    [REQUEST_TRIANGLE] = {EFFECT_TRIANGLES, "triangles", "triangle"},
+    [REQUEST_MESH] = {EFFECT_MESHES, "meshes", "mesh"},
+};
+
+/* "rays", "rays and meshes", ...: what a world serves, for a person. */
+static const char *effects_words(unsigned effects, char *buf, size_t len)
+{
+    const char *names[3];
+    size_t n = 0;
+    for (int t = REQUEST_RAY; t <= REQUEST_MESH; t++)
+        if (effects & effect_of[t].bit)
+            names[n++] = effect_of[t].effect;
+    if (n == 0)
+        snprintf(buf, len, "nothing");
+    else if (n == 1)
+        snprintf(buf, len, "%s", names[0]);
+    else if (n == 2)
+        snprintf(buf, len, "%s and %s", names[0], names[1]);
+    else
+        snprintf(buf, len, "%s, %s and %s", names[0], names[1], names[2]);
+    return buf;
+}
+
+/* Checks that need only the header, in the order the protocol documents. */
+static int check_header(job *j, int64_t now_utime)
+{
+    dispatch_request *req = &j->req;
+    char q[48];
+    if (req->type == REQUEST_ADMIN && check_admin_channel(j) != TRIOCT_OK)
+        return j->status;
+    if (channel_has_world(req->channel_kind) && strcmp(j->hdr.world, req->channel_name) != 0)
+        return job_fail(j, TRIOCT_ERR_BAD_REQUEST,
+                        "header.world \"%s\" differs from world %s named by the channel",
+                        dispatch_quote(j->hdr.world, q, sizeof q), req->channel_name);
+    if (req->channel_kind == TRIOCT_CHANNEL_LOAD && req->world[0] == '\0')
+        return job_fail(j, TRIOCT_ERR_BAD_REQUEST,
+                        "LOAD needs header.world to name the world: \"%s\" is not 1..%d characters of "
+                        "[A-Za-z0-9_]",
+                        dispatch_quote(j->hdr.world, q, sizeof q), TRIOCT_MAX_NAME_LEN);
+    if (req->deadline_utime != 0 && req->deadline_utime < now_utime)
+        return job_fail(j, TRIOCT_ERR_DEADLINE,
+                        "deadline_utime %lld passed %lld us before the work could start",
+                        (long long)req->deadline_utime, (long long)(now_utime - req->deadline_utime));
+    if (channel_has_world(req->channel_kind)) {
+        j->w = registry_acquire(j->ctx->worlds, req->channel_name);
+        if (!j->w)
+            return job_fail(j, TRIOCT_ERR_UNKNOWN_WORLD, "world %s is not held by daemon %s",
+                            req->channel_name, j->ctx->daemon);
+        j->world_version = (int64_t)j->w->version;
+    }
+    if (req->type != REQUEST_ADMIN && !(j->w->spec.effects & effect_of[req->type].bit)) {
+        char words[64];
+        return job_fail(j, TRIOCT_ERR_EFFECT, "world %s serves %s only; %s queries need effects = %s",
+                        req->channel_name, effects_words(j->w->spec.effects, words, sizeof words),
+                        effect_of[req->type].query, effect_of[req->type].effect);
+    }
+    return TRIOCT_OK;
+}
+
+/* Decodes the whole (checked, size-capped) message and hands it to its handler. */
+static int run_request(job *j, const void *bytes, size_t size)
+{
+    int status;
+    int len = (int)size;
+    switch (j->req.type) {
+    case REQUEST_RAY: {
+        trioct_ray_request_t m;
+        if (trioct_ray_request_t_decode(bytes, 0, len, &m) < 0)
+            break;
+        status = dispatch_ray(j, &m);
+        trioct_ray_request_t_decode_cleanup(&m);
+        return status;
+    }
+    case REQUEST_TRIANGLE: {
+        trioct_triangle_request_t m;
+        if (trioct_triangle_request_t_decode(bytes, 0, len, &m) < 0)
+            break;
+        status = dispatch_triangle(j, &m);
+        trioct_triangle_request_t_decode_cleanup(&m);
+        return status;
+    }
+    case REQUEST_MESH: {
+        trioct_mesh_request_t m;
+        if (trioct_mesh_request_t_decode(bytes, 0, len, &m) < 0)
+            break;
+        status = dispatch_mesh(j, &m);
+        trioct_mesh_request_t_decode_cleanup(&m);
+        return status;
+    }
+    default: {
+        trioct_admin_request_t m;
+        if (trioct_admin_request_t_decode(bytes, 0, len, &m) < 0)
+            break;
+        status = dispatch_admin(j, &m);
+        trioct_admin_request_t_decode_cleanup(&m);
+        return status;
+    }
+    }
+    /* wire_check accepted what the generated decoder refuses: the two disagree about the
+     * format, which is a bug here, not the client's; say so rather than drop it. */
+    return job_fail(j, TRIOCT_ERR_BAD_REQUEST, "the request passed the validator but not the decoder");
+}
+
+int dispatch_handle(dispatch_ctx *ctx, const char *channel, const void *bytes, size_t size, int64_t now_utime,
+                    dispatch_reply *out)
+{
+    memset(out, 0, sizeof *out);
+    job j = {.ctx = ctx, .out = out, .status = TRIOCT_OK};
+    if (peek(ctx, channel, bytes, size, &j.req, &j.hdr) != PEEK_REQUEST)
+        return -1;
+    reply_start(out, &j.req);
+
+    int status = check_header(&j, now_utime);
+    if (status == TRIOCT_OK && size > TRIOCT_MAX_REQUEST_BYTES)
+        status = job_fail(&j, TRIOCT_ERR_OVER_CAP,
+                          "the request is %zu bytes, over TRIOCT_MAX_REQUEST_BYTES=%d; send fewer items",
+                          size, TRIOCT_MAX_REQUEST_BYTES);
+    if (status == TRIOCT_OK)
+        status = run_request(&j, bytes, size);
+    if (status == TRIOCT_OK && j.w && j.counted)
+        atomic_fetch_add(&j.w->queries, 1);
+
+    int rc = 0;
+    if (status != TRIOCT_OK) {
+        /* A handler that failed after encoding part of a reply leaves nothing half-sent. */
+        dispatch_reply_free(out);
+        reply_head h = job_head(&j, status, j.message);
+        if (encode_error_reply(out, j.req.type, &h, echoed_detail(&j.req)) != TRIOCT_OK)
+            rc = -1;
+    }
+    out->status = status;
+    if (j.w)
+        world_release(j.w);
+    __trioct_request_header_t_decode_array_cleanup(&j.hdr, 1);
+    return rc;
+}

@@ -1,0 +1,1730 @@
+/* Dispatch tests: the daemon's protocol as a pure function from request bytes to reply
+ * bytes, without a network. Worlds are built in-process from OBJ files written into a
+ * temporary world directory; every answer is checked against the engine's own answer on
+ * the same world, every reply chunk against the validator and the chunk cap, and every
+ * wire status code is provoked. */
+#include <math.h>
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+
+#include <cmocka.h>
+
+#include "channels.h"
+#include "engine.h"
+#include "service/dispatch.h"
+#include "service/dispatch_internal.h"
+#include "support/brute_force.h"
+#include "support/meshgen.h"
+#include "trioct_limits.h"
+#include "trioct_status.h"
+#include "wire_check.h"
+#include "world/mesh_load.h"
+#include "world/registry.h"
+#include "world/scene.h"
+#include "world/world.h"
+
+#define DAEMON "d1"
+#define PREFIX "TRIOCT"
+#define CLIENT_ID 7777
+#define REPLY_CHANNEL "CLIENT_7777_REPLY"
+#define NOW 1700000000000000LL /* the clock every request is handled at */
+
+static uint64_t base_seed = 0x5eed2024ull;
+
+/* ---------- fixture: a world directory, a scene, a registry ---------- */
+
+static struct {
+    char dir[64];
+    scene sc;
+    registry *reg;
+    dispatch_ctx ctx;
+    int64_t next_request;
+} F;
+
+static void write_obj(const char *name, const mesh_data *m)
+{
+    char path[256];
+    snprintf(path, sizeof path, "%s/%s", F.dir, name);
+    FILE *f = fopen(path, "w");
+    assert_non_null(f);
+    for (size_t i = 0; i < m->vertex_count; i++)
+        fprintf(f, "v %.17g %.17g %.17g\n", m->vertices[i].x, m->vertices[i].y, m->vertices[i].z);
+    for (size_t t = 0; t < m->triangle_count; t++)
+        fprintf(f, "f %u %u %u\n", m->indices[3 * t] + 1, m->indices[3 * t + 1] + 1, m->indices[3 * t + 2] + 1);
+    assert_int_equal(fclose(f), 0);
+}
+
+static void write_text(const char *name, const char *text)
+{
+    char path[256];
+    snprintf(path, sizeof path, "%s/%s", F.dir, name);
+    FILE *f = fopen(path, "w");
+    assert_non_null(f);
+    fputs(text, f);
+    assert_int_equal(fclose(f), 0);
+}
+
+/* LAYERS parallel squares z = 0.5, 1.5, ... over [-1, 1]^2: a vertical ray through them
+ * crosses exactly LAYERS triangles, so ALL replies are large and their size is known. */
+#define LAYERS 60
+static mesh_data layers_mesh(int layers)
+{
+    mesh_data m = {0};
+    m.vertex_count = 4 * (size_t)layers;
+    m.triangle_count = 2 * (size_t)layers;
+    m.vertices = calloc(m.vertex_count, sizeof *m.vertices);
+    m.indices = calloc(3 * m.triangle_count, sizeof *m.indices);
+    for (int k = 0; k < layers; k++) {
+        double z = 0.5 + k;
+        vec3 *v = &m.vertices[4 * k];
+        v[0] = (vec3){-1, -1, z};
+        v[1] = (vec3){1, -1, z};
+        v[2] = (vec3){1, 1, z};
+        v[3] = (vec3){-1, 1, z};
+        uint32_t b = (uint32_t)(4 * k);
+        uint32_t *ix = &m.indices[6 * k];
+        ix[0] = b, ix[1] = b + 1, ix[2] = b + 2;
+        ix[3] = b, ix[4] = b + 2, ix[5] = b + 3;
+    }
+    return m;
+}
+
+static void install_from_scene(const char *name)
+{
+    const world_spec *spec = scene_find(&F.sc, name);
+    assert_non_null(spec);
+    int status = -1;
+    char err[512];
+    world *w = world_build(spec, F.dir, &status, err, sizeof err);
+    if (!w)
+        fail_msg("building %s: %s", name, err);
+    assert_int_equal(registry_install(F.reg, w), 0);
+}
+
+static int setup(void **state)
+{
+    (void)state;
+    strcpy(F.dir, "/tmp/trioct-dispatch-XXXXXX");
+    assert_non_null(mkdtemp(F.dir));
+
+    mesh_data sphere = meshgen_icosphere((vec3){0, 0, 0}, 1.0, 3);
+    mesh_data cube = meshgen_box((box3){{-0.2, -0.2, -0.2}, {0.2, 0.2, 0.2}});
+    mesh_data box = meshgen_box((box3){{0, 0, 0}, {1, 1, 1}});
+    /* Flat (z = 0) so a coplanar query triangle touches every terrain triangle it covers. */
+    mesh_data flat = meshgen_terrain(11, (box3){{-10, -10, 0}, {10, 10, 0}}, 80, 80);
+    mesh_data layers = layers_mesh(LAYERS);
+    write_obj("sphere.obj", &sphere);
+    write_obj("cube.obj", &cube);
+    write_obj("box.obj", &box);
+    write_obj("flat.obj", &flat);
+    write_obj("layers.obj", &layers);
+    write_text("garbage.obj", "this is not a mesh\nf 1 2\n");
+    mesh_data_free(&sphere);
+    mesh_data_free(&cube);
+    mesh_data_free(&box);
+    mesh_data_free(&flat);
+    mesh_data_free(&layers);
+
+    write_text("scene.ini", "[daemon]\nprefix = TRIOCT\n\n"
+                            "[sphere]\nmesh = sphere.obj\neffects = rays triangles meshes\nshape.cube = cube.obj\n\n"
+                            "[raysonly]\nmesh = sphere.obj\neffects = rays\n\n"
+                            "[flat]\nmesh = flat.obj\neffects = triangles meshes\nshape.cube = cube.obj\n\n"
+                            "[layers]\nmesh = layers.obj\neffects = rays\n\n"
+                            "[spare]\nmesh = box.obj\naccuracy = fast\neffects = rays\n");
+    char path[256], err[512];
+    snprintf(path, sizeof path, "%s/scene.ini", F.dir);
+    if (scene_load(path, &F.sc, err, sizeof err) != 0)
+        fail_msg("scene: %s", err);
+
+    F.reg = registry_create();
+    assert_non_null(F.reg);
+    install_from_scene("sphere");
+    install_from_scene("raysonly");
+    install_from_scene("flat");
+    install_from_scene("layers");
+
+    F.ctx.worlds = F.reg;
+    strcpy(F.ctx.prefix, PREFIX);
+    strcpy(F.ctx.daemon, DAEMON);
+    strcpy(F.ctx.world_dir, F.dir);
+    pthread_mutex_init(&F.ctx.scene_lock, NULL);
+    F.ctx.scene = &F.sc;
+    F.next_request = 1;
+    return 0;
+}
+
+static int teardown(void **state)
+{
+    (void)state;
+    registry_free(F.reg);
+    scene_free(&F.sc);
+    pthread_mutex_destroy(&F.ctx.scene_lock);
+    const char *files[] = {"sphere.obj", "cube.obj", "box.obj", "flat.obj", "layers.obj", "garbage.obj", "scene.ini"};
+    char path[256];
+    for (size_t i = 0; i < sizeof files / sizeof files[0]; i++) {
+        snprintf(path, sizeof path, "%s/%s", F.dir, files[i]);
+        unlink(path);
+    }
+    rmdir(F.dir);
+    return 0;
+}
+
+/* ---------- requests ---------- */
+
+typedef struct msg {
+    uint8_t *data;
+    size_t size;
+} msg;
+
+#define DEFINE_ENCODER(type)                                      \
+    static msg encode_##type(const type *p)                       \
+    {                                                             \
+        int n = type##_encoded_size(p);                           \
+        msg m = {malloc((size_t)n), (size_t)n};                   \
+        assert_int_equal(type##_encode(m.data, 0, n, p), n);      \
+        return m;                                                 \
+    }
+DEFINE_ENCODER(trioct_ray_request_t)
+DEFINE_ENCODER(trioct_triangle_request_t)
+DEFINE_ENCODER(trioct_mesh_request_t)
+DEFINE_ENCODER(trioct_admin_request_t)
+#define ENCODE(type, ptr) encode_##type(ptr)
+
+static const char *channel_of(trioct_channel_kind kind, const char *name)
+{
+    static char buf[8][TRIOCT_MAX_CHANNEL_LEN + 1];
+    static int next;
+    char *out = buf[next++ % 8];
+    assert_int_equal(trioct_channel_name(out, PREFIX, kind, name), 0);
+    return out;
+}
+
+static trioct_request_header_t header(const char *world)
+{
+    return (trioct_request_header_t){
+        .client_id = CLIENT_ID,
+        .request_id = F.next_request++,
+        .reply_channel = REPLY_CHANNEL,
+        .world = (char *)world,
+        .deadline_utime = 0,
+    };
+}
+
+typedef struct ray_set {
+    int n;
+    trioct_vec3_t *origin, *direction;
+} ray_set;
+
+static trioct_ray_request_t ray_request(const char *world, const ray_set *rays, int8_t detail, int8_t accuracy,
+                                        double tmin, double tmax, int32_t max_hits)
+{
+    return (trioct_ray_request_t){
+        .header = header(world),
+        .detail = detail,
+        .accuracy = accuracy,
+        .tmin = tmin,
+        .tmax = tmax,
+        .max_hits = max_hits,
+        .num_rays = rays->n,
+        .origin = rays->origin,
+        .direction = rays->direction,
+    };
+}
+
+static void ray_set_free(ray_set *r)
+{
+    free(r->origin);
+    free(r->direction);
+}
+
+static trioct_vec3_t tv(vec3 v)
+{
+    return (trioct_vec3_t){v.x, v.y, v.z};
+}
+
+static vec3 vv(trioct_vec3_t v)
+{
+    return (vec3){v.x, v.y, v.z};
+}
+
+/* Rays from points around the unit sphere towards points near it: some hit, some miss. */
+static ray_set sphere_rays(rng *r, int n)
+{
+    ray_set s = {n, calloc((size_t)n, sizeof(trioct_vec3_t)), calloc((size_t)n, sizeof(trioct_vec3_t))};
+    for (int i = 0; i < n; i++) {
+        vec3 o = vec3_scale(rng_unit_vector(r), rng_uniform(r, 2.0, 4.0));
+        vec3 target = vec3_scale(rng_unit_vector(r), rng_uniform(r, 0.0, 1.5));
+        s.origin[i] = tv(o);
+        s.direction[i] = tv(vec3_sub(target, o));
+    }
+    return s;
+}
+
+/* Vertical rays, each from its own point (a scattered batch): every `every`-th goes through
+ * all the layers, the others pass beside them. Uneven batches make a few rays need more
+ * room than their share of the reply, which the dispatcher must give them. */
+static ray_set layer_rays(rng *r, int n, int every)
+{
+    ray_set s = {n, calloc((size_t)n, sizeof(trioct_vec3_t)), calloc((size_t)n, sizeof(trioct_vec3_t))};
+    for (int i = 0; i < n; i++) {
+        double x = i % every == 0 ? rng_uniform(r, -0.9, 0.9) : rng_uniform(r, 1.5, 2.0);
+        s.origin[i] = (trioct_vec3_t){x, rng_uniform(r, -0.9, 0.9), -1.0};
+        s.direction[i] = (trioct_vec3_t){0, 0, 1};
+    }
+    return s;
+}
+
+/* ---------- replies ---------- */
+
+/* A whole reply, reassembled from its chunks after each passed the validator and the cap. */
+typedef struct answer {
+    int status;
+    request_type type;
+    size_t chunks;
+    int worlds_changed;
+    char message[TRIOCT_MAX_MESSAGE_LEN + 1];
+    char world[TRIOCT_MAX_NAME_LEN + 1];
+    int64_t version;
+    int8_t detail;
+    int32_t num_found;
+    int32_t *found;
+    size_t records;
+    trioct_ray_hit_t *hits;
+    trioct_contact_t *contacts;
+    trioct_segment_t *segments;
+    trioct_mesh_pair_t *pairs;
+    size_t num_worlds;
+    trioct_world_info_t *worlds; /* deep copies */
+} answer;
+
+static void answer_free(answer *a)
+{
+    free(a->found);
+    free(a->hits);
+    free(a->contacts);
+    free(a->segments);
+    free(a->pairs);
+    if (a->worlds)
+        __trioct_world_info_t_decode_array_cleanup(a->worlds, (int)a->num_worlds);
+    free(a->worlds);
+    memset(a, 0, sizeof *a);
+}
+
+static void grow(void **p, size_t *have, size_t add, size_t elem, const void *src)
+{
+    if (add == 0)
+        return;
+    *p = realloc(*p, (*have + add) * elem + 1);
+    assert_non_null(*p);
+    memcpy((char *)*p + *have * elem, src, add * elem);
+    *have += add;
+}
+
+/* Checks one chunk's header against the request and the chunk before it. */
+static void check_head(const trioct_reply_header_t *h, answer *a, int64_t request_id, size_t index, size_t count)
+{
+    assert_int_equal(h->client_id, CLIENT_ID);
+    assert_int_equal(h->request_id, request_id);
+    assert_string_equal(h->daemon, DAEMON);
+    assert_int_equal(h->chunk_index, (int32_t)index);
+    assert_int_equal(h->chunk_count, (int32_t)count);
+    assert_int_equal(h->status, a->status);
+    assert_true(strlen(h->message) > 0 && strlen(h->message) <= TRIOCT_MAX_MESSAGE_LEN);
+    if (index == 0) {
+        strcpy(a->message, h->message);
+        assert_true(strlen(h->world) <= TRIOCT_MAX_NAME_LEN);
+        strcpy(a->world, h->world);
+        a->version = h->world_version;
+    } else {
+        assert_string_equal(h->message, a->message);
+        assert_string_equal(h->world, a->world);
+        assert_int_equal(h->world_version, a->version);
+    }
+    if (a->status == TRIOCT_OK)
+        assert_string_equal(h->message, "ok");
+    else
+        assert_int_equal(count, 1); /* error replies are one chunk */
+}
+
+static const wire_type reply_wire[REQUEST_TYPE_COUNT] = {
+    [REQUEST_RAY] = WIRE_RAY_REPLY,
+    [REQUEST_TRIANGLE] = WIRE_TRIANGLE_REPLY,
+    [REQUEST_MESH] = WIRE_MESH_REPLY,
+    [REQUEST_ADMIN] = WIRE_ADMIN_REPLY,
+};
+
+static void collect_chunk(answer *a, const dispatch_chunk *c, int64_t request_id, size_t index, size_t count)
+{
+    int len = (int)c->size;
+    switch (a->type) {
+    case REQUEST_RAY: {
+        trioct_ray_reply_t m;
+        assert_int_equal(trioct_ray_reply_t_decode(c->data, 0, len, &m), len);
+        check_head(&m.header, a, request_id, index, count);
+        if (index == 0) {
+            a->detail = m.detail;
+            a->num_found = m.num_rays;
+            a->found = calloc((size_t)m.num_rays + 1, sizeof *a->found);
+            if (m.num_rays > 0)
+                memcpy(a->found, m.found, (size_t)m.num_rays * sizeof *a->found);
+        } else {
+            assert_int_equal(m.num_rays, 0);
+            assert_int_equal(m.detail, a->detail);
+        }
+        size_t have = a->records;
+        grow((void **)&a->hits, &have, (size_t)m.num_hits, sizeof *a->hits, m.hits);
+        a->records = have;
+        trioct_ray_reply_t_decode_cleanup(&m);
+        break;
+    }
+    case REQUEST_TRIANGLE: {
+        trioct_triangle_reply_t m;
+        assert_int_equal(trioct_triangle_reply_t_decode(c->data, 0, len, &m), len);
+        check_head(&m.header, a, request_id, index, count);
+        if (index == 0) {
+            a->detail = m.detail;
+            a->num_found = m.num_triangles;
+            a->found = calloc((size_t)m.num_triangles + 1, sizeof *a->found);
+            if (m.num_triangles > 0)
+                memcpy(a->found, m.found, (size_t)m.num_triangles * sizeof *a->found);
+        } else {
+            assert_int_equal(m.num_triangles, 0);
+        }
+        /* SEGMENTS: one segment per contact in every chunk; otherwise none. */
+        if (m.detail == TRIOCT_TRIANGLE_REQUEST_T_SEGMENTS)
+            assert_int_equal(m.num_segments, m.num_contacts);
+        else
+            assert_int_equal(m.num_segments, 0);
+        size_t have = a->records, have2 = a->records;
+        grow((void **)&a->contacts, &have, (size_t)m.num_contacts, sizeof *a->contacts, m.contacts);
+        grow((void **)&a->segments, &have2, (size_t)m.num_segments, sizeof *a->segments, m.segments);
+        a->records = have;
+        trioct_triangle_reply_t_decode_cleanup(&m);
+        break;
+    }
+    case REQUEST_MESH: {
+        trioct_mesh_reply_t m;
+        assert_int_equal(trioct_mesh_reply_t_decode(c->data, 0, len, &m), len);
+        check_head(&m.header, a, request_id, index, count);
+        if (index == 0) {
+            a->detail = m.detail;
+            a->num_found = m.num_poses;
+            a->found = calloc((size_t)m.num_poses + 1, sizeof *a->found);
+            if (m.num_poses > 0)
+                memcpy(a->found, m.found, (size_t)m.num_poses * sizeof *a->found);
+        } else {
+            assert_int_equal(m.num_poses, 0);
+        }
+        size_t have = a->records;
+        grow((void **)&a->pairs, &have, (size_t)m.num_pairs, sizeof *a->pairs, m.pairs);
+        a->records = have;
+        trioct_mesh_reply_t_decode_cleanup(&m);
+        break;
+    }
+    default: {
+        trioct_admin_reply_t m;
+        assert_int_equal(trioct_admin_reply_t_decode(c->data, 0, len, &m), len);
+        check_head(&m.header, a, request_id, index, count);
+        if (index == 0)
+            a->detail = m.op;
+        else
+            assert_int_equal(m.op, a->detail);
+        a->worlds = realloc(a->worlds, (a->num_worlds + (size_t)m.num_worlds + 1) * sizeof *a->worlds);
+        assert_non_null(a->worlds);
+        /* Deep copies, so the chunk's decoded struct can go. */
+        assert_int_equal(__trioct_world_info_t_clone_array(m.worlds, &a->worlds[a->num_worlds], m.num_worlds), 0);
+        a->num_worlds += (size_t)m.num_worlds;
+        trioct_admin_reply_t_decode_cleanup(&m);
+        break;
+    }
+    }
+}
+
+/* Every chunk: under the cap, accepted by the validator of its reply type, decoded. */
+static answer read_reply(dispatch_reply *rep, request_type type, int64_t request_id)
+{
+    answer a = {0};
+    a.status = rep->status;
+    a.type = type;
+    a.chunks = rep->chunk_count;
+    a.worlds_changed = rep->worlds_changed;
+    assert_int_equal(rep->type, type);
+    assert_string_equal(rep->channel, REPLY_CHANNEL);
+    assert_true(rep->chunk_count >= 1);
+    for (size_t i = 0; i < rep->chunk_count; i++) {
+        const dispatch_chunk *c = &rep->chunks[i];
+        assert_true(c->size <= TRIOCT_MAX_CHUNK_BYTES);
+        wire_error err;
+        if (wire_check(reply_wire[type], c->data, c->size, &err) != 0)
+            fail_msg("chunk %zu of %zu: %s", i, rep->chunk_count, err.what);
+        collect_chunk(&a, c, request_id, i, rep->chunk_count);
+    }
+    if (a.status != TRIOCT_OK)
+        assert_int_equal(a.records + a.num_found + a.num_worlds, 0);
+    return a;
+}
+
+/* The request id of an encoded request, read back with the generated decoder (the tests'
+ * own bytes are trusted). */
+static int64_t request_id_of(const msg *m)
+{
+    trioct_request_header_t h;
+    assert_true(__trioct_request_header_t_decode_array(m->data, 8, (int)m->size - 8, &h, 1) > 0);
+    int64_t id = h.request_id;
+    __trioct_request_header_t_decode_array_cleanup(&h, 1);
+    return id;
+}
+
+static answer ask_at(const char *channel, msg m, request_type type, int64_t now)
+{
+    dispatch_reply rep;
+    assert_int_equal(dispatch_handle(&F.ctx, channel, m.data, m.size, now, &rep), 0);
+    answer a = read_reply(&rep, type, request_id_of(&m));
+    dispatch_reply_free(&rep);
+    free(m.data);
+    return a;
+}
+
+static answer ask(const char *channel, msg m, request_type type)
+{
+    return ask_at(channel, m, type, NOW);
+}
+
+static answer ask_ray(const char *world, const trioct_ray_request_t *r)
+{
+    return ask(channel_of(TRIOCT_CHANNEL_RAY, world), ENCODE(trioct_ray_request_t, r), REQUEST_RAY);
+}
+
+static answer ask_triangle(const char *world, const trioct_triangle_request_t *r)
+{
+    return ask(channel_of(TRIOCT_CHANNEL_TRI, world), ENCODE(trioct_triangle_request_t, r), REQUEST_TRIANGLE);
+}
+
+static answer ask_mesh(const char *world, const trioct_mesh_request_t *r)
+{
+    return ask(channel_of(TRIOCT_CHANNEL_MESH, world), ENCODE(trioct_mesh_request_t, r), REQUEST_MESH);
+}
+
+static trioct_admin_request_t admin_request(const char *world, int8_t op)
+{
+    return (trioct_admin_request_t){
+        .header = header(world),
+        .op = op,
+        .mesh_path = "",
+        .resolution = 0,
+        .accuracy = TRIOCT_RAY_REQUEST_T_ACCURACY_WORLD,
+        .seed_epsilon = 0,
+        .effects = 0,
+    };
+}
+
+static answer ask_admin(trioct_channel_kind kind, const char *name, const trioct_admin_request_t *r)
+{
+    return ask(channel_of(kind, name), ENCODE(trioct_admin_request_t, r), REQUEST_ADMIN);
+}
+
+static answer admin_op(const char *world, int8_t op)
+{
+    trioct_admin_request_t r = admin_request(world, op);
+    trioct_channel_kind kind = op == TRIOCT_ADMIN_REQUEST_T_LIST   ? TRIOCT_CHANNEL_LIST
+                               : op == TRIOCT_ADMIN_REQUEST_T_LOAD ? TRIOCT_CHANNEL_LOAD
+                                                                   : TRIOCT_CHANNEL_ADMIN;
+    return ask_admin(kind, kind == TRIOCT_CHANNEL_LOAD ? DAEMON : world, &r);
+}
+
+static answer load_path(const char *world, const char *path, double resolution, int8_t accuracy, int32_t effects)
+{
+    trioct_admin_request_t r = admin_request(world, TRIOCT_ADMIN_REQUEST_T_LOAD);
+    r.mesh_path = (char *)path;
+    r.resolution = resolution;
+    r.accuracy = accuracy;
+    r.effects = effects;
+    return ask_admin(TRIOCT_CHANNEL_LOAD, DAEMON, &r);
+}
+
+static void expect_error(const answer *a, int status, const char *needle)
+{
+    if (a->status != status)
+        fail_msg("status %d (%s) \"%s\", expected %d (%s)", a->status, trioct_status_name(a->status), a->message,
+                 status, trioct_status_name(status));
+    assert_int_equal(a->chunks, 1);
+    if (needle && !strstr(a->message, needle))
+        fail_msg("message \"%s\" does not say \"%s\"", a->message, needle);
+}
+
+static world *held(const char *name)
+{
+    world *w = registry_acquire(F.reg, name);
+    assert_non_null(w);
+    return w;
+}
+
+/* ---------- the engine's own answers ---------- */
+
+/* The reply must be the engine's answer for every ray, in order, bit for bit. Returns how
+ * many rays hit, so callers can insist the case was not trivial. */
+static size_t expect_rays(const answer *a, const char *world_name, const ray_set *rays, ray_detail detail,
+                          accuracy_mode mode, double tmin, double tmax, size_t max_hits)
+{
+    if (a->status != TRIOCT_OK)
+        fail_msg("status %s: %s", trioct_status_name(a->status), a->message);
+    world *w = held(world_name);
+    assert_int_equal(a->version, (int64_t)w->version);
+    assert_int_equal(a->num_found, rays->n);
+    size_t cap = detail == RAY_ALL ? max_hits : 1;
+    ray_hit *buf = calloc(cap, sizeof *buf);
+    size_t r = 0, hitting = 0;
+    for (int i = 0; i < rays->n; i++) {
+        ray_input in = {vv(rays->origin[i]), vv(rays->direction[i]), tmin, tmax};
+        ray_output out = {.hits = buf, .max_hits = cap};
+        assert_int_equal(octree_ray(w->tree, &in, detail, mode, &out, NULL), OCTREE_OK);
+        assert_int_equal(a->found[i], (int32_t)out.hit_count);
+        hitting += out.hit_count > 0;
+        size_t keep = out.hit_count < cap ? out.hit_count : cap;
+        for (size_t k = 0; k < keep; k++, r++) {
+            assert_true(r < a->records);
+            const trioct_ray_hit_t *h = &a->hits[r];
+            assert_int_equal(h->ray, i);
+            assert_int_equal(h->triangle, (int32_t)buf[k].triangle);
+            assert_true(h->t == buf[k].t && h->u == buf[k].u && h->v == buf[k].v);
+            assert_true(h->normal.x == buf[k].normal.x && h->normal.y == buf[k].normal.y &&
+                        h->normal.z == buf[k].normal.z);
+        }
+    }
+    assert_int_equal(r, a->records);
+    free(buf);
+    world_release(w);
+    return hitting;
+}
+
+static size_t expect_triangles(const answer *a, const char *world_name, const trioct_triangle_t *tris, int n,
+                               tri_detail detail, accuracy_mode mode)
+{
+    if (a->status != TRIOCT_OK)
+        fail_msg("status %s: %s", trioct_status_name(a->status), a->message);
+    world *w = held(world_name);
+    assert_int_equal(a->num_found, n);
+    size_t cap = 20000;
+    tri_contact *buf = calloc(cap, sizeof *buf);
+    size_t r = 0, touching = 0;
+    for (int i = 0; i < n; i++) {
+        vec3 q[3] = {vv(tris[i].a), vv(tris[i].b), vv(tris[i].c)};
+        tri_output out = {.contacts = buf, .capacity = cap};
+        assert_int_equal(octree_triangle(w->tree, q, detail, mode, &out, NULL), OCTREE_OK);
+        assert_false(out.truncated);
+        touching += out.hit != 0;
+        if (detail == TRI_YESNO) {
+            assert_int_equal(a->found[i], out.hit != 0);
+            continue;
+        }
+        assert_int_equal(a->found[i], (int32_t)out.count);
+        for (size_t k = 0; k < out.count; k++, r++) {
+            assert_true(r < a->records);
+            assert_int_equal(a->contacts[r].query, i);
+            assert_int_equal(a->contacts[r].triangle, (int32_t)buf[k].triangle);
+            if (detail == TRI_SEGMENTS) {
+                const trioct_segment_t *s = &a->segments[r];
+                assert_true(s->p.x == buf[k].p.x && s->p.y == buf[k].p.y && s->p.z == buf[k].p.z);
+                assert_true(s->q.x == buf[k].q.x && s->q.y == buf[k].q.y && s->q.z == buf[k].q.z);
+            }
+        }
+    }
+    assert_int_equal(r, a->records);
+    free(buf);
+    world_release(w);
+    return touching;
+}
+
+static size_t expect_mesh(const answer *a, const char *world_name, const mesh_view *shape, const trioct_pose_t *poses,
+                          int n, int all_pairs, accuracy_mode mode)
+{
+    if (a->status != TRIOCT_OK)
+        fail_msg("status %s: %s", trioct_status_name(a->status), a->message);
+    world *w = held(world_name);
+    assert_int_equal(a->num_found, n);
+    size_t cap = 70000;
+    mesh_pair *buf = calloc(cap, sizeof *buf);
+    size_t r = 0, touching = 0;
+    for (int i = 0; i < n; i++) {
+        pose p;
+        memcpy(p.r, poses[i].r, sizeof p.r);
+        p.t = vv(poses[i].t);
+        mesh_output out = {.pairs = buf, .capacity = cap};
+        assert_int_equal(octree_mesh(w->tree, shape, &p, all_pairs, mode, &out, NULL), OCTREE_OK);
+        assert_false(out.truncated);
+        touching += out.hit != 0;
+        if (!all_pairs) {
+            assert_int_equal(a->found[i], out.hit != 0);
+            continue;
+        }
+        assert_int_equal(a->found[i], (int32_t)out.count);
+        for (size_t k = 0; k < out.count; k++, r++) {
+            assert_true(r < a->records);
+            assert_int_equal(a->pairs[r].pose, i);
+            assert_int_equal(a->pairs[r].shape_triangle, (int32_t)buf[k].query_triangle);
+            assert_int_equal(a->pairs[r].world_triangle, (int32_t)buf[k].world_triangle);
+        }
+    }
+    assert_int_equal(r, a->records);
+    free(buf);
+    world_release(w);
+    return touching;
+}
+
+static trioct_pose_t pose_at(double angle, vec3 t)
+{
+    double c = cos(angle), s = sin(angle);
+    return (trioct_pose_t){{c, -s, 0, s, c, 0, 0, 0, 1}, tv(t)};
+}
+
+/* ---------- peek and hostile bytes ---------- */
+
+static void expect_dropped(const char *channel, const void *bytes, size_t size, dispatch_peek_result want)
+{
+    dispatch_request req;
+    assert_int_equal(dispatch_peek(&F.ctx, channel, bytes, size, &req), want);
+    dispatch_reply rep;
+    assert_int_equal(dispatch_handle(&F.ctx, channel, bytes, size, NOW, &rep), -1);
+    assert_int_equal(rep.chunk_count, 0);
+    assert_null(rep.chunks);
+}
+
+static void test_peek_reads_the_header(void **state)
+{
+    (void)state;
+    rng r = rng_seeded(base_seed);
+    ray_set rays = sphere_rays(&r, 3);
+    trioct_ray_request_t q = ray_request("sphere", &rays, TRIOCT_RAY_REQUEST_T_CLOSEST, -1, 0, INFINITY, 0);
+    q.header.deadline_utime = NOW + 5;
+    msg m = ENCODE(trioct_ray_request_t, &q);
+    dispatch_request req;
+    assert_int_equal(dispatch_peek(&F.ctx, channel_of(TRIOCT_CHANNEL_RAY, "sphere"), m.data, m.size, &req),
+                     PEEK_REQUEST);
+    assert_int_equal(req.type, REQUEST_RAY);
+    assert_int_equal(req.channel_kind, TRIOCT_CHANNEL_RAY);
+    assert_string_equal(req.channel_name, "sphere");
+    assert_int_equal(req.client_id, CLIENT_ID);
+    assert_int_equal(req.request_id, q.header.request_id);
+    assert_string_equal(req.reply_channel, REPLY_CHANNEL);
+    assert_string_equal(req.world, "sphere");
+    assert_int_equal(req.deadline_utime, NOW + 5);
+    assert_int_equal(req.detail, TRIOCT_RAY_REQUEST_T_CLOSEST);
+    free(m.data);
+
+    /* LOAD on this daemon's channel and LIST are admin requests with their op. */
+    trioct_admin_request_t a = admin_request("newworld", TRIOCT_ADMIN_REQUEST_T_LOAD);
+    m = ENCODE(trioct_admin_request_t, &a);
+    assert_int_equal(dispatch_peek(&F.ctx, channel_of(TRIOCT_CHANNEL_LOAD, DAEMON), m.data, m.size, &req),
+                     PEEK_REQUEST);
+    assert_int_equal(req.type, REQUEST_ADMIN);
+    assert_int_equal(req.admin_op, TRIOCT_ADMIN_REQUEST_T_LOAD);
+    assert_string_equal(req.channel_name, DAEMON);
+    /* ... but not on another daemon's, nor on a status or unknown channel. */
+    expect_dropped(channel_of(TRIOCT_CHANNEL_LOAD, "d2"), m.data, m.size, PEEK_NOT_MINE);
+    expect_dropped(channel_of(TRIOCT_CHANNEL_STATUS, NULL), m.data, m.size, PEEK_NOT_MINE);
+    expect_dropped("TRIOCT_FOO_sphere", m.data, m.size, PEEK_NOT_MINE);
+    expect_dropped("OTHER_LOAD_d1", m.data, m.size, PEEK_NOT_MINE);
+    free(m.data);
+    ray_set_free(&rays);
+}
+
+static void test_hostile_bytes_are_dropped(void **state)
+{
+    (void)state;
+    rng r = rng_seeded(base_seed + 1);
+    ray_set rays = sphere_rays(&r, 4);
+    trioct_ray_request_t q = ray_request("sphere", &rays, TRIOCT_RAY_REQUEST_T_ANY, -1, 0, INFINITY, 0);
+    msg m = ENCODE(trioct_ray_request_t, &q);
+    const char *ray_channel = channel_of(TRIOCT_CHANNEL_RAY, "sphere");
+
+    /* Every truncation. */
+    for (size_t len = 0; len < m.size; len++)
+        expect_dropped(ray_channel, m.data, len, PEEK_MALFORMED);
+    /* A byte too many. */
+    uint8_t *longer = calloc(m.size + 1, 1);
+    memcpy(longer, m.data, m.size);
+    expect_dropped(ray_channel, longer, m.size + 1, PEEK_MALFORMED);
+    free(longer);
+    /* Wrong fingerprint. */
+    m.data[3] ^= 0x40;
+    expect_dropped(ray_channel, m.data, m.size, PEEK_MALFORMED);
+    m.data[3] ^= 0x40;
+    /* Negative and huge counts: num_rays sits just before the two arrays. */
+    size_t count_at = m.size - 2 * 24 * (size_t)rays.n - 4;
+    const uint8_t negative[4] = {0xff, 0xff, 0xff, 0xfb}, huge[4] = {0x7f, 0xff, 0xff, 0xff};
+    uint8_t saved[4];
+    memcpy(saved, &m.data[count_at], 4);
+    memcpy(&m.data[count_at], negative, 4);
+    expect_dropped(ray_channel, m.data, m.size, PEEK_MALFORMED);
+    memcpy(&m.data[count_at], huge, 4);
+    expect_dropped(ray_channel, m.data, m.size, PEEK_MALFORMED);
+    memcpy(&m.data[count_at], saved, 4);
+    /* The untouched message is fine, so the cases above failed for their one change. */
+    dispatch_request req;
+    assert_int_equal(dispatch_peek(&F.ctx, ray_channel, m.data, m.size, &req), PEEK_REQUEST);
+
+    /* Garbage after a valid fingerprint. */
+    uint8_t garbage[300];
+    memcpy(garbage, m.data, 8);
+    for (size_t i = 8; i < sizeof garbage; i++)
+        garbage[i] = (uint8_t)rng_next(&r);
+    expect_dropped(ray_channel, garbage, sizeof garbage, PEEK_MALFORMED);
+    expect_dropped(ray_channel, NULL, 0, PEEK_MALFORMED);
+
+    /* The right bytes on the wrong channel: a ray request is not a triangle or admin one. */
+    expect_dropped(channel_of(TRIOCT_CHANNEL_TRI, "sphere"), m.data, m.size, PEEK_MALFORMED);
+    expect_dropped(channel_of(TRIOCT_CHANNEL_ADMIN, "sphere"), m.data, m.size, PEEK_MALFORMED);
+    expect_dropped(channel_of(TRIOCT_CHANNEL_LIST, NULL), m.data, m.size, PEEK_MALFORMED);
+    free(m.data);
+
+    /* Reply channels that cannot be answered. */
+    const char *bad_replies[] = {"", "has space", "semi;colon", "TRIOCT_RAY_sphere", "TRIOCT_LIST",
+                                 "A234567890123456789012345678901234567890123456789012345678901234"};
+    for (size_t i = 0; i < sizeof bad_replies / sizeof bad_replies[0]; i++) {
+        q.header.reply_channel = (char *)bad_replies[i];
+        m = ENCODE(trioct_ray_request_t, &q);
+        expect_dropped(ray_channel, m.data, m.size, PEEK_MALFORMED);
+        free(m.data);
+    }
+    /* 63 characters is still a channel. */
+    q.header.reply_channel = "A23456789012345678901234567890123456789012345678901234567890123";
+    m = ENCODE(trioct_ray_request_t, &q);
+    assert_int_equal(dispatch_peek(&F.ctx, ray_channel, m.data, m.size, &req), PEEK_REQUEST);
+    free(m.data);
+    ray_set_free(&rays);
+}
+
+/* ---------- rays ---------- */
+
+static void test_rays_equal_the_engine(void **state)
+{
+    (void)state;
+    rng r = rng_seeded(base_seed + 2);
+    ray_set rays = sphere_rays(&r, 300);
+    const struct {
+        int8_t detail;
+        int8_t accuracy;
+        accuracy_mode mode;
+        double tmin, tmax;
+    } cases[] = {
+        {TRIOCT_RAY_REQUEST_T_ANY, TRIOCT_RAY_REQUEST_T_ACCURACY_WORLD, ACCURACY_EXACT, 0, INFINITY},
+        {TRIOCT_RAY_REQUEST_T_CLOSEST, TRIOCT_RAY_REQUEST_T_ACCURACY_WORLD, ACCURACY_EXACT, 0, INFINITY},
+        {TRIOCT_RAY_REQUEST_T_ALL, TRIOCT_RAY_REQUEST_T_ACCURACY_WORLD, ACCURACY_EXACT, 0, INFINITY},
+        {TRIOCT_RAY_REQUEST_T_CLOSEST, TRIOCT_RAY_REQUEST_T_FAST, ACCURACY_FAST, 0, INFINITY},
+        {TRIOCT_RAY_REQUEST_T_ALL, TRIOCT_RAY_REQUEST_T_SEED, ACCURACY_SEED, 0, INFINITY},
+        /* A t range that cuts some rays short. */
+        {TRIOCT_RAY_REQUEST_T_ALL, TRIOCT_RAY_REQUEST_T_EXACT, ACCURACY_EXACT, 0.1, 0.6},
+    };
+    for (size_t c = 0; c < sizeof cases / sizeof cases[0]; c++) {
+        trioct_ray_request_t q =
+            ray_request("sphere", &rays, cases[c].detail, cases[c].accuracy, cases[c].tmin, cases[c].tmax, 8);
+        answer a = ask_ray("sphere", &q);
+        assert_int_equal(a.chunks, 1);
+        assert_int_equal(a.detail, cases[c].detail);
+        assert_string_equal(a.world, "sphere");
+        size_t hitting = expect_rays(&a, "sphere", &rays, (ray_detail)cases[c].detail, cases[c].mode,
+                                     cases[c].tmin, cases[c].tmax, 8);
+        assert_true(hitting > 10 && hitting < 290); /* the batch has both hits and misses */
+        answer_free(&a);
+    }
+    /* The same answer as brute force over every triangle, for the closest hits. */
+    trioct_ray_request_t q = ray_request("sphere", &rays, TRIOCT_RAY_REQUEST_T_CLOSEST, -1, 0, INFINITY, 0);
+    answer a = ask_ray("sphere", &q);
+    char path[256];
+    snprintf(path, sizeof path, "%s/sphere.obj", F.dir);
+    mesh_data mesh;
+    char err[256];
+    assert_int_equal(mesh_load_file(path, &mesh, NULL, err, sizeof err), 0);
+    mesh_view view = mesh_data_view(&mesh);
+    size_t rec = 0;
+    for (int i = 0; i < rays.n; i++) {
+        ray_input in = {vv(rays.origin[i]), vv(rays.direction[i]), 0, INFINITY};
+        ray_hit h;
+        size_t n = brute_ray(&view, &in, RAY_CLOSEST, ACCURACY_EXACT, 0, &h, 1);
+        assert_int_equal(a.found[i], (int32_t)n);
+        if (n) {
+            assert_int_equal(a.hits[rec].triangle, (int32_t)h.triangle);
+            assert_true(a.hits[rec].t == h.t);
+            rec++;
+        }
+    }
+    assert_int_equal(rec, a.records);
+    mesh_data_free(&mesh);
+    answer_free(&a);
+    ray_set_free(&rays);
+}
+
+/* ALL keeps max_hits per ray but says how many crossings there were: nothing cut silently. */
+static void test_all_hits_report_more_than_stored(void **state)
+{
+    (void)state;
+    rng r = rng_seeded(base_seed + 3);
+    ray_set rays = layer_rays(&r, 20, 1);
+    trioct_ray_request_t q = ray_request("layers", &rays, TRIOCT_RAY_REQUEST_T_ALL, -1, 0, INFINITY, 7);
+    answer a = ask_ray("layers", &q);
+    expect_rays(&a, "layers", &rays, RAY_ALL, ACCURACY_EXACT, 0, INFINITY, 7);
+    for (int i = 0; i < rays.n; i++)
+        assert_int_equal(a.found[i], LAYERS);
+    assert_int_equal(a.records, 20 * 7);
+    answer_free(&a);
+    ray_set_free(&rays);
+}
+
+static void test_ray_results_come_in_chunks(void **state)
+{
+    (void)state;
+    rng r = rng_seeded(base_seed + 4);
+    /* Half the rays cross 60 layers, more than their share (65536 / 1280 = 51) of the reply:
+     * 38,400 hits of 56 bytes, about 36 chunks, each under the cap (read_reply checked). */
+    ray_set rays = layer_rays(&r, TRIOCT_MAX_RAYS, 2);
+    trioct_ray_request_t q =
+        ray_request("layers", &rays, TRIOCT_RAY_REQUEST_T_ALL, -1, 0, INFINITY, TRIOCT_MAX_HITS_PER_RAY);
+    answer a = ask_ray("layers", &q);
+    assert_true(a.chunks >= 35);
+    assert_int_equal(a.records, (size_t)TRIOCT_MAX_RAYS / 2 * LAYERS);
+    expect_rays(&a, "layers", &rays, RAY_ALL, ACCURACY_EXACT, 0, INFINITY, TRIOCT_MAX_HITS_PER_RAY);
+    answer_free(&a);
+    ray_set_free(&rays);
+}
+
+/* ---------- triangles ---------- */
+
+static trioct_triangle_t tri_of(vec3 a, vec3 b, vec3 c)
+{
+    return (trioct_triangle_t){tv(a), tv(b), tv(c)};
+}
+
+/* Small random triangles around the unit sphere's surface. */
+static trioct_triangle_t *sphere_triangles(rng *r, int n)
+{
+    trioct_triangle_t *t = calloc((size_t)n, sizeof *t);
+    for (int i = 0; i < n; i++) {
+        vec3 c = vec3_scale(rng_unit_vector(r), rng_uniform(r, 0.8, 1.2));
+        t[i] = tri_of(vec3_add(c, vec3_scale(rng_unit_vector(r), 0.15)),
+                      vec3_add(c, vec3_scale(rng_unit_vector(r), 0.15)),
+                      vec3_add(c, vec3_scale(rng_unit_vector(r), 0.15)));
+    }
+    return t;
+}
+
+static void test_triangles_equal_the_engine(void **state)
+{
+    (void)state;
+    rng r = rng_seeded(base_seed + 5);
+    int n = 200;
+    trioct_triangle_t *tris = sphere_triangles(&r, n);
+    const int8_t details[] = {TRIOCT_TRIANGLE_REQUEST_T_YESNO, TRIOCT_TRIANGLE_REQUEST_T_IDS,
+                              TRIOCT_TRIANGLE_REQUEST_T_SEGMENTS};
+    for (size_t d = 0; d < 3; d++) {
+        for (int8_t acc = -1; acc <= TRIOCT_RAY_REQUEST_T_FAST; acc++) {
+            trioct_triangle_request_t q = {header("sphere"), details[d], acc, n, tris};
+            answer a = ask_triangle("sphere", &q);
+            assert_int_equal(a.chunks, 1);
+            size_t touching = expect_triangles(&a, "sphere", tris, n, (tri_detail)details[d],
+                                               acc < 0 ? ACCURACY_EXACT : (accuracy_mode)acc);
+            assert_true(touching > 10 && touching < (size_t)n - 10);
+            answer_free(&a);
+        }
+    }
+    /* IDS equal brute force over every triangle. */
+    trioct_triangle_request_t q = {header("sphere"), TRIOCT_TRIANGLE_REQUEST_T_IDS, -1, n, tris};
+    answer a = ask_triangle("sphere", &q);
+    char path[256], err[256];
+    snprintf(path, sizeof path, "%s/sphere.obj", F.dir);
+    mesh_data mesh;
+    assert_int_equal(mesh_load_file(path, &mesh, NULL, err, sizeof err), 0);
+    mesh_view view = mesh_data_view(&mesh);
+    uint32_t ids[2000];
+    size_t rec = 0;
+    for (int i = 0; i < n; i++) {
+        vec3 t[3] = {vv(tris[i].a), vv(tris[i].b), vv(tris[i].c)};
+        size_t k = brute_triangle(&view, t, ACCURACY_EXACT, 0, ids, 2000);
+        assert_int_equal(a.found[i], (int32_t)k);
+        for (size_t j = 0; j < k; j++, rec++)
+            assert_int_equal(a.contacts[rec].triangle, (int32_t)ids[j]);
+    }
+    assert_int_equal(rec, a.records);
+    mesh_data_free(&mesh);
+    answer_free(&a);
+    free(tris);
+}
+
+static void test_triangle_results_come_in_chunks(void **state)
+{
+    (void)state;
+    /* Coplanar triangles over halves and eighths of the flat terrain (about 6,400 and 1,600
+     * contacts), among 60 small ones that touch a few: the big ones need more than their
+     * share (65536 / 64 = 1024) of the reply. */
+    enum { N = 64 };
+    trioct_triangle_t tris[N];
+    tris[0] = tri_of((vec3){-10, -10, 0}, (vec3){10, -10, 0}, (vec3){-10, 10, 0});
+    tris[1] = tri_of((vec3){10, -10, 0}, (vec3){10, 10, 0}, (vec3){-10, 10, 0});
+    tris[2] = tri_of((vec3){-10, 0, 0}, (vec3){0, 0, 0}, (vec3){-10, 10, 0});
+    tris[3] = tri_of((vec3){10, -10, 0}, (vec3){10, 0, 0}, (vec3){0, -10, 0});
+    rng r = rng_seeded(base_seed + 13);
+    for (int i = 4; i < N; i++) {
+        vec3 c = {rng_uniform(&r, -9, 9), rng_uniform(&r, -9, 9), 0};
+        tris[i] = tri_of(vec3_add(c, (vec3){-0.3, 0, -0.1}), vec3_add(c, (vec3){0.3, 0, -0.1}),
+                         vec3_add(c, (vec3){0, 0.2, 0.1}));
+    }
+    trioct_triangle_request_t q = {header("flat"), TRIOCT_TRIANGLE_REQUEST_T_SEGMENTS, -1, N, tris};
+    answer a = ask_triangle("flat", &q);
+    assert_true(a.records > 16000);
+    assert_true(a.chunks >= 15); /* 56 bytes per contact and segment */
+    assert_true(expect_triangles(&a, "flat", tris, N, TRI_SEGMENTS, ACCURACY_EXACT) == N);
+    assert_true(a.found[0] > 1024 && a.found[5] < 100);
+    answer_free(&a);
+
+    q.detail = TRIOCT_TRIANGLE_REQUEST_T_IDS;
+    q.header = header("flat");
+    a = ask_triangle("flat", &q);
+    assert_true(a.chunks >= 2); /* 8 bytes per contact: 7,500 a chunk */
+    expect_triangles(&a, "flat", tris, N, TRI_IDS, ACCURACY_EXACT);
+    answer_free(&a);
+}
+
+/* ---------- meshes ---------- */
+
+static void test_mesh_queries_equal_the_engine(void **state)
+{
+    (void)state;
+    rng r = rng_seeded(base_seed + 6);
+    int n = 60;
+    trioct_pose_t *poses = calloc((size_t)n, sizeof *poses);
+    for (int i = 0; i < n; i++)
+        poses[i] = pose_at(rng_uniform(&r, 0, 6.28), vec3_scale(rng_unit_vector(&r), rng_uniform(&r, 0.5, 1.5)));
+    world *w = held("sphere");
+    const world_shape *cube = world_find_shape(w, "cube");
+    assert_non_null(cube);
+    mesh_view cube_view = mesh_data_view(&cube->mesh);
+    for (int8_t detail = 0; detail <= 1; detail++) {
+        trioct_mesh_request_t q = {.header = header("sphere"), .detail = detail, .accuracy = -1, .shape = "cube",
+                                   .num_poses = n, .poses = poses};
+        answer a = ask_mesh("sphere", &q);
+        size_t touching = expect_mesh(&a, "sphere", &cube_view, poses, n, detail, ACCURACY_EXACT);
+        assert_true(touching > 5 && touching < (size_t)n - 5);
+        answer_free(&a);
+    }
+    /* The same shape sent inline gives the same answers. */
+    trioct_triangle_t *inline_tris = calloc(cube_view.triangle_count, sizeof *inline_tris);
+    for (size_t t = 0; t < cube_view.triangle_count; t++)
+        inline_tris[t] = tri_of(cube_view.vertices[cube_view.indices[3 * t]],
+                                cube_view.vertices[cube_view.indices[3 * t + 1]],
+                                cube_view.vertices[cube_view.indices[3 * t + 2]]);
+    trioct_mesh_request_t q = {.header = header("sphere"), .detail = TRIOCT_MESH_REQUEST_T_PAIRS, .accuracy = -1,
+                               .shape = "", .num_shape_triangles = (int32_t)cube_view.triangle_count,
+                               .shape_triangles = inline_tris, .num_poses = n, .poses = poses};
+    answer a = ask_mesh("sphere", &q);
+    expect_mesh(&a, "sphere", &cube_view, poses, n, 1, ACCURACY_EXACT);
+    answer_free(&a);
+    free(inline_tris);
+    world_release(w);
+    free(poses);
+}
+
+static void test_mesh_pairs_come_in_chunks(void **state)
+{
+    (void)state;
+    /* A shape of two coplanar triangles covering half the flat terrain each, at four
+     * positions: tens of thousands of pairs. */
+    trioct_triangle_t shape[2] = {
+        tri_of((vec3){-10, -10, 0}, (vec3){10, -10, 0}, (vec3){-10, 10, 0}),
+        tri_of((vec3){10, -10, 0}, (vec3){10, 10, 0}, (vec3){-10, 10, 0}),
+    };
+    /* Twenty more poses lifted off the terrain: the touching ones need more than their
+     * share (65536 / 24 = 2730). */
+    enum { N = 24 };
+    trioct_pose_t poses[N] = {pose_at(0, (vec3){0, 0, 0}), pose_at(0, (vec3){5, 0, 0}),
+                              pose_at(0, (vec3){0, 0, 3}), pose_at(0, (vec3){-4, -4, 0})};
+    for (int i = 4; i < N; i++)
+        poses[i] = pose_at(0.1 * i, (vec3){0, 0, 1 + i});
+    trioct_mesh_request_t q = {.header = header("flat"), .detail = TRIOCT_MESH_REQUEST_T_PAIRS, .accuracy = -1,
+                               .shape = "", .num_shape_triangles = 2, .shape_triangles = shape,
+                               .num_poses = N, .poses = poses};
+    answer a = ask_mesh("flat", &q);
+    assert_true(a.records > 30000);
+    assert_true(a.chunks >= 6); /* 12 bytes per pair: 5,000 a chunk */
+    assert_true(a.found[0] > 2730);
+    assert_int_equal(a.found[2], 0); /* lifted off the terrain */
+    vec3 v[6];
+    uint32_t ix[6] = {0, 1, 2, 3, 4, 5};
+    for (int t = 0; t < 2; t++) {
+        v[3 * t] = vv(shape[t].a);
+        v[3 * t + 1] = vv(shape[t].b);
+        v[3 * t + 2] = vv(shape[t].c);
+    }
+    mesh_view view = {v, 6, ix, 2};
+    expect_mesh(&a, "flat", &view, poses, N, 1, ACCURACY_EXACT);
+    answer_free(&a);
+}
+
+/* ---------- caps on results ---------- */
+
+static void test_result_caps_are_errors_not_cuts(void **state)
+{
+    (void)state;
+    /* One triangle over the whole terrain touches 12,800: over the per-triangle cap. */
+    trioct_triangle_t whole = tri_of((vec3){-30, -30, 0}, (vec3){30, -30, 0}, (vec3){0, 40, 0});
+    trioct_triangle_request_t q = {header("flat"), TRIOCT_TRIANGLE_REQUEST_T_IDS, -1, 1, &whole};
+    answer a = ask_triangle("flat", &q);
+    expect_error(&a, TRIOCT_ERR_OVER_CAP, "TRIOCT_MAX_CONTACTS_PER_TRIANGLE=10000");
+    assert_non_null(strstr(a.message, "triangle 0 touches 12800"));
+    answer_free(&a);
+    /* YESNO of the same triangle is fine: one bit. */
+    q.detail = TRIOCT_TRIANGLE_REQUEST_T_YESNO;
+    q.header = header("flat");
+    a = ask_triangle("flat", &q);
+    assert_int_equal(a.status, TRIOCT_OK);
+    assert_int_equal(a.found[0], 1);
+    answer_free(&a);
+
+    /* Eleven triangles over half the terrain: each under its cap, together over
+     * TRIOCT_MAX_RESULTS. */
+    trioct_triangle_t quarters[11];
+    for (int i = 0; i < 11; i++)
+        quarters[i] = tri_of((vec3){-10, -10, 0}, (vec3){10, -10, 0}, (vec3){-10, 10, 0});
+    q = (trioct_triangle_request_t){header("flat"), TRIOCT_TRIANGLE_REQUEST_T_IDS, -1, 11, quarters};
+    a = ask_triangle("flat", &q);
+    expect_error(&a, TRIOCT_ERR_OVER_CAP, "over TRIOCT_MAX_RESULTS=65536; send fewer triangles");
+    answer_free(&a);
+
+    /* Mesh pairs over the reply cap: eleven poses of a shape over half the terrain. */
+    trioct_pose_t poses[11];
+    for (int i = 0; i < 11; i++)
+        poses[i] = pose_at(0, (vec3){0, 0, 0});
+    trioct_mesh_request_t mq = {.header = header("flat"), .detail = TRIOCT_MESH_REQUEST_T_PAIRS, .accuracy = -1,
+                                .shape = "", .num_shape_triangles = 1, .shape_triangles = &quarters[0],
+                                .num_poses = 11, .poses = poses};
+    a = ask_mesh("flat", &mq);
+    expect_error(&a, TRIOCT_ERR_OVER_CAP, "TRIOCT_MAX_RESULTS=65536");
+    answer_free(&a);
+
+    /* Rays: 1,280 rays through 60 layers store 76,800 hits, over the cap; storing 51 each
+     * makes 65,280, just under it, and is answered in full. */
+    rng r = rng_seeded(base_seed + 7);
+    ray_set rays = layer_rays(&r, TRIOCT_MAX_RAYS, 1);
+    trioct_ray_request_t rq = ray_request("layers", &rays, TRIOCT_RAY_REQUEST_T_ALL, -1, 0, INFINITY, 1000);
+    a = ask_ray("layers", &rq);
+    expect_error(&a, TRIOCT_ERR_OVER_CAP,
+                 "produced 76800 results, over TRIOCT_MAX_RESULTS=65536; send fewer rays or a smaller max_hits");
+    answer_free(&a);
+    rq = ray_request("layers", &rays, TRIOCT_RAY_REQUEST_T_ALL, -1, 0, INFINITY, 51);
+    a = ask_ray("layers", &rq);
+    assert_int_equal(a.records, (size_t)TRIOCT_MAX_RAYS * 51);
+    expect_rays(&a, "layers", &rays, RAY_ALL, ACCURACY_EXACT, 0, INFINITY, 51);
+    answer_free(&a);
+    ray_set_free(&rays);
+}
+
+/* ---------- status codes ---------- */
+
+static int provoked[TRIOCT_WIRE_STATUS_COUNT];
+
+static void saw(const answer *a, int status, const char *needle)
+{
+    expect_error(a, status, needle);
+    provoked[status] = 1;
+}
+
+static void test_every_status_code(void **state)
+{
+    (void)state;
+    rng r = rng_seeded(base_seed + 8);
+    ray_set rays = sphere_rays(&r, 5);
+    trioct_ray_request_t q;
+    answer a;
+
+    q = ray_request("sphere", &rays, TRIOCT_RAY_REQUEST_T_CLOSEST, -1, 0, INFINITY, 0);
+    a = ask_ray("sphere", &q);
+    assert_int_equal(a.status, TRIOCT_OK);
+    provoked[TRIOCT_OK] = 1;
+    answer_free(&a);
+
+    /* BAD_REQUEST: world differs from the channel's, bad detail, bad accuracy, tmin > tmax,
+     * max_hits 0 for ALL. */
+    q = ray_request("raysonly", &rays, TRIOCT_RAY_REQUEST_T_CLOSEST, -1, 0, INFINITY, 0);
+    a = ask_ray("sphere", &q);
+    saw(&a, TRIOCT_ERR_BAD_REQUEST, "header.world \"raysonly\" differs from world sphere");
+    assert_string_equal(a.world, "raysonly"); /* the world as sent is echoed */
+    answer_free(&a);
+    q = ray_request("sphere", &rays, 3, -1, 0, INFINITY, 0);
+    a = ask_ray("sphere", &q);
+    saw(&a, TRIOCT_ERR_BAD_REQUEST, "detail 3");
+    assert_int_equal(a.detail, 3);
+    answer_free(&a);
+    q = ray_request("sphere", &rays, TRIOCT_RAY_REQUEST_T_ANY, 5, 0, INFINITY, 0);
+    a = ask_ray("sphere", &q);
+    saw(&a, TRIOCT_ERR_BAD_REQUEST, "accuracy 5");
+    answer_free(&a);
+    q = ray_request("sphere", &rays, TRIOCT_RAY_REQUEST_T_ANY, -1, 2, 1, 0);
+    a = ask_ray("sphere", &q);
+    saw(&a, TRIOCT_ERR_BAD_REQUEST, "tmin 2 is greater than tmax 1");
+    answer_free(&a);
+    q = ray_request("sphere", &rays, TRIOCT_RAY_REQUEST_T_ALL, -1, 0, INFINITY, 0);
+    a = ask_ray("sphere", &q);
+    saw(&a, TRIOCT_ERR_BAD_REQUEST, "max_hits 0");
+    answer_free(&a);
+
+    /* UNKNOWN_WORLD. */
+    q = ray_request("nope", &rays, TRIOCT_RAY_REQUEST_T_ANY, -1, 0, INFINITY, 0);
+    a = ask_ray("nope", &q);
+    saw(&a, TRIOCT_ERR_UNKNOWN_WORLD, "world nope is not held by daemon d1");
+    assert_int_equal(a.version, 0);
+    answer_free(&a);
+
+    /* NONFINITE: an origin, a direction, tmin, tmax; the index is named. */
+    trioct_vec3_t keep = rays.origin[3];
+    rays.origin[3].y = NAN;
+    q = ray_request("sphere", &rays, TRIOCT_RAY_REQUEST_T_ANY, -1, 0, INFINITY, 0);
+    a = ask_ray("sphere", &q);
+    saw(&a, TRIOCT_ERR_NONFINITE, "origin[3]");
+    answer_free(&a);
+    rays.origin[3] = keep;
+    keep = rays.direction[4];
+    rays.direction[4].z = -INFINITY;
+    q = ray_request("sphere", &rays, TRIOCT_RAY_REQUEST_T_ANY, -1, 0, INFINITY, 0);
+    a = ask_ray("sphere", &q);
+    saw(&a, TRIOCT_ERR_NONFINITE, "direction[4]");
+    answer_free(&a);
+    rays.direction[4] = keep;
+    q = ray_request("sphere", &rays, TRIOCT_RAY_REQUEST_T_ANY, -1, -INFINITY, INFINITY, 0);
+    a = ask_ray("sphere", &q);
+    saw(&a, TRIOCT_ERR_NONFINITE, "tmin");
+    answer_free(&a);
+    q = ray_request("sphere", &rays, TRIOCT_RAY_REQUEST_T_ANY, -1, 0, NAN, 0);
+    a = ask_ray("sphere", &q);
+    saw(&a, TRIOCT_ERR_NONFINITE, "tmax");
+    answer_free(&a);
+
+    /* ZERO_DIRECTION, negative zeros included. */
+    keep = rays.direction[2];
+    rays.direction[2] = (trioct_vec3_t){0.0, -0.0, 0.0};
+    q = ray_request("sphere", &rays, TRIOCT_RAY_REQUEST_T_ANY, -1, 0, INFINITY, 0);
+    a = ask_ray("sphere", &q);
+    saw(&a, TRIOCT_ERR_ZERO_DIRECTION, "direction[2] of ray 2 is (0, 0, 0)");
+    answer_free(&a);
+    rays.direction[2] = keep;
+
+    /* OVER_CAP: too many rays (within the request byte cap), too many hits per ray, and a
+     * request over the byte cap. */
+    rng big = rng_seeded(base_seed + 9);
+    ray_set many = sphere_rays(&big, 1300);
+    q = ray_request("sphere", &many, TRIOCT_RAY_REQUEST_T_ANY, -1, 0, INFINITY, 0);
+    a = ask_ray("sphere", &q);
+    saw(&a, TRIOCT_ERR_OVER_CAP, "num_rays 1300 is over TRIOCT_MAX_RAYS=1280");
+    answer_free(&a);
+    ray_set_free(&many);
+    many = sphere_rays(&big, 1400);
+    q = ray_request("sphere", &many, TRIOCT_RAY_REQUEST_T_ANY, -1, 0, INFINITY, 0);
+    a = ask_ray("sphere", &q);
+    saw(&a, TRIOCT_ERR_OVER_CAP, "TRIOCT_MAX_REQUEST_BYTES=65000");
+    answer_free(&a);
+    ray_set_free(&many);
+    q = ray_request("sphere", &rays, TRIOCT_RAY_REQUEST_T_ALL, -1, 0, INFINITY, TRIOCT_MAX_HITS_PER_RAY + 1);
+    a = ask_ray("sphere", &q);
+    saw(&a, TRIOCT_ERR_OVER_CAP, "max_hits 1001 is over TRIOCT_MAX_HITS_PER_RAY=1000");
+    answer_free(&a);
+
+    /* EFFECT: a triangle query on a rays-only world, a ray query on a world without rays. */
+    trioct_triangle_t tri = tri_of((vec3){0, 0, 0}, (vec3){1, 0, 0}, (vec3){0, 1, 0});
+    trioct_triangle_request_t tq = {header("raysonly"), TRIOCT_TRIANGLE_REQUEST_T_YESNO, -1, 1, &tri};
+    a = ask_triangle("raysonly", &tq);
+    saw(&a, TRIOCT_ERR_EFFECT, "world raysonly serves rays only; triangle queries need effects = triangles");
+    answer_free(&a);
+    q = ray_request("flat", &rays, TRIOCT_RAY_REQUEST_T_ANY, -1, 0, INFINITY, 0);
+    a = ask_ray("flat", &q);
+    saw(&a, TRIOCT_ERR_EFFECT, "world flat serves triangles and meshes only; ray queries need effects = rays");
+    answer_free(&a);
+
+    /* NONFINITE in a triangle, names the vertex. */
+    tri.b.z = NAN;
+    tq = (trioct_triangle_request_t){header("sphere"), TRIOCT_TRIANGLE_REQUEST_T_IDS, -1, 1, &tri};
+    a = ask_triangle("sphere", &tq);
+    saw(&a, TRIOCT_ERR_NONFINITE, "triangles[0].b");
+    answer_free(&a);
+
+    /* DEADLINE: passed is refused; in the future, or 0, is answered. */
+    q = ray_request("sphere", &rays, TRIOCT_RAY_REQUEST_T_ANY, -1, 0, INFINITY, 0);
+    q.header.deadline_utime = NOW - 1;
+    a = ask_ray("sphere", &q);
+    saw(&a, TRIOCT_ERR_DEADLINE, "deadline_utime");
+    answer_free(&a);
+    q.header.deadline_utime = NOW;
+    a = ask_ray("sphere", &q);
+    assert_int_equal(a.status, TRIOCT_OK);
+    answer_free(&a);
+
+    /* UNKNOWN_SHAPE, and a mesh query's own checks. */
+    trioct_pose_t pose = pose_at(0, (vec3){0, 0, 0});
+    trioct_mesh_request_t mq = {.header = header("sphere"), .detail = 0, .accuracy = -1, .shape = "gripper",
+                                .num_poses = 1, .poses = &pose};
+    a = ask_mesh("sphere", &mq);
+    saw(&a, TRIOCT_ERR_UNKNOWN_SHAPE, "world sphere has no query shape \"gripper\"");
+    answer_free(&a);
+    pose.r[4] = INFINITY;
+    mq.shape = "cube";
+    mq.header = header("sphere");
+    a = ask_mesh("sphere", &mq);
+    saw(&a, TRIOCT_ERR_NONFINITE, "poses[0].r[4]");
+    answer_free(&a);
+    pose.r[4] = 1;
+    mq.shape = "";
+    mq.header = header("sphere");
+    a = ask_mesh("sphere", &mq);
+    saw(&a, TRIOCT_ERR_BAD_REQUEST, "no query shape");
+    answer_free(&a);
+
+    /* BAD_PATH, LOAD_FAILED and admin ops on the wrong channel. */
+    a = load_path("escape", "../x.obj", 0, -1, 0);
+    saw(&a, TRIOCT_ERR_BAD_PATH, "x.obj");
+    answer_free(&a);
+    a = load_path("broken", "garbage.obj", 0, -1, 0);
+    saw(&a, TRIOCT_ERR_LOAD_FAILED, "garbage.obj");
+    answer_free(&a);
+    trioct_admin_request_t ar = admin_request("sphere", TRIOCT_ADMIN_REQUEST_T_UNLOAD);
+    a = ask_admin(TRIOCT_CHANNEL_LIST, NULL, &ar);
+    saw(&a, TRIOCT_ERR_BAD_REQUEST, "admin op 3 (UNLOAD) is not served on this channel");
+    answer_free(&a);
+
+    /* NOMEM: the first allocation of an answer fails. */
+    q = ray_request("sphere", &rays, TRIOCT_RAY_REQUEST_T_CLOSEST, -1, 0, INFINITY, 0);
+    dispatch_fail_allocation(1);
+    a = ask_ray("sphere", &q);
+    dispatch_fail_allocation(0);
+    saw(&a, TRIOCT_ERR_NOMEM, "out of memory");
+    answer_free(&a);
+
+    /* BUSY and STOPPING come from the loop, through dispatch_error, for each reply type. */
+    const struct {
+        request_type type;
+        trioct_channel_kind kind;
+        const char *name;
+    } kinds[] = {{REQUEST_RAY, TRIOCT_CHANNEL_RAY, "sphere"},
+                 {REQUEST_TRIANGLE, TRIOCT_CHANNEL_TRI, "sphere"},
+                 {REQUEST_MESH, TRIOCT_CHANNEL_MESH, "sphere"},
+                 {REQUEST_ADMIN, TRIOCT_CHANNEL_LIST, NULL}};
+    for (size_t k = 0; k < 4; k++) {
+        msg m;
+        if (kinds[k].type == REQUEST_RAY) {
+            q = ray_request("sphere", &rays, TRIOCT_RAY_REQUEST_T_ALL, -1, 0, INFINITY, 4);
+            m = ENCODE(trioct_ray_request_t, &q);
+        } else if (kinds[k].type == REQUEST_TRIANGLE) {
+            tq = (trioct_triangle_request_t){header("sphere"), TRIOCT_TRIANGLE_REQUEST_T_IDS, -1, 0, NULL};
+            m = ENCODE(trioct_triangle_request_t, &tq);
+        } else if (kinds[k].type == REQUEST_MESH) {
+            mq = (trioct_mesh_request_t){.header = header("sphere"), .detail = 1, .shape = "cube"};
+            m = ENCODE(trioct_mesh_request_t, &mq);
+        } else {
+            ar = admin_request("", TRIOCT_ADMIN_REQUEST_T_LIST);
+            m = ENCODE(trioct_admin_request_t, &ar);
+        }
+        const char *ch = channel_of(kinds[k].kind, kinds[k].name);
+        dispatch_request req;
+        assert_int_equal(dispatch_peek(&F.ctx, ch, m.data, m.size, &req), PEEK_REQUEST);
+        for (int s = 0; s < 2; s++) {
+            int status = s ? TRIOCT_ERR_STOPPING : TRIOCT_ERR_BUSY;
+            dispatch_reply rep;
+            assert_int_equal(dispatch_error(&F.ctx, &req, status, s ? NULL : "queue full (64 requests)", &rep),
+                             0);
+            assert_int_equal(rep.status, status);
+            answer e = read_reply(&rep, kinds[k].type, req.request_id);
+            saw(&e, status, s ? trioct_status_text(status) : "queue full (64 requests)");
+            assert_int_equal(e.detail, kinds[k].type == REQUEST_RAY      ? TRIOCT_RAY_REQUEST_T_ALL
+                                       : kinds[k].type == REQUEST_ADMIN ? TRIOCT_ADMIN_REQUEST_T_LIST
+                                                                        : 1);
+            assert_int_equal(e.version, 0);
+            answer_free(&e);
+            dispatch_reply_free(&rep);
+        }
+        free(m.data);
+    }
+
+    for (int s = 0; s < TRIOCT_WIRE_STATUS_COUNT; s++)
+        if (!provoked[s])
+            fail_msg("status %d (%s) was never provoked", s, trioct_status_name(s));
+    ray_set_free(&rays);
+}
+
+/* ---------- admin ---------- */
+
+static const trioct_world_info_t *find_info(const answer *a, const char *name)
+{
+    for (size_t i = 0; i < a->num_worlds; i++)
+        if (strcmp(a->worlds[i].name, name) == 0)
+            return &a->worlds[i];
+    return NULL;
+}
+
+static void test_list_and_info_describe_the_worlds(void **state)
+{
+    (void)state;
+    answer a = admin_op("", TRIOCT_ADMIN_REQUEST_T_LIST);
+    assert_int_equal(a.status, TRIOCT_OK);
+    assert_int_equal(a.detail, TRIOCT_ADMIN_REQUEST_T_LIST);
+    assert_int_equal(a.version, 0);
+    assert_int_equal(a.worlds_changed, 0);
+    registry_entry entries[TRIOCT_MAX_WORLDS];
+    size_t count = registry_entries(F.reg, entries, TRIOCT_MAX_WORLDS);
+    assert_int_equal(a.num_worlds, count);
+    assert_true(count >= 4);
+    for (size_t i = 0; i < count; i++) {
+        const trioct_world_info_t *info = &a.worlds[i];
+        const world *w = entries[i].w;
+        octree_info oi;
+        octree_get_info(w->tree, &oi);
+        assert_string_equal(info->name, w->spec.name); /* sorted by name, as the registry is */
+        assert_string_equal(info->daemon, DAEMON);
+        assert_int_equal(info->version, (int64_t)w->version);
+        assert_string_equal(info->source, w->spec.source);
+        assert_string_equal(info->accuracy, accuracy_mode_name(w->spec.def.mode));
+        assert_int_equal(info->effects, (int32_t)w->spec.effects);
+        assert_int_equal(info->triangles, (int64_t)oi.triangle_count);
+        assert_int_equal(info->vertices, (int64_t)oi.vertex_count);
+        assert_int_equal(info->nodes, (int64_t)oi.node_count);
+        assert_int_equal(info->leaves, (int64_t)oi.leaf_count);
+        assert_int_equal(info->max_level, oi.max_level);
+        assert_true(info->resolution == oi.resolution && info->world_size == oi.world_size);
+        assert_true(info->world_min.x == oi.world_min.x && info->world_min.z == oi.world_min.z);
+        assert_true(info->bbox_min.x == w->report.bbox_lo.x && info->bbox_max.y == w->report.bbox_hi.y);
+        assert_int_equal(info->bytes_nodes, (int64_t)oi.bytes_nodes);
+        assert_int_equal(info->bytes_leaf_lists, (int64_t)oi.bytes_leaf_lists);
+        assert_int_equal(info->bytes_triangles, (int64_t)oi.bytes_triangles);
+        assert_int_equal(info->bytes_effects, (int64_t)(w->bytes_shapes + oi.bytes_triangle_boxes));
+        assert_int_equal(info->bytes_total, (int64_t)(oi.bytes_total + w->bytes_shapes));
+        assert_int_equal(info->num_shapes, (int32_t)w->shape_count);
+        for (size_t s = 0; s < w->shape_count; s++)
+            assert_string_equal(info->shapes[s], w->shapes[s].name);
+        assert_string_equal(info->last_error, entries[i].last_error);
+    }
+    registry_entries_free(entries, count);
+    /* Only the effects a world serves cost memory: a rays-only sphere has no triangle
+     * boxes and no shapes; the full one has both. */
+    const trioct_world_info_t *full = find_info(&a, "sphere"), *rays = find_info(&a, "raysonly");
+    assert_non_null(full);
+    assert_non_null(rays);
+    assert_int_equal(rays->bytes_effects, 0);
+    assert_true(full->bytes_effects > 0);
+    assert_int_equal(full->num_shapes, 1);
+    assert_string_equal(full->shapes[0], "cube");
+    assert_true(full->bytes_total > rays->bytes_total);
+    answer_free(&a);
+
+    /* INFO answers for one world, and counts the queries answered on it. */
+    a = admin_op("layers", TRIOCT_ADMIN_REQUEST_T_INFO);
+    assert_int_equal(a.status, TRIOCT_OK);
+    assert_int_equal(a.num_worlds, 1);
+    assert_string_equal(a.worlds[0].name, "layers");
+    int64_t before = a.worlds[0].queries;
+    assert_int_equal(a.version, a.worlds[0].version);
+    answer_free(&a);
+    rng r = rng_seeded(base_seed + 10);
+    ray_set rays3 = layer_rays(&r, 3, 1);
+    for (int i = 0; i < 3; i++) {
+        trioct_ray_request_t q = ray_request("layers", &rays3, TRIOCT_RAY_REQUEST_T_ANY, -1, 0, INFINITY, 0);
+        answer x = ask_ray("layers", &q);
+        assert_int_equal(x.status, TRIOCT_OK);
+        answer_free(&x);
+    }
+    trioct_ray_request_t bad = ray_request("layers", &rays3, 9, -1, 0, INFINITY, 0);
+    answer x = ask_ray("layers", &bad);
+    assert_int_equal(x.status, TRIOCT_ERR_BAD_REQUEST);
+    answer_free(&x);
+    a = admin_op("layers", TRIOCT_ADMIN_REQUEST_T_INFO);
+    assert_int_equal(a.worlds[0].queries, before + 3); /* answered ones only */
+    answer_free(&a);
+    ray_set_free(&rays3);
+}
+
+static void test_load_and_unload(void **state)
+{
+    (void)state;
+    rng r = rng_seeded(base_seed + 11);
+    ray_set rays = sphere_rays(&r, 50);
+    for (int i = 0; i < rays.n; i++) /* aim them at the unit box */
+        rays.direction[i] = tv(vec3_sub(rng_point_in_box(&r, (box3){{0, 0, 0}, {1, 1, 1}}), vv(rays.origin[i])));
+
+    /* From a mesh path, with options. */
+    answer a = load_path("loaded", "box.obj", 0.25, TRIOCT_RAY_REQUEST_T_FAST, TRIOCT_WORLD_INFO_T_EFFECT_RAYS);
+    assert_int_equal(a.status, TRIOCT_OK);
+    assert_int_equal(a.worlds_changed, 1);
+    assert_int_equal(a.detail, TRIOCT_ADMIN_REQUEST_T_LOAD);
+    assert_int_equal(a.num_worlds, 1);
+    assert_int_equal(a.version, 1);
+    assert_string_equal(a.world, "loaded");
+    const trioct_world_info_t *info = &a.worlds[0];
+    assert_string_equal(info->name, "loaded");
+    assert_string_equal(info->source, "box.obj");
+    assert_string_equal(info->accuracy, "fast");
+    assert_int_equal(info->effects, TRIOCT_WORLD_INFO_T_EFFECT_RAYS);
+    assert_int_equal(info->triangles, 12);
+    assert_true(info->resolution == 0.25);
+    assert_int_equal(info->version, 1);
+    answer_free(&a);
+    trioct_ray_request_t q = ray_request("loaded", &rays, TRIOCT_RAY_REQUEST_T_CLOSEST, -1, 0, INFINITY, 0);
+    a = ask_ray("loaded", &q);
+    assert_true(expect_rays(&a, "loaded", &rays, RAY_CLOSEST, ACCURACY_FAST, 0, INFINITY, 1) > 10);
+    answer_free(&a);
+    trioct_triangle_t tri = tri_of((vec3){0, 0, 0}, (vec3){1, 0, 0}, (vec3){0, 1, 0});
+    trioct_triangle_request_t tq = {header("loaded"), TRIOCT_TRIANGLE_REQUEST_T_YESNO, -1, 1, &tri};
+    a = ask_triangle("loaded", &tq);
+    expect_error(&a, TRIOCT_ERR_EFFECT, "serves rays only");
+    answer_free(&a);
+
+    /* LOAD of a held world rebuilds it: a new version. Without options it is exact. */
+    a = load_path("loaded", "box.obj", 0, TRIOCT_RAY_REQUEST_T_ACCURACY_WORLD, 0);
+    assert_int_equal(a.status, TRIOCT_OK);
+    assert_int_equal(a.version, 2);
+    assert_string_equal(a.worlds[0].accuracy, "exact");
+    assert_int_equal(a.worlds[0].effects, 7);
+    answer_free(&a);
+    q = ray_request("loaded", &rays, TRIOCT_RAY_REQUEST_T_CLOSEST, -1, 0, INFINITY, 0);
+    a = ask_ray("loaded", &q);
+    assert_int_equal(a.version, 2);
+    expect_rays(&a, "loaded", &rays, RAY_CLOSEST, ACCURACY_EXACT, 0, INFINITY, 1);
+    answer_free(&a);
+
+    /* A failed rebuild keeps the old version serving and says why in INFO. */
+    a = load_path("loaded", "garbage.obj", 0, -1, 0);
+    expect_error(&a, TRIOCT_ERR_LOAD_FAILED, "garbage.obj");
+    assert_int_equal(a.worlds_changed, 0);
+    answer_free(&a);
+    a = admin_op("loaded", TRIOCT_ADMIN_REQUEST_T_INFO);
+    assert_int_equal(a.status, TRIOCT_OK);
+    assert_int_equal(a.worlds[0].version, 2);
+    assert_non_null(strstr(a.worlds[0].last_error, "garbage.obj"));
+    answer_free(&a);
+
+    /* Bad LOAD options. */
+    a = load_path("loaded2", "box.obj", 0, -1, 8);
+    expect_error(&a, TRIOCT_ERR_BAD_REQUEST, "effects 0x8");
+    answer_free(&a);
+    a = load_path("loaded2", "box.obj", NAN, -1, 0);
+    expect_error(&a, TRIOCT_ERR_NONFINITE, "resolution");
+    answer_free(&a);
+    a = load_path("bad-name", "box.obj", 0, -1, 0);
+    expect_error(&a, TRIOCT_ERR_BAD_REQUEST, "LOAD needs header.world");
+    answer_free(&a);
+    a = load_path("loaded2", "/etc/passwd", 0, -1, 0);
+    expect_error(&a, TRIOCT_ERR_BAD_PATH, "absolute");
+    answer_free(&a);
+    a = load_path("loaded2", "sub/../../box.obj", 0, -1, 0);
+    expect_error(&a, TRIOCT_ERR_BAD_PATH, NULL);
+    answer_free(&a);
+
+    /* From the scene: the section's own options (accuracy = fast, rays only). */
+    a = admin_op("spare", TRIOCT_ADMIN_REQUEST_T_LOAD);
+    assert_int_equal(a.status, TRIOCT_OK);
+    assert_int_equal(a.worlds_changed, 1);
+    assert_string_equal(a.worlds[0].accuracy, "fast");
+    assert_int_equal(a.worlds[0].effects, TRIOCT_WORLD_INFO_T_EFFECT_RAYS);
+    assert_non_null(strstr(a.worlds[0].source, "[spare]"));
+    answer_free(&a);
+    a = admin_op("missing", TRIOCT_ADMIN_REQUEST_T_LOAD);
+    expect_error(&a, TRIOCT_ERR_BAD_REQUEST, "scene has no section [missing]");
+    answer_free(&a);
+
+    /* LOAD for another daemon is not ours; INFO on the LOAD channel is refused. */
+    trioct_admin_request_t ar = admin_request("spare", TRIOCT_ADMIN_REQUEST_T_LOAD);
+    msg m = ENCODE(trioct_admin_request_t, &ar);
+    expect_dropped(channel_of(TRIOCT_CHANNEL_LOAD, "d2"), m.data, m.size, PEEK_NOT_MINE);
+    free(m.data);
+    ar = admin_request("spare", TRIOCT_ADMIN_REQUEST_T_INFO);
+    a = ask_admin(TRIOCT_CHANNEL_LOAD, DAEMON, &ar);
+    expect_error(&a, TRIOCT_ERR_BAD_REQUEST, "takes LOAD (2)");
+    answer_free(&a);
+
+    /* UNLOAD, then the world is gone for every request. */
+    for (int k = 0; k < 2; k++) {
+        const char *name = k ? "spare" : "loaded";
+        a = admin_op(name, TRIOCT_ADMIN_REQUEST_T_UNLOAD);
+        assert_int_equal(a.status, TRIOCT_OK);
+        assert_int_equal(a.worlds_changed, 1);
+        assert_int_equal(a.num_worlds, 0);
+        answer_free(&a);
+        q = ray_request(name, &rays, TRIOCT_RAY_REQUEST_T_ANY, -1, 0, INFINITY, 0);
+        a = ask_ray(name, &q);
+        expect_error(&a, TRIOCT_ERR_UNKNOWN_WORLD, "is not held by daemon d1");
+        answer_free(&a);
+        a = admin_op(name, TRIOCT_ADMIN_REQUEST_T_INFO);
+        expect_error(&a, TRIOCT_ERR_UNKNOWN_WORLD, NULL);
+        answer_free(&a);
+        a = admin_op(name, TRIOCT_ADMIN_REQUEST_T_UNLOAD);
+        expect_error(&a, TRIOCT_ERR_UNKNOWN_WORLD, NULL);
+        assert_int_equal(a.worlds_changed, 0);
+        answer_free(&a);
+    }
+    a = admin_op("", TRIOCT_ADMIN_REQUEST_T_LIST);
+    assert_null(find_info(&a, "loaded"));
+    assert_null(find_info(&a, "spare"));
+    assert_non_null(find_info(&a, "sphere"));
+    answer_free(&a);
+    ray_set_free(&rays);
+}
+
+/* Worlds with long sources fill more than one chunk; the daemon's world cap is an error. */
+static void test_list_comes_in_chunks(void **state)
+{
+    (void)state;
+    /* "./" repeated: a long path that still resolves inside the world directory. */
+    char path[1000];
+    size_t n = 0;
+    while (n + 2 < 960)
+        path[n++] = '.', path[n++] = '/';
+    strcpy(&path[n], "box.obj");
+
+    registry_entry entries[TRIOCT_MAX_WORLDS];
+    size_t before = registry_entries(F.reg, entries, TRIOCT_MAX_WORLDS);
+    registry_entries_free(entries, before);
+    size_t added = 0;
+    char name[16];
+    for (; before + added < TRIOCT_MAX_WORLDS; added++) {
+        snprintf(name, sizeof name, "w%02zu", added);
+        answer a = load_path(name, path, 0.5, -1, TRIOCT_WORLD_INFO_T_EFFECT_RAYS);
+        assert_int_equal(a.status, TRIOCT_OK);
+        answer_free(&a);
+    }
+    answer a = load_path("onemore", "box.obj", 0, -1, 0);
+    expect_error(&a, TRIOCT_ERR_OVER_CAP, "TRIOCT_MAX_WORLDS=64");
+    answer_free(&a);
+
+    a = admin_op("", TRIOCT_ADMIN_REQUEST_T_LIST);
+    assert_int_equal(a.status, TRIOCT_OK);
+    assert_true(a.chunks >= 2);
+    assert_int_equal(a.num_worlds, TRIOCT_MAX_WORLDS);
+    for (size_t i = 1; i < a.num_worlds; i++) /* in order over the chunks */
+        assert_true(strcmp(a.worlds[i - 1].name, a.worlds[i].name) < 0);
+    for (size_t i = 0; i < added; i++) {
+        snprintf(name, sizeof name, "w%02zu", i);
+        const trioct_world_info_t *info = find_info(&a, name);
+        assert_non_null(info);
+        assert_string_equal(info->source, path);
+    }
+    answer_free(&a);
+    for (size_t i = 0; i < added; i++) {
+        snprintf(name, sizeof name, "w%02zu", i);
+        a = admin_op(name, TRIOCT_ADMIN_REQUEST_T_UNLOAD);
+        assert_int_equal(a.status, TRIOCT_OK);
+        answer_free(&a);
+    }
+}
+
+/* ---------- out of memory ---------- */
+
+typedef struct saved_reply {
+    size_t count;
+    uint8_t **data;
+    size_t *size;
+} saved_reply;
+
+/* Each allocation dispatch makes, failed in turn: a NOMEM reply every time, never a crash or
+ * a leak, and once there is nothing left to fail, the very bytes of the normal answer. */
+static void fail_every_allocation(const char *channel, const msg *m, request_type type, int same_bytes)
+{
+    dispatch_reply base;
+    assert_int_equal(dispatch_handle(&F.ctx, channel, m->data, m->size, NOW, &base), 0);
+    assert_int_equal(base.status, TRIOCT_OK);
+    for (long nth = 1;; nth++) {
+        dispatch_fail_allocation(nth);
+        dispatch_reply rep;
+        assert_int_equal(dispatch_handle(&F.ctx, channel, m->data, m->size, NOW, &rep), 0);
+        int failed = atomic_load(&dispatch_alloc_countdown) == 0;
+        dispatch_fail_allocation(0);
+        if (!failed) {
+            assert_int_equal(rep.status, TRIOCT_OK);
+            assert_int_equal(rep.chunk_count, base.chunk_count);
+            for (size_t c = 0; same_bytes && c < rep.chunk_count; c++) {
+                assert_int_equal(rep.chunks[c].size, base.chunks[c].size);
+                assert_memory_equal(rep.chunks[c].data, base.chunks[c].data, base.chunks[c].size);
+            }
+            dispatch_reply_free(&rep);
+            assert_true(nth > 2);
+            break;
+        }
+        answer a = read_reply(&rep, type, request_id_of(m));
+        if (a.status != TRIOCT_ERR_NOMEM)
+            fail_msg("allocation %ld failed: status %s \"%s\"", nth, trioct_status_name(a.status), a.message);
+        answer_free(&a);
+        dispatch_reply_free(&rep);
+    }
+    dispatch_reply_free(&base);
+}
+
+static void test_out_of_memory_is_a_reply(void **state)
+{
+    (void)state;
+    rng r = rng_seeded(base_seed + 12);
+    /* Each request below needs the second pass (items with more results than their share)
+     * and several chunks, so every allocation path is failed at least once. */
+    ray_set rays = layer_rays(&r, 1100, 11);
+    trioct_ray_request_t q = ray_request("layers", &rays, TRIOCT_RAY_REQUEST_T_ALL, -1, 0, INFINITY, 500);
+    msg m = ENCODE(trioct_ray_request_t, &q);
+    fail_every_allocation(channel_of(TRIOCT_CHANNEL_RAY, "layers"), &m, REQUEST_RAY, 1);
+    free(m.data);
+    ray_set_free(&rays);
+
+    trioct_triangle_t big[40] = {
+        tri_of((vec3){-10, -10, 0}, (vec3){10, -10, 0}, (vec3){-10, 10, 0}),
+        tri_of((vec3){10, -10, 0}, (vec3){10, 10, 0}, (vec3){-10, 10, 0}),
+    };
+    for (int i = 2; i < 40; i++) /* beside the terrain */
+        big[i] = tri_of((vec3){20, i, 0}, (vec3){21, i, 0}, (vec3){20, i + 1, 0});
+    trioct_triangle_request_t tq = {header("flat"), TRIOCT_TRIANGLE_REQUEST_T_SEGMENTS, -1, 40, big};
+    m = ENCODE(trioct_triangle_request_t, &tq);
+    fail_every_allocation(channel_of(TRIOCT_CHANNEL_TRI, "flat"), &m, REQUEST_TRIANGLE, 1);
+    free(m.data);
+
+    trioct_pose_t poses[30] = {pose_at(0, (vec3){0, 0, 0}), pose_at(0.3, (vec3){1, 0, 0})};
+    for (int i = 2; i < 30; i++)
+        poses[i] = pose_at(0, (vec3){0, 0, i});
+    trioct_mesh_request_t mq = {.header = header("flat"), .detail = TRIOCT_MESH_REQUEST_T_PAIRS, .accuracy = -1,
+                                .shape = "", .num_shape_triangles = 2, .shape_triangles = big,
+                                .num_poses = 30, .poses = poses};
+    m = ENCODE(trioct_mesh_request_t, &mq);
+    fail_every_allocation(channel_of(TRIOCT_CHANNEL_MESH, "flat"), &m, REQUEST_MESH, 1);
+    free(m.data);
+
+    trioct_admin_request_t ar = admin_request("", TRIOCT_ADMIN_REQUEST_T_LIST);
+    m = ENCODE(trioct_admin_request_t, &ar);
+    fail_every_allocation(channel_of(TRIOCT_CHANNEL_LIST, NULL), &m, REQUEST_ADMIN, 1);
+    free(m.data);
+
+    /* A LOAD rebuilds each time, so only the status is compared. */
+    ar = admin_request("oom", TRIOCT_ADMIN_REQUEST_T_LOAD);
+    ar.mesh_path = "box.obj";
+    m = ENCODE(trioct_admin_request_t, &ar);
+    fail_every_allocation(channel_of(TRIOCT_CHANNEL_LOAD, DAEMON), &m, REQUEST_ADMIN, 0);
+    free(m.data);
+    assert_int_equal(registry_remove(F.reg, "oom"), 0);
+}
+
+int main(void)
+{
+    const char *s = getenv("TRIOCT_SEED");
+    if (s)
+        base_seed = strtoull(s, NULL, 0);
+    printf("test_dispatch seed %llu (set TRIOCT_SEED to rerun)\n", (unsigned long long)base_seed);
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_peek_reads_the_header),
+        cmocka_unit_test(test_hostile_bytes_are_dropped),
+        cmocka_unit_test(test_rays_equal_the_engine),
+        cmocka_unit_test(test_all_hits_report_more_than_stored),
+        cmocka_unit_test(test_ray_results_come_in_chunks),
+        cmocka_unit_test(test_triangles_equal_the_engine),
+        cmocka_unit_test(test_triangle_results_come_in_chunks),
+        cmocka_unit_test(test_mesh_queries_equal_the_engine),
+        cmocka_unit_test(test_mesh_pairs_come_in_chunks),
+        cmocka_unit_test(test_result_caps_are_errors_not_cuts),
+        cmocka_unit_test(test_every_status_code),
+        cmocka_unit_test(test_list_and_info_describe_the_worlds),
+        cmocka_unit_test(test_load_and_unload),
+        cmocka_unit_test(test_list_comes_in_chunks),
+        cmocka_unit_test(test_out_of_memory_is_a_reply),
+    };
+    return cmocka_run_group_tests_name("dispatch", tests, setup, teardown);
+}
