@@ -49,6 +49,13 @@ typedef struct octree_def {
     int max_depth;        /* cap on L_max, 0..OCTREE_MAX_DEPTH_CAP */
     accuracy_mode mode;   /* membership test used while building, and default for queries */
     double seed_epsilon;  /* epsilon of the seed's tests (ACCURACY_SEED only) */
+    /* 1: precompute each triangle's axis-aligned box (24 bytes a triangle: floats relative
+     * to the world's lower corner, rounded outward), which triangle and mesh queries use to
+     * skip candidates whose box misses the query triangle's box. Answers are the same
+     * either way. Only exact-mode queries skip: the seed and fast tests can report
+     * triangles whose boxes are apart, so there a skip would change the answer. Ray queries
+     * never read the boxes. 0 (the default): none. */
+    int triangle_boxes;
 } octree_def;
 
 octree_def octree_default_def(void);
@@ -88,9 +95,14 @@ typedef struct octree_info {
     double world_size;         /* D = 2^L_max * d */
     vec3 world_min;            /* the world cube is [world_min, world_min + D] */
     size_t bytes_nodes, bytes_leaf_lists, bytes_triangles, bytes_total;
+    size_t bytes_triangle_boxes; /* 24 per triangle with octree_def.triangle_boxes, else 0;
+                                    part of bytes_total */
     double build_seconds;
     accuracy_mode mode;
 } octree_info;
+
+/* Defined while octree_def has triangle_boxes and octree_info has bytes_triangle_boxes. */
+#define OCTREE_HAS_TRIANGLE_BOXES 1
 
 void octree_get_info(const octree *tree, octree_info *info);
 

@@ -45,6 +45,7 @@ octree_def octree_default_def(void)
         .max_depth = OCTREE_DEFAULT_MAX_DEPTH,
         .mode = ACCURACY_EXACT,
         .seed_epsilon = OCTREE_DEFAULT_SEED_EPSILON,
+        .triangle_boxes = 0,
     };
 }
 
@@ -437,6 +438,8 @@ octree *octree_build(const mesh_view *mesh, const octree_def *def_in, octree_err
         return fail(err, OCTREE_ERR_INVALID, SIZE_MAX, "unknown accuracy mode %d", (int)def.mode);
     if (!isfinite(def.resolution) || (def.mode == ACCURACY_SEED && !(def.seed_epsilon >= 0.0 && isfinite(def.seed_epsilon))))
         return fail(err, OCTREE_ERR_INVALID, SIZE_MAX, "resolution and seed epsilon must be finite (epsilon >= 0)");
+    if (def.triangle_boxes != 0 && def.triangle_boxes != 1)
+        return fail(err, OCTREE_ERR_INVALID, SIZE_MAX, "triangle_boxes %d is neither 0 nor 1", def.triangle_boxes);
 
     octree *tree = calloc(1, sizeof *tree);
     if (!tree)
@@ -498,6 +501,19 @@ octree *octree_build(const mesh_view *mesh, const octree_def *def_in, octree_err
     /* Rounding lo + size is monotone, so the cube still encloses every vertex. */
     tree->world = (box3){lo, vec3_make(lo.x + size, lo.y + size, lo.z + size)};
 
+    /* Only triangle and mesh queries read the boxes; a world that asks for neither does
+     * not pay for them. */
+    if (def.triangle_boxes) {
+        tree->triangle_boxes = malloc(tree->triangle_count * sizeof *tree->triangle_boxes);
+        if (!tree->triangle_boxes) {
+            free(ctx.bounds);
+            octree_free(tree);
+            return fail(err, OCTREE_ERR_NOMEM, SIZE_MAX, "out of memory");
+        }
+        for (size_t i = 0; i < tree->triangle_count; i++)
+            tree->triangle_boxes[i] = triangle_box_around(ctx.bounds[i].lo, ctx.bounds[i].hi, tree->world.lo);
+    }
+
     ctx.node_capacity = 1024;
     tree->nodes = malloc(ctx.node_capacity * sizeof *tree->nodes);
     if (!tree->nodes) {
@@ -534,7 +550,9 @@ octree *octree_build(const mesh_view *mesh, const octree_def *def_in, octree_err
     info->bytes_nodes = tree->node_count * sizeof(octree_node);
     info->bytes_leaf_lists = tree->leaf_item_count * sizeof(uint32_t);
     info->bytes_triangles = tree->triangle_count * (sizeof *tree->triangles + sizeof *tree->original_id);
-    info->bytes_total = info->bytes_nodes + info->bytes_leaf_lists + info->bytes_triangles + sizeof *tree;
+    info->bytes_triangle_boxes = tree->triangle_boxes ? tree->triangle_count * sizeof *tree->triangle_boxes : 0;
+    info->bytes_total =
+        info->bytes_nodes + info->bytes_leaf_lists + info->bytes_triangles + info->bytes_triangle_boxes + sizeof *tree;
     info->mode = def.mode;
     tree->seed_epsilon = def.seed_epsilon;
     info->build_seconds = seconds_now() - started;
@@ -547,6 +565,7 @@ void octree_free(octree *tree)
         return;
     free(tree->triangles);
     free(tree->original_id);
+    free(tree->triangle_boxes);
     free(tree->nodes);
     free(tree->leaf_items);
     free(tree);

@@ -2,6 +2,7 @@
 #ifndef TRIOCT_OCTREE_INTERNAL_H
 #define TRIOCT_OCTREE_INTERNAL_H
 
+#include <float.h>
 #include <stdint.h>
 
 #include "../engine.h"
@@ -18,6 +19,17 @@ typedef struct octree_node {
     uint32_t count;
 } octree_node;
 
+/* A triangle's axis-aligned box as offsets from the world's lower corner, in floats
+ * rounded outward: corner + lo <= every vertex <= corner + hi holds exactly, so a box
+ * strictly disjoint from a query's proves the triangle misses the query. Offsets rather
+ * than coordinates because a float's step at a georeferenced 5e6 or a 1e9 offset is
+ * metres, which would make every box overlap every query; within the world cube the step
+ * is the cube's side times 2^-24. */
+typedef struct triangle_box {
+    float lo[3], hi[3];
+} triangle_box;
+_Static_assert(sizeof(triangle_box) == 24, "engine.h documents 24 bytes a triangle");
+
 struct octree {
     /* Each triangle's three vertices side by side: a candidate test touches one place in
      * memory instead of an index triple and three scattered vertices. */
@@ -28,6 +40,8 @@ struct octree {
      * their vertices sit close together in memory. original_id maps an internal id back to
      * the caller's, which is what every answer reports and every tie is broken by. */
     uint32_t *original_id;
+    /* Per internal id when the tree was built with triangle_boxes, else NULL. */
+    triangle_box *triangle_boxes;
 
     octree_node *nodes;
     size_t node_count;
@@ -50,6 +64,74 @@ static inline void octree_triangle_vertices(const struct octree *tree, uint32_t 
     out[0] = t[0];
     out[1] = t[1];
     out[2] = t[2];
+}
+
+/* The largest float <= x, and the smallest float >= x; past the float range they give
+ * the nearest float on the safe side or an infinity. The explicit range checks keep the
+ * conversion defined (C leaves an out-of-range double-to-float conversion undefined). */
+static inline float float_at_or_below(double x)
+{
+    if (!(x >= -FLT_MAX))
+        return -INFINITY;
+    if (x > FLT_MAX)
+        return FLT_MAX;
+    float f = (float)x;
+    return (double)f > x ? nextafterf(f, -INFINITY) : f;
+}
+
+static inline float float_at_or_above(double x)
+{
+    if (!(x <= FLT_MAX))
+        return INFINITY;
+    if (x < -FLT_MAX)
+        return -FLT_MAX;
+    float f = (float)x;
+    return (double)f < x ? nextafterf(f, INFINITY) : f;
+}
+
+/* Bounds in float of the real difference x - o, which the double subtraction may round
+ * either way. The rounding error is recovered exactly (Knuth's two-sum; it needs each
+ * operation rounded on its own, which -ffp-contract=off guarantees), and only a float
+ * equal to the rounded difference can lie on the wrong side of the real one: any other
+ * float below (above) the rounded difference is at most its predecessor (successor),
+ * which the real difference cannot pass. An infinite difference gives a NaN error, which
+ * no comparison accepts, and the float bounds above handle it. */
+static inline double rounding_error_of_difference(double x, double o, double d)
+{
+    double back = d - x;
+    return (x - (d - back)) + (-o - back);
+}
+
+static inline float float_below_difference(double x, double o)
+{
+    double d = x - o;
+    float f = float_at_or_below(d);
+    return (double)f == d && rounding_error_of_difference(x, o, d) < 0 ? nextafterf(f, -INFINITY) : f;
+}
+
+static inline float float_above_difference(double x, double o)
+{
+    double d = x - o;
+    float f = float_at_or_above(d);
+    return (double)f == d && rounding_error_of_difference(x, o, d) > 0 ? nextafterf(f, INFINITY) : f;
+}
+
+/* The outward float box of the closed box [lo, hi] relative to origin. */
+static inline triangle_box triangle_box_around(vec3 lo, vec3 hi, vec3 origin)
+{
+    return (triangle_box){{float_below_difference(lo.x, origin.x), float_below_difference(lo.y, origin.y),
+                           float_below_difference(lo.z, origin.z)},
+                          {float_above_difference(hi.x, origin.x), float_above_difference(hi.y, origin.y),
+                           float_above_difference(hi.z, origin.z)}};
+}
+
+/* 1 when two outward boxes are strictly apart along some axis, so the closed sets they
+ * hold cannot share a point. Boxes that touch are not apart: triangles meeting exactly on
+ * a box face touch. */
+static inline int triangle_boxes_apart(const triangle_box *a, const triangle_box *b)
+{
+    return (a->lo[0] > b->hi[0]) | (a->lo[1] > b->hi[1]) | (a->lo[2] > b->hi[2]) | (a->hi[0] < b->lo[0]) |
+           (a->hi[1] < b->lo[1]) | (a->hi[2] < b->lo[2]);
 }
 
 /* Adds one query's counters to the caller's (when given), with the exact fallbacks this

@@ -90,11 +90,22 @@ static int id_list_push(id_list *l, uint32_t id)
  * test). A touched interior node classifies q's bounds, clipped to its box, against its
  * split planes once: children those bounds miss are not touched; when they reach a single
  * child, q touches that child (the touching point lies in the clipped bounds); only when
- * they reach several does a child need the full triangle-box test. */
+ * they reach several does a child need the full triangle-box test.
+ *
+ * With triangle boxes, exact mode skips a candidate whose outward box is strictly apart
+ * from q's: two closed triangles whose boxes do not meet share no point, so the exact test
+ * would say no. The skip comes before the duplicate check, as it is cheaper than a set
+ * insertion. Seed and fast mode never skip: their tests can say yes for triangles whose
+ * boxes are apart (seed: within epsilon of each other, and a zero-area triangle touches
+ * everything; fast: rounding at large offsets), so a skip would change their answers. */
 static octree_status triangle_search(const octree *tree, const vec3 q[3], accuracy_mode mode, int stop_at_first,
                                      id_list *hits, int *any, query_stats *stats)
 {
     box3 qb = {vec3_min(vec3_min(q[0], q[1]), q[2]), vec3_max(vec3_max(q[0], q[1]), q[2])};
+    const triangle_box *boxes = mode == ACCURACY_EXACT ? tree->triangle_boxes : NULL;
+    triangle_box qbox = {{0}, {0}};
+    if (boxes)
+        qbox = triangle_box_around(qb.lo, qb.hi, tree->world.lo);
     id_set tested;
     id_set_init(&tested);
     octree_status st = OCTREE_OK;
@@ -130,6 +141,8 @@ static octree_status triangle_search(const octree *tree, const vec3 q[3], accura
         stats->leaves_visited++;
         for (uint32_t i = 0; i < node.count; i++) {
             uint32_t id = tree->leaf_items[node.first + i];
+            if (boxes && triangle_boxes_apart(&boxes[id], &qbox))
+                continue;
             int fresh = id_set_insert(&tested, id);
             if (fresh < 0) {
                 st = OCTREE_ERR_NOMEM;
