@@ -7,7 +7,7 @@ OPT     ?= -O2 -g
 # -ffp-contract=off: the predicates' error bounds assume every operation is rounded on its
 # own; a fused multiply-add would change the arithmetic under them.
 CFLAGS_BASE = -std=c11 -D_POSIX_C_SOURCE=200809L -Wall -Wextra -Werror -ffp-contract=off \
-              -fno-strict-aliasing -Iserver -Itests -Icommon -I$(GEN_DIR) -pthread
+              -fno-strict-aliasing -Iserver -Iclient -Itests -Icommon -I$(GEN_DIR) -pthread
 CFLAGS  ?=
 ALL_CFLAGS = $(CFLAGS_BASE) $(OPT) $(SAN) $(CFLAGS)
 LDLIBS_ENGINE = -lm -pthread
@@ -51,6 +51,8 @@ SUPPORT_LIB := $(BUILD)/libtestsupport.a
 DEPS_STAMP  := $(BUILD)/.deps-ok
 
 .PHONY: all deps test asan bench run clean accuracy-report
+# Keep objects make would delete as intermediates, so a relink does not recompile.
+.SECONDARY:
 all: $(ENGINE_LIB) $(WORLD_LIB) $(PROTO_LIB) $(SERVICE_LIB) $(if $(wildcard server/service/trioctd.c),$(DAEMON_BIN)) $(TEST_BIN) $(BENCH_BIN) $(DEMO_BIN)
 
 deps: $(DEPS_STAMP)
@@ -98,6 +100,15 @@ SYS_LIBS = -lgmp -lassimp -llcm -luv -linih $(LDLIBS_ENGINE)
 $(BUILD)/tests/%: $(BUILD)/tests/%.o $(ALL_LIBS)
 	$(CC) $(ALL_CFLAGS) $< $(ALL_LIBS) -lcmocka $(SYS_LIBS) -o $@
 
+# End to end over udpm, inside a private network namespace (tests/e2e/netns.sh).
+E2E_BIN := $(BUILD)/tests/e2e_daemon
+$(E2E_BIN): $(BUILD)/tests/e2e/e2e_daemon.o $(ALL_LIBS)
+	$(CC) $(ALL_CFLAGS) $< $(ALL_LIBS) -lcmocka $(SYS_LIBS) -o $@
+
+DAEMON_BENCH_BIN := $(BUILD)/bench/daemon_bench
+$(DAEMON_BENCH_BIN): $(BUILD)/bench/daemon_bench.o $(ALL_LIBS)
+	$(CC) $(ALL_CFLAGS) $< $(ALL_LIBS) $(SYS_LIBS) -o $@
+
 $(BUILD)/bench/%: $(BUILD)/bench/%.o $(ALL_LIBS)
 	$(CC) $(ALL_CFLAGS) $< $(ALL_LIBS) $(SYS_LIBS) -o $@
 
@@ -116,22 +127,28 @@ $(DEMO_DIR)/.stamp: $(DEMO_WORLD_BIN)
 $(DAEMON_BIN): $(BUILD)/server/service/trioctd.o $(SERVICE_LIB) $(WORLD_LIB) $(PROTO_LIB) $(ENGINE_LIB)
 	$(CC) $(ALL_CFLAGS) $< $(SERVICE_LIB) $(WORLD_LIB) $(PROTO_LIB) $(ENGINE_LIB) $(SYS_LIBS) -o $@
 
-# Until the daemon exists (issue 4), run shows the engine on a real and a generated mesh.
-run: $(DEMO_BIN)
-	$(DEMO_BIN)
+# The daemon on the demo scene, in a private network namespace, after a demo client's questions.
+run: $(DAEMON_BIN) $(DEMO_BIN) $(DEMO_DIR)/.stamp
+	sh scripts/run_demo.sh $(BUILD)
 
 # Every test binary runs even when one fails; the target fails if any did.
-test: $(TEST_BIN)
+# The end-to-end run needs root for its namespace; without it, it says so and is skipped.
+test: $(TEST_BIN) $(E2E_BIN) $(DAEMON_BIN)
 	@export LCM_DEFAULT_URL=memq://; fail=0; \
 	for t in $(TEST_BIN); do echo "== $$t"; $$t || fail=1; done; \
+	echo "== $(E2E_BIN) (udpm in a private network namespace)"; \
+	tests/e2e/netns.sh $(E2E_BIN) $(DAEMON_BIN); rc=$$?; \
+	if [ $$rc -eq 77 ]; then echo "SKIPPED: end-to-end tests need root"; elif [ $$rc -ne 0 ]; then fail=1; fi; \
 	if [ $$fail -ne 0 ]; then echo "make test: FAILED"; exit 1; fi; echo "make test: all test programs passed"
 
 asan:
 	$(MAKE) BUILD=build-asan OPT="-O1 -g -fno-omit-frame-pointer" \
 	    SAN="-fsanitize=address,undefined -fno-sanitize-recover=all" test
 
-bench: $(BENCH_BIN)
+bench: $(BENCH_BIN) $(DAEMON_BENCH_BIN) $(DAEMON_BIN)
 	@for b in $(BENCH_BIN); do echo "== $$b"; $$b || exit 1; done
+	@echo "== $(DAEMON_BENCH_BIN) (udpm in a private network namespace)"
+	tests/e2e/netns.sh $(DAEMON_BENCH_BIN) $(DAEMON_BIN)
 
 # Issue 3: what accuracy costs in time. Writes docs/accuracy.md and its plots.
 accuracy-report: $(ACC_BIN)
