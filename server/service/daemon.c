@@ -537,7 +537,9 @@ static void after_build(uv_work_t *work, int status)
             world_release(job->result);
     } else if (job->result != NULL) {
         world *w = job->result;
-        size_t triangles = w->report.triangles;
+        /* Our own reference for the log line: once installed, an UNLOAD on a worker may
+         * drop the registry's at any moment. */
+        world_retain(w);
         if (registry_install(d->ctx.worlds, w) < 0) {
             char err[128];
             snprintf(err, sizeof err, "the daemon already holds %d worlds", TRIOCT_MAX_WORLDS);
@@ -547,11 +549,16 @@ static void after_build(uv_work_t *work, int status)
             d->reload_failed++;
         } else {
             /* The registry holds w now; its version was set by the install. */
-            LOG(LOG_INFO, "world '%s' version %" PRIu64 " ready: %zu triangles, built in %.3f s",
-                name, w->version, triangles, job->seconds);
+            const mesh_load_report *r = &w->report;
+            LOG(LOG_INFO,
+                "world '%s' version %" PRIu64 " ready: %zu triangles (%zu degenerate, %zu duplicate), "
+                "bounds (%g %g %g)-(%g %g %g), built in %.3f s",
+                name, w->version, r->triangles, r->degenerate, r->duplicates, r->bbox_lo.x, r->bbox_lo.y,
+                r->bbox_lo.z, r->bbox_hi.x, r->bbox_hi.y, r->bbox_hi.z, job->seconds);
             failed_remove(d, name);
             d->reload_built++;
         }
+        world_release(w);
     } else {
         world *old = registry_acquire(d->ctx.worlds, name);
         if (old != NULL) {
