@@ -15,6 +15,7 @@
 #include <assimp/scene.h>
 
 #include "geom/vec3.h"
+#include "error_text.h"
 
 static pthread_mutex_t import_lock = PTHREAD_MUTEX_INITIALIZER;
 
@@ -60,14 +61,13 @@ typedef struct loader {
     mesh_load_report report;
 } loader;
 
+static int fail(loader *ld, const char *format, ...) __attribute__((format(printf, 2, 3)));
 static int fail(loader *ld, const char *format, ...)
 {
-    if (ld->err && ld->err_len) {
-        va_list args;
-        va_start(args, format);
-        vsnprintf(ld->err, ld->err_len, format, args);
-        va_end(args);
-    }
+    va_list args;
+    va_start(args, format);
+    error_vtext(ld->err, ld->err_len, format, args);
+    va_end(args);
     return -1;
 }
 

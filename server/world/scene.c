@@ -20,6 +20,7 @@
 #include <ini.h>
 
 #include "../../common/channels.h"
+#include "error_text.h"
 
 #define DAEMON_SECTION "daemon"
 #define SHAPE_KEY_PREFIX "shape."
@@ -631,28 +632,15 @@ static void finish_transforms(scene_parser *p)
         p->worlds[i].transform.identity = transform_is_identity(&p->worlds[i].transform);
 }
 
-static int scene_error(char *err, size_t err_len, const char *format, ...)
-    __attribute__((format(printf, 3, 4)));
-static int scene_error(char *err, size_t err_len, const char *format, ...)
-{
-    if (err && err_len) {
-        va_list args;
-        va_start(args, format);
-        vsnprintf(err, err_len, format, args);
-        va_end(args);
-    }
-    return -1;
-}
-
 int scene_load(const char *path, scene *out, char *err, size_t err_len)
 {
     memset(out, 0, sizeof *out);
     if (err && err_len)
         err[0] = '\0';
     if (!path || !path[0])
-        return scene_error(err, err_len, "no scene file given");
+        return error_text(err, err_len, "no scene file given");
     if (strlen(path) >= sizeof out->path)
-        return scene_error(err, err_len, "scene path longer than %zu characters", sizeof out->path - 1);
+        return error_text(err, err_len, "scene path longer than %zu characters", sizeof out->path - 1);
 
     scene_parser p;
     memset(&p, 0, sizeof p);
@@ -661,13 +649,13 @@ int scene_load(const char *path, scene *out, char *err, size_t err_len)
     p.err_len = err_len;
     p.file = fopen(path, "r");
     if (!p.file)
-        return scene_error(err, err_len, "%s: cannot open: %s", path, strerror(errno));
+        return error_text(err, err_len, "%s: cannot open: %s", path, strerror(errno));
 
     int syntax_line = ini_parse_stream(read_line, &p, on_key, &p);
     fclose(p.file);
     if (p.read_errno && !p.error_line) {
         parser_free(&p);
-        return scene_error(err, err_len, "%s: cannot read: %s", path, strerror(p.read_errno));
+        return error_text(err, err_len, "%s: cannot read: %s", path, strerror(p.read_errno));
     }
     /* inih's number is the first line it found wrong: a syntax error, or a key our
      * handler refused (then it is p.error_line and the message is ours). */

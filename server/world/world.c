@@ -16,19 +16,8 @@
 #include "../../common/channels.h"
 #include "../../common/trioct_status.h"
 #include "../geom/vec3.h"
+#include "error_text.h"
 
-static int set_error(char *err, size_t err_len, const char *format, ...)
-    __attribute__((format(printf, 3, 4)));
-static int set_error(char *err, size_t err_len, const char *format, ...)
-{
-    if (err && err_len) {
-        va_list args;
-        va_start(args, format);
-        vsnprintf(err, err_len, format, args);
-        va_end(args);
-    }
-    return -1;
-}
 
 /* ---------- paths ---------- */
 
@@ -62,22 +51,22 @@ int world_resolve_path(const char *world_dir, const char *rel, char *out, size_t
     if (out && out_len)
         out[0] = '\0';
     if (!world_dir || !world_dir[0])
-        return set_error(err, err_len, "no world directory is set");
+        return error_text(err, err_len, "no world directory is set");
     if (!rel || !rel[0])
-        return set_error(err, err_len, "empty file path");
+        return error_text(err, err_len, "empty file path");
     if (rel[0] == '/')
-        return set_error(err, err_len, "%s: absolute paths are refused; give a path relative to the world directory", rel);
+        return error_text(err, err_len, "%s: absolute paths are refused; give a path relative to the world directory", rel);
     if (has_parent_component(rel))
-        return set_error(err, err_len, "%s: '..' is refused in paths", rel);
+        return error_text(err, err_len, "%s: '..' is refused in paths", rel);
 
     char *dir = realpath(world_dir, NULL);
     if (!dir)
-        return set_error(err, err_len, "world directory %s: %s", world_dir, strerror(errno));
+        return error_text(err, err_len, "world directory %s: %s", world_dir, strerror(errno));
     size_t joined_len = strlen(dir) + 1 + strlen(rel) + 1;
     char *joined = malloc(joined_len);
     if (!joined) {
         free(dir);
-        return set_error(err, err_len, "%s: out of memory", rel);
+        return error_text(err, err_len, "%s: out of memory", rel);
     }
     snprintf(joined, joined_len, "%s/%s", dir, rel);
     char *resolved = realpath(joined, NULL);
@@ -85,12 +74,12 @@ int world_resolve_path(const char *world_dir, const char *rel, char *out, size_t
     free(joined);
     int status = 0;
     if (!resolved)
-        status = set_error(err, err_len, "%s: %s (in world directory %s)", rel, strerror(why), world_dir);
+        status = error_text(err, err_len, "%s: %s (in world directory %s)", rel, strerror(why), world_dir);
     else if (!is_inside(dir, resolved))
-        status = set_error(err, err_len, "%s: leads outside the world directory %s (to %s)", rel,
+        status = error_text(err, err_len, "%s: leads outside the world directory %s (to %s)", rel,
                            world_dir, resolved);
     else if (!out || strlen(resolved) >= out_len)
-        status = set_error(err, err_len, "%s: resolved path longer than %zu characters", rel,
+        status = error_text(err, err_len, "%s: resolved path longer than %zu characters", rel,
                            out_len ? out_len - 1 : 0);
     else
         memcpy(out, resolved, strlen(resolved) + 1);
@@ -122,12 +111,10 @@ static int build_fail(world_builder *b, int status, const char *format, ...)
 static int build_fail(world_builder *b, int status, const char *format, ...)
 {
     b->status = status;
-    if (b->err && b->err_len) {
-        va_list args;
-        va_start(args, format);
-        vsnprintf(b->err, b->err_len, format, args);
-        va_end(args);
-    }
+    va_list args;
+    va_start(args, format);
+    error_vtext(b->err, b->err_len, format, args);
+    va_end(args);
     return -1;
 }
 
