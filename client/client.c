@@ -1,5 +1,5 @@
 /* The connection: bus, client id and reply channel, the table of requests waiting for
- * replies, chunk reassembly, and the poll-guarded pump every call waits in. */
+ * replies, chunk reassembly, and the poll-guarded drain every wait runs on. */
 #include "client_internal.h"
 
 #include <errno.h>
@@ -21,7 +21,7 @@
 /* ---- small helpers ------------------------------------------------------------------- */
 
 /* Waiting runs on nanoseconds so that "returned at the deadline" means not a moment early. */
-static int64_t now_ns(void)
+int64_t client_now_ns(void)
 {
     struct timespec ts;
     clock_gettime(CLOCK_MONOTONIC, &ts);
@@ -32,7 +32,7 @@ int64_t client_deadline(int timeout_ms)
 {
     if (timeout_ms < 0)
         return INT64_MAX;
-    return now_ns() + (int64_t)timeout_ms * 1000000;
+    return client_now_ns() + (int64_t)timeout_ms * 1000000;
 }
 
 void client_copy(char *dst, size_t dst_len, const char *src)
@@ -159,8 +159,10 @@ static void assembly_finished(trioct_client *c, pending *p, assembly *a)
 {
     a->order = ++c->finish_counter;
     p->finished++;
-    if (!p->gather || (p->expect > 0 && p->finished >= (size_t)p->expect))
+    if (!p->gather || (p->expect > 0 && p->finished >= (size_t)p->expect)) {
         p->done = 1;
+        client_pending_ready(c, p);
+    }
 }
 
 static void assembly_bad(trioct_client *c, pending *p, assembly *a, const char *fmt, ...)
@@ -182,9 +184,10 @@ static void accept_chunk(trioct_client *c, pending *p, void *msg)
 {
     const trioct_reply_header_t *h = msg;
     assembly *a = NULL;
-    if (p->done && !p->gather) {
+    if (p->done) {
         /* Another daemon's answer to a request already answered (two daemons holding the
-         * same world): the first whole answer stands. */
+         * same world), or a LIST answer past the expected count or the window, arriving
+         * before the completion ran: the answers that finished it stand. */
         c->stats.unmatched++;
         goto drop;
     }
@@ -269,16 +272,26 @@ static void on_reply(const lcm_recv_buf_t *rbuf, const char *channel, void *user
     accept_chunk(c, p, msg);
 }
 
-void client_pending_begin(trioct_client *c, pending *p, const reply_ops *ops, int64_t request_id)
+pending *client_pending_new(trioct_client *c, const reply_ops *ops, int timeout_ms,
+                            trioct_reply *r)
 {
-    memset(p, 0, sizeof *p);
-    p->request_id = request_id;
+    if (c->closing) {
+        client_fail(r, TRIOCT_ERR_TRANSPORT, "the connection to %s is closing", c->url);
+        return NULL;
+    }
+    pending *p = calloc(1, sizeof *p);
+    if (p == NULL) {
+        client_fail(r, TRIOCT_ERR_NOMEM, "out of memory for a request");
+        return NULL;
+    }
+    p->request_id = ++c->next_request_id;
     p->ops = ops;
-    p->next = c->waiting;
-    c->waiting = p;
+    p->timeout_ms = timeout_ms;
+    p->deadline = client_deadline(timeout_ms);
+    return p;
 }
 
-void client_pending_end(trioct_client *c, pending *p)
+void client_pending_unlink(trioct_client *c, pending *p)
 {
     for (pending **link = &c->waiting; *link != NULL; link = &(*link)->next) {
         if (*link == p) {
@@ -286,28 +299,50 @@ void client_pending_end(trioct_client *c, pending *p)
             break;
         }
     }
+    if (p->ready) {
+        pending *prev = NULL;
+        for (pending *q = c->ready_head; q != NULL; prev = q, q = q->next_ready) {
+            if (q != p)
+                continue;
+            if (prev == NULL)
+                c->ready_head = p->next_ready;
+            else
+                prev->next_ready = p->next_ready;
+            if (c->ready_tail == p)
+                c->ready_tail = prev;
+            break;
+        }
+        p->ready = 0;
+    }
+    p->next = NULL;
+    p->next_ready = NULL;
+}
+
+void client_pending_free(pending *p)
+{
+    if (p == NULL)
+        return;
     for (size_t i = 0; i < p->num_assemblies; i++) {
         free_chunks(p->ops, &p->assemblies[i]);
         free(p->assemblies[i].daemon);
     }
     free(p->assemblies);
-    memset(p, 0, sizeof *p);
+    free(p);
 }
 
-/* ---- the pump ------------------------------------------------------------------------ */
+/* ---- the drain ----------------------------------------------------------------------- */
 
-/* Handles what is queued until nothing is, *flag is set, or (checked now and then, so a
- * flood cannot hold a call past its deadline) the deadline passes. memq crashes in
- * lcm_handle on an empty queue and udpm may block, so every lcm_handle is guarded by a
- * zero-timeout poll. Returns messages handled, or -1 when the bus failed. */
-static int drain(trioct_client *c, const int *flag, int64_t deadline)
+/* The deadline is checked now and then, so that a flood cannot hold a call past it. memq
+ * crashes in lcm_handle on an empty queue and udpm may block, so every lcm_handle is guarded
+ * by a zero-timeout poll. */
+int client_drain(trioct_client *c, const int *flag, int64_t deadline)
 {
     int fd = lcm_get_fileno(c->lcm);
     int handled = 0;
     for (;;) {
         if (flag != NULL && *flag)
             break;
-        if ((handled & 255) == 255 && now_ns() >= deadline)
+        if ((handled & 255) == 255 && client_now_ns() >= deadline)
             break;
         struct pollfd pfd = {.fd = fd, .events = POLLIN};
         int r = poll(&pfd, 1, 0);
@@ -331,11 +366,11 @@ int client_wait_flag(trioct_client *c, const int *flag, int64_t deadline)
 {
     int fd = lcm_get_fileno(c->lcm);
     for (;;) {
-        if (drain(c, flag, deadline) < 0)
+        if (client_drain(c, flag, deadline) < 0)
             return -1;
         if (*flag)
             return 0;
-        int64_t now = now_ns();
+        int64_t now = client_now_ns();
         if (now >= deadline)
             return 0;
         int timeout = -1;
@@ -347,16 +382,6 @@ int client_wait_flag(trioct_client *c, const int *flag, int64_t deadline)
         if (poll(&pfd, 1, timeout) < 0 && errno != EINTR)
             return -1;
     }
-}
-
-int client_wait(trioct_client *c, pending *p, int64_t deadline)
-{
-    return client_wait_flag(c, &p->done, deadline);
-}
-
-int trioct_pump(trioct_client *c)
-{
-    return drain(c, NULL, INT64_MAX);
 }
 
 /* ---- sending ------------------------------------------------------------------------- */
@@ -371,36 +396,43 @@ int client_channel(trioct_client *c, trioct_channel_kind kind, const char *name,
     return TRIOCT_OK;
 }
 
-int64_t client_next_request_id(trioct_client *c)
+/* Microseconds since the Unix epoch: the daemon's clock for deadlines. */
+static int64_t realtime_us(void)
 {
-    return ++c->next_request_id;
+    struct timespec ts;
+    clock_gettime(CLOCK_REALTIME, &ts);
+    return (int64_t)ts.tv_sec * 1000000 + ts.tv_nsec / 1000;
 }
 
-void client_request_header(trioct_client *c, trioct_request_header_t *h, int64_t request_id,
+void client_request_header(trioct_client *c, trioct_request_header_t *h, const pending *p,
                            const char *world)
 {
     h->client_id = (int64_t)c->client_id;
-    h->request_id = request_id;
+    h->request_id = p->request_id;
     h->reply_channel = c->reply_channel;
     h->world = (char *)(world ? world : ""); /* the encoder only reads it */
-    h->deadline_utime = 0;
+    /* Past this the daemon answers ERR_DEADLINE instead of working for a caller that has
+     * given up; without a timeout there is nothing to send. */
+    h->deadline_utime = c->send_deadlines && p->timeout_ms >= 0
+                            ? realtime_us() + (int64_t)p->timeout_ms * 1000
+                            : 0;
 }
 
-int client_send(trioct_client *c, const char *channel, const request_codec *codec,
-                const void *msg, trioct_reply *r)
+int client_pending_send(trioct_client *c, pending *p, const char *channel,
+                        const request_codec *codec, const void *msg, trioct_reply *r)
 {
     int size = codec->encoded_size(msg);
-    if (size < 0 || size > TRIOCT_MAX_REQUEST_BYTES)
-        return client_fail(r, TRIOCT_ERR_OVER_CAP,
-                           "the request encodes to %d bytes, over the cap of %d bytes per "
-                           "request (TRIOCT_MAX_REQUEST_BYTES)",
-                           size, TRIOCT_MAX_REQUEST_BYTES);
-    uint8_t *buf = malloc((size_t)size);
-    if (buf == NULL)
-        return client_fail(r, TRIOCT_ERR_NOMEM, "out of memory encoding a request of %d bytes",
-                           size);
     int rc;
-    if (codec->encode(buf, size, msg) != size) {
+    uint8_t *buf = NULL;
+    if (size < 0 || size > TRIOCT_MAX_REQUEST_BYTES) {
+        rc = client_fail(r, TRIOCT_ERR_OVER_CAP,
+                         "the request encodes to %d bytes, over the cap of %d bytes per "
+                         "request (TRIOCT_MAX_REQUEST_BYTES)",
+                         size, TRIOCT_MAX_REQUEST_BYTES);
+    } else if ((buf = malloc((size_t)size)) == NULL) {
+        rc = client_fail(r, TRIOCT_ERR_NOMEM, "out of memory encoding a request of %d bytes",
+                         size);
+    } else if (codec->encode(buf, size, msg) != size) {
         rc = client_fail(r, TRIOCT_ERR_BAD_REQUEST, "the request could not be encoded");
     } else if (lcm_publish(c->lcm, channel, buf, (unsigned)size) != 0) {
         rc = client_fail(r, TRIOCT_ERR_TRANSPORT, "cannot publish on %s over %s", channel, c->url);
@@ -409,18 +441,38 @@ int client_send(trioct_client *c, const char *channel, const request_codec *code
         rc = TRIOCT_OK;
     }
     free(buf);
-    return rc;
+    if (rc != TRIOCT_OK) {
+        client_pending_free(p);
+        return rc;
+    }
+    /* Replies are only handled by a later lcm_handle, so linking p after publishing cannot
+     * miss one. */
+    p->next = c->waiting;
+    c->waiting = p;
+    r->request_id = p->request_id;
+    return TRIOCT_OK;
 }
 
-const assembly *client_single_answer(trioct_client *c, pending *p, int wait_rc, int timeout_ms,
-                                     const char *no_daemon_msg, trioct_reply *r)
+int client_ended_early(const trioct_client *c, const pending *p, trioct_reply *r)
 {
     r->request_id = p->request_id;
-    if (wait_rc < 0) {
+    if (p->closed) {
+        client_fail(r, TRIOCT_ERR_TRANSPORT,
+                    "the connection to %s was closed before the answer came", c->url);
+        return 1;
+    }
+    if (p->bus_failed) {
         client_fail(r, TRIOCT_ERR_TRANSPORT, "the LCM bus %s failed while waiting for a reply",
                     c->url);
-        return NULL;
+        return 1;
     }
+    return 0;
+}
+
+const assembly *client_answer(trioct_client *c, const pending *p, trioct_reply *r)
+{
+    if (client_ended_early(c, p, r))
+        return NULL;
     const assembly *first = NULL;
     for (size_t i = 0; i < p->num_assemblies; i++) {
         const assembly *a = &p->assemblies[i];
@@ -428,8 +480,10 @@ const assembly *client_single_answer(trioct_client *c, pending *p, int wait_rc, 
             first = a;
     }
     if (first != NULL) {
-        if (first->state == ASSEMBLY_COMPLETE)
+        if (first->state == ASSEMBLY_COMPLETE) {
+            client_reply_from_header(r, first->chunks[0], first->chunk_count);
             return first;
+        }
         client_copy(r->daemon, sizeof r->daemon, first->daemon);
         client_fail(r, TRIOCT_ERR_BAD_REPLY, "bad reply from daemon %.40s: %s", first->daemon,
                     first->why);
@@ -445,36 +499,17 @@ const assembly *client_single_answer(trioct_client *c, pending *p, int wait_rc, 
         client_fail(r, TRIOCT_ERR_TIMEOUT,
                     "reply from daemon %.40s incomplete: %" PRId32 " of %" PRId32
                     " chunks within %d ms",
-                    partial->daemon, partial->received, partial->chunk_count, timeout_ms);
+                    partial->daemon, partial->received, partial->chunk_count, p->timeout_ms);
         return NULL;
     }
     if (p->malformed > 0) {
         client_fail(r, TRIOCT_ERR_BAD_REPLY,
                     "%" PRIu64 " malformed replies and no good one within %d ms", p->malformed,
-                    timeout_ms);
+                    p->timeout_ms);
         return NULL;
     }
-    client_fail(r, TRIOCT_ERR_NO_DAEMON, "%s", no_daemon_msg);
+    client_fail(r, TRIOCT_ERR_NO_DAEMON, "%s", p->no_daemon);
     return NULL;
-}
-
-int client_call(trioct_client *c, pending *p, const char *channel, const request_codec *codec,
-                const void *msg, int timeout_ms, const char *no_daemon_msg, trioct_reply *r,
-                const assembly **answer)
-{
-    *answer = NULL;
-    int64_t deadline = client_deadline(timeout_ms);
-    int rc = client_send(c, channel, codec, msg, r);
-    if (rc != TRIOCT_OK)
-        return rc;
-    r->request_id = p->request_id;
-    int wait_rc = client_wait(c, p, deadline);
-    *answer = client_single_answer(c, p, wait_rc, timeout_ms, no_daemon_msg, r);
-    if (*answer == NULL)
-        return r->status;
-    const trioct_reply_header_t *h = (*answer)->chunks[0];
-    client_reply_from_header(r, h, (*answer)->chunk_count);
-    return r->status;
 }
 
 /* ---- connection ---------------------------------------------------------------------- */
@@ -517,6 +552,7 @@ trioct_client *trioct_connect(const trioct_connect_options *opt, int *status, ch
     if (c == NULL)
         return connect_fail(NULL, status, err, err_len, TRIOCT_ERR_NOMEM, "out of memory");
     client_copy(c->prefix, sizeof c->prefix, prefix);
+    c->send_deadlines = o.send_deadlines != 0;
     const char *env = getenv("LCM_DEFAULT_URL");
     const char *url = o.url               ? o.url
                       : o.lcm != NULL     ? "the caller's LCM instance"
@@ -555,8 +591,17 @@ trioct_client *trioct_connect(const trioct_connect_options *opt, int *status, ch
 
 void trioct_disconnect(trioct_client *c)
 {
-    if (c == NULL)
+    if (c == NULL || c->closing)
         return;
+    c->closing = 1;
+    if (c->dispatching)
+        return; /* a callback's: the pump or poll that runs it closes when it is done */
+    client_destroy(c);
+}
+
+void client_destroy(trioct_client *c)
+{
+    client_close_requests(c);
     if (c->reply_sub != NULL)
         lcm_unsubscribe(c->lcm, c->reply_sub);
     if (c->own_lcm)

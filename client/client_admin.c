@@ -1,6 +1,7 @@
 /* World administration: LOAD on <prefix>_LOAD_<daemon>, INFO and UNLOAD on
  * <prefix>_ADMIN_<world>, and LIST on <prefix>_LIST, which every daemon answers, so the
- * client gathers answers rather than taking the first. */
+ * client gathers answers rather than taking the first; each synchronously or through a
+ * callback. */
 #include "client_internal.h"
 
 #include <inttypes.h>
@@ -114,12 +115,34 @@ static int append_worlds(const assembly *a, trioct_world_info *worlds, size_t *c
     return TRIOCT_OK;
 }
 
-/* One admin request with one answer (LOAD, INFO, UNLOAD). */
-static int admin_call(trioct_client *c, int8_t op, trioct_channel_kind kind, const char *target,
-                      const char *target_what, const trioct_load_options *load, const char *world,
-                      int timeout_ms, trioct_admin_result *out)
+/* Builds the result, hands it to the callback and frees what the callback left. */
+static void complete_admin(trioct_client *c, pending *p)
 {
-    trioct_reply *r = &out->reply;
+    trioct_admin_result res;
+    memset(&res, 0, sizeof res);
+    trioct_reply *r = &res.reply;
+    const assembly *answer = client_answer(c, p, r);
+    if (answer != NULL && r->status == TRIOCT_OK) {
+        size_t n = answer_worlds(answer);
+        res.worlds = calloc(n ? n : 1, sizeof *res.worlds);
+        if (res.worlds == NULL)
+            client_fail(r, TRIOCT_ERR_NOMEM, "out of memory for %zu worlds", n);
+        else
+            append_worlds(answer, res.worlds, &res.num_worlds, r);
+    }
+    if (r->status != TRIOCT_OK)
+        trioct_admin_result_free(&res); /* a failed request leaves no half result */
+    ((trioct_admin_done)p->cb)(c, &res, p->user);
+    trioct_admin_result_free(&res);
+}
+
+/* One admin request with one answer (LOAD, INFO, UNLOAD), sent; *out is then the request
+ * waiting for its answer. */
+static int start_admin(trioct_client *c, int8_t op, trioct_channel_kind kind, const char *target,
+                       const char *target_what, const trioct_load_options *load,
+                       const char *world, int timeout_ms, trioct_reply *r, pending **out)
+{
+    *out = NULL;
     char channel[TRIOCT_MAX_CHANNEL_LEN + 1];
     if (client_channel(c, kind, target, channel, r, target_what) != TRIOCT_OK)
         return r->status;
@@ -136,36 +159,26 @@ static int admin_call(trioct_client *c, int8_t op, trioct_channel_kind kind, con
         msg.seed_epsilon = load->seed_epsilon;
         msg.effects = load->effects;
     }
-    pending p;
-    client_pending_begin(c, &p, &client_admin_reply_ops, client_next_request_id(c));
-    client_request_header(c, &msg.header, p.request_id, world);
-    char no_daemon[TRIOCT_MAX_MESSAGE_LEN + 1];
+    pending *p = client_pending_new(c, &client_admin_reply_ops, timeout_ms, r);
+    if (p == NULL)
+        return r->status;
+    p->complete = complete_admin;
     if (op == TRIOCT_ADMIN_REQUEST_T_LOAD)
-        snprintf(no_daemon, sizeof no_daemon, "no daemon named %s on %s (no reply within %d ms)",
-                 target, c->url, timeout_ms);
+        snprintf(p->no_daemon, sizeof p->no_daemon,
+                 "no daemon named %s on %s (no reply within %d ms)", target, c->url, timeout_ms);
     else
-        client_no_daemon_world(c, world, timeout_ms, no_daemon, sizeof no_daemon);
-    const assembly *answer;
-    int rc = client_call(c, &p, channel, &admin_codec, &msg, timeout_ms, no_daemon, r, &answer);
-    if (answer != NULL && rc == TRIOCT_OK) {
-        size_t n = answer_worlds(answer);
-        out->worlds = calloc(n ? n : 1, sizeof *out->worlds);
-        if (out->worlds == NULL)
-            rc = client_fail(r, TRIOCT_ERR_NOMEM, "out of memory for %zu worlds", n);
-        else
-            rc = append_worlds(answer, out->worlds, &out->num_worlds, r);
-    }
-    client_pending_end(c, &p);
-    if (rc != TRIOCT_OK)
-        trioct_admin_result_free(out); /* a failed call leaves no half result */
+        client_no_daemon_world(c, world, timeout_ms, p->no_daemon, sizeof p->no_daemon);
+    client_request_header(c, &msg.header, p, world);
+    int rc = client_pending_send(c, p, channel, &admin_codec, &msg, r);
+    if (rc == TRIOCT_OK)
+        *out = p;
     return rc;
 }
 
-int trioct_load(trioct_client *c, const trioct_load_options *opt, int timeout_ms,
-                trioct_admin_result *out)
+static int start_load(trioct_client *c, const trioct_load_options *opt, int timeout_ms,
+                      trioct_reply *r, pending **out)
 {
-    memset(out, 0, sizeof *out);
-    trioct_reply *r = &out->reply;
+    *out = NULL;
     if (opt == NULL)
         return client_fail(r, TRIOCT_ERR_BAD_REQUEST, "no load options given");
     if (!trioct_name_valid(opt->world, TRIOCT_MAX_NAME_LEN))
@@ -180,22 +193,100 @@ int trioct_load(trioct_client *c, const trioct_load_options *opt, int timeout_ms
                            "(TRIOCT_MAX_PATH_LEN)",
                            strlen(opt->mesh_path), TRIOCT_MAX_PATH_LEN);
     const char *daemon = opt->daemon ? opt->daemon : TRIOCT_DEFAULT_DAEMON;
-    return admin_call(c, TRIOCT_ADMIN_REQUEST_T_LOAD, TRIOCT_CHANNEL_LOAD, daemon, "daemon", opt,
-                      opt->world, timeout_ms, out);
+    return start_admin(c, TRIOCT_ADMIN_REQUEST_T_LOAD, TRIOCT_CHANNEL_LOAD, daemon, "daemon", opt,
+                       opt->world, timeout_ms, r, out);
+}
+
+static int start_unload(trioct_client *c, const char *world, int timeout_ms, trioct_reply *r,
+                        pending **out)
+{
+    return start_admin(c, TRIOCT_ADMIN_REQUEST_T_UNLOAD, TRIOCT_CHANNEL_ADMIN, world, "world",
+                       NULL, world, timeout_ms, r, out);
+}
+
+static int start_info(trioct_client *c, const char *world, int timeout_ms, trioct_reply *r,
+                      pending **out)
+{
+    return start_admin(c, TRIOCT_ADMIN_REQUEST_T_INFO, TRIOCT_CHANNEL_ADMIN, world, "world", NULL,
+                       world, timeout_ms, r, out);
+}
+
+/* A sync call's callback: the result moves to the caller's struct. */
+static void keep_admin(trioct_client *c, trioct_admin_result *res, void *user)
+{
+    (void)c;
+    *(trioct_admin_result *)user = *res;
+    memset(res, 0, sizeof *res);
+}
+
+/* The sync calls: start, then wait for the answer in place. */
+static int admin_sync(trioct_client *c, int rc, pending *p, trioct_admin_result *out)
+{
+    if (rc != TRIOCT_OK)
+        return rc;
+    client_sync_finish(c, p, (void (*)(void))keep_admin, out);
+    return out->reply.status;
+}
+
+int trioct_load(trioct_client *c, const trioct_load_options *opt, int timeout_ms,
+                trioct_admin_result *out)
+{
+    memset(out, 0, sizeof *out);
+    pending *p;
+    int rc = start_load(c, opt, timeout_ms, &out->reply, &p);
+    return admin_sync(c, rc, p, out);
 }
 
 int trioct_unload(trioct_client *c, const char *world, int timeout_ms, trioct_admin_result *out)
 {
     memset(out, 0, sizeof *out);
-    return admin_call(c, TRIOCT_ADMIN_REQUEST_T_UNLOAD, TRIOCT_CHANNEL_ADMIN, world, "world", NULL,
-                      world, timeout_ms, out);
+    pending *p;
+    int rc = start_unload(c, world, timeout_ms, &out->reply, &p);
+    return admin_sync(c, rc, p, out);
 }
 
 int trioct_info(trioct_client *c, const char *world, int timeout_ms, trioct_admin_result *out)
 {
     memset(out, 0, sizeof *out);
-    return admin_call(c, TRIOCT_ADMIN_REQUEST_T_INFO, TRIOCT_CHANNEL_ADMIN, world, "world", NULL,
-                      world, timeout_ms, out);
+    pending *p;
+    int rc = start_info(c, world, timeout_ms, &out->reply, &p);
+    return admin_sync(c, rc, p, out);
+}
+
+int trioct_load_async(trioct_client *c, const trioct_load_options *opt, int timeout_ms,
+                      trioct_admin_done cb, void *user, int64_t *request_id)
+{
+    trioct_reply r;
+    memset(&r, 0, sizeof r);
+    pending *p = NULL;
+    int rc = client_async_check(c, cb != NULL, &r);
+    if (rc == TRIOCT_OK)
+        rc = start_load(c, opt, timeout_ms, &r, &p);
+    return client_async_started(c, rc, &r, p, (void (*)(void))cb, user, request_id);
+}
+
+int trioct_unload_async(trioct_client *c, const char *world, int timeout_ms,
+                        trioct_admin_done cb, void *user, int64_t *request_id)
+{
+    trioct_reply r;
+    memset(&r, 0, sizeof r);
+    pending *p = NULL;
+    int rc = client_async_check(c, cb != NULL, &r);
+    if (rc == TRIOCT_OK)
+        rc = start_unload(c, world, timeout_ms, &r, &p);
+    return client_async_started(c, rc, &r, p, (void (*)(void))cb, user, request_id);
+}
+
+int trioct_info_async(trioct_client *c, const char *world, int timeout_ms, trioct_admin_done cb,
+                      void *user, int64_t *request_id)
+{
+    trioct_reply r;
+    memset(&r, 0, sizeof r);
+    pending *p = NULL;
+    int rc = client_async_check(c, cb != NULL, &r);
+    if (rc == TRIOCT_OK)
+        rc = start_info(c, world, timeout_ms, &r, &p);
+    return client_async_started(c, rc, &r, p, (void (*)(void))cb, user, request_id);
 }
 
 void trioct_admin_result_free(trioct_admin_result *res)
@@ -279,11 +370,32 @@ static int list_result(trioct_client *c, const pending *p, int timeout_ms, trioc
                        out->num_daemons);
 }
 
-int trioct_list(trioct_client *c, const trioct_list_options *opt, int timeout_ms,
-                trioct_list_result *out)
+/* Builds the union, hands it to the callback and frees what the callback left. */
+static void complete_list(trioct_client *c, pending *p)
 {
-    memset(out, 0, sizeof *out);
-    trioct_reply *r = &out->reply;
+    trioct_list_result res;
+    memset(&res, 0, sizeof res);
+    trioct_reply *r = &res.reply;
+    r->request_id = p->request_id;
+    int rc;
+    if (p->bus_failed)
+        rc = client_fail(r, TRIOCT_ERR_TRANSPORT,
+                         "the LCM bus %s failed while gathering LIST answers", c->url);
+    else if (client_ended_early(c, p, r))
+        rc = r->status;
+    else
+        rc = list_result(c, p, p->timeout_ms, &res);
+    /* A partial or bad gathering keeps the whole answers: the status says what is missing. */
+    if (rc != TRIOCT_OK && rc != TRIOCT_ERR_TIMEOUT && rc != TRIOCT_ERR_BAD_REPLY)
+        trioct_list_result_free(&res);
+    ((trioct_list_done)p->cb)(c, &res, p->user);
+    trioct_list_result_free(&res);
+}
+
+static int start_list(trioct_client *c, const trioct_list_options *opt, int timeout_ms,
+                      trioct_reply *r, pending **out)
+{
+    *out = NULL;
     trioct_list_options o = {0};
     if (opt != NULL)
         o = *opt;
@@ -297,32 +409,55 @@ int trioct_list(trioct_client *c, const trioct_list_options *opt, int timeout_ms
     int window = timeout_ms;
     if (o.gather_ms > 0 && (timeout_ms < 0 || o.gather_ms < timeout_ms))
         window = o.gather_ms;
-    int64_t deadline = client_deadline(window);
 
     trioct_admin_request_t msg = {
         .op = TRIOCT_ADMIN_REQUEST_T_LIST,
         .mesh_path = "",
         .accuracy = TRIOCT_ACCURACY_WORLD,
     };
-    pending p;
-    client_pending_begin(c, &p, &client_admin_reply_ops, client_next_request_id(c));
-    p.gather = 1;
-    p.expect = o.expect_daemons > 0 ? o.expect_daemons : 0;
-    client_request_header(c, &msg.header, p.request_id, "");
-    int rc = client_send(c, channel, &admin_codec, &msg, r);
-    if (rc == TRIOCT_OK) {
-        r->request_id = p.request_id;
-        if (client_wait(c, &p, deadline) < 0)
-            rc = client_fail(r, TRIOCT_ERR_TRANSPORT,
-                             "the LCM bus %s failed while gathering LIST answers", c->url);
-        else
-            rc = list_result(c, &p, window, out);
-    }
-    client_pending_end(c, &p);
-    /* A partial or bad gathering keeps the whole answers: the status says what is missing. */
-    if (rc != TRIOCT_OK && rc != TRIOCT_ERR_TIMEOUT && rc != TRIOCT_ERR_BAD_REPLY)
-        trioct_list_result_free(out);
+    pending *p = client_pending_new(c, &client_admin_reply_ops, window, r);
+    if (p == NULL)
+        return r->status;
+    p->gather = 1;
+    p->expect = o.expect_daemons > 0 ? o.expect_daemons : 0;
+    p->complete = complete_list;
+    client_request_header(c, &msg.header, p, "");
+    int rc = client_pending_send(c, p, channel, &admin_codec, &msg, r);
+    if (rc == TRIOCT_OK)
+        *out = p;
     return rc;
+}
+
+/* A sync call's callback: the result moves to the caller's struct. */
+static void keep_list(trioct_client *c, trioct_list_result *res, void *user)
+{
+    (void)c;
+    *(trioct_list_result *)user = *res;
+    memset(res, 0, sizeof *res);
+}
+
+int trioct_list(trioct_client *c, const trioct_list_options *opt, int timeout_ms,
+                trioct_list_result *out)
+{
+    memset(out, 0, sizeof *out);
+    pending *p;
+    int rc = start_list(c, opt, timeout_ms, &out->reply, &p);
+    if (rc != TRIOCT_OK)
+        return rc;
+    client_sync_finish(c, p, (void (*)(void))keep_list, out);
+    return out->reply.status;
+}
+
+int trioct_list_async(trioct_client *c, const trioct_list_options *opt, int timeout_ms,
+                      trioct_list_done cb, void *user, int64_t *request_id)
+{
+    trioct_reply r;
+    memset(&r, 0, sizeof r);
+    pending *p = NULL;
+    int rc = client_async_check(c, cb != NULL, &r);
+    if (rc == TRIOCT_OK)
+        rc = start_list(c, opt, timeout_ms, &r, &p);
+    return client_async_started(c, rc, &r, p, (void (*)(void))cb, user, request_id);
 }
 
 void trioct_list_result_free(trioct_list_result *res)

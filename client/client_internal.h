@@ -1,6 +1,7 @@
 /* What the files of libtrioct share and its users never see: the connection, the table of
- * requests waiting for replies, and chunk reassembly. client.c owns all three; each
- * client_<type>.c encodes its requests and turns reassembled chunks into a result. */
+ * requests waiting for replies, and chunk reassembly. client.c owns all three;
+ * client_async.c runs completions, deadlines and cancels; each client_<type>.c encodes its
+ * requests and turns reassembled chunks into a result. */
 #ifndef TRIOCT_CLIENT_INTERNAL_H
 #define TRIOCT_CLIENT_INTERNAL_H
 
@@ -40,9 +41,18 @@ typedef struct assembly {
     uint64_t order;       /* when it finished, for results in arrival order */
 } assembly;
 
-/* A request waiting for its replies. Sync calls keep it on their stack. */
-typedef struct pending {
-    struct pending *next;
+typedef struct pending pending;
+
+/* Builds the caller's result from what p gathered (or why it ended), hands it to p's
+ * callback and frees what the callback left in it. */
+typedef void (*pending_complete_fn)(trioct_client *c, pending *p);
+
+/* A request waiting for its replies, from the moment it is sent until its completion runs.
+ * Synchronous and asynchronous requests are the same record: a synchronous call waits for
+ * its own and completes it on the spot; an asynchronous one is completed by pump or poll. */
+struct pending {
+    pending *next;          /* c->waiting */
+    pending *next_ready;    /* c->ready, once an async request is done */
     int64_t request_id;
     const reply_ops *ops;
     int gather;             /* LIST: every daemon's answer, until the deadline */
@@ -51,8 +61,21 @@ typedef struct pending {
     size_t num_assemblies, cap_assemblies;
     size_t finished;        /* assemblies complete or bad */
     uint64_t malformed;     /* replies for this request that failed the wire check */
-    int done;               /* nothing more to wait for */
-} pending;
+    int done;               /* nothing more to wait for: answered, or its deadline passed */
+    int ready;              /* in c->ready */
+    int bus_failed;         /* the bus failed while a sync call waited for it */
+    int closed;             /* the connection closed before it was answered */
+
+    int64_t deadline;       /* monotonic ns (client_deadline); INT64_MAX: none */
+    int timeout_ms;         /* as asked (LIST: the gather window), for messages */
+    size_t count;           /* rays, triangles or poses asked about, to check answers by */
+    char no_daemon[TRIOCT_MAX_MESSAGE_LEN + 1]; /* the message of an unanswered request */
+
+    int is_async;
+    pending_complete_fn complete;
+    void (*cb)(void);       /* the caller's callback; complete casts it back to its type */
+    void *user;
+};
 
 struct trioct_client {
     lcm_t *lcm;
@@ -60,16 +83,24 @@ struct trioct_client {
     lcm_subscription_t *reply_sub;
     uint64_t client_id;
     int64_t next_request_id;
+    int send_deadlines;     /* requests carry deadline_utime = now + timeout */
     char url[256];
     char prefix[TRIOCT_MAX_PREFIX_LEN + 1];
     char reply_channel[TRIOCT_MAX_CHANNEL_LEN + 1];
-    pending *waiting;       /* requests waiting for replies */
+    pending *waiting;       /* every request sent and not yet completed */
+    pending *ready_head, *ready_tail; /* async requests done, completions not yet run */
+    size_t in_flight;       /* async requests sent and not yet completed or cancelled */
+    int dispatching;        /* completions are running (pump, poll or a deferred close) */
+    int closing;            /* trioct_disconnect was called from a callback */
     uint64_t finish_counter;
+    char last_error[TRIOCT_MAX_MESSAGE_LEN + 1];
     trioct_client_stats stats;
 };
 
 /* ---- client.c: time, messages -------------------------------------------------------- */
 
+/* Monotonic nanoseconds. */
+int64_t client_now_ns(void);
 /* The monotonic deadline, in nanoseconds, of a timeout in ms (< 0: none, as INT64_MAX). */
 int64_t client_deadline(int timeout_ms);
 /* Bounded copy that always terminates (NULL src gives ""). */
@@ -88,11 +119,6 @@ void client_reply_from_header(trioct_reply *r, const trioct_reply_header_t *h, i
 /* Channel of kind for name; TRIOCT_ERR_BAD_REQUEST into r when the name is invalid. */
 int client_channel(trioct_client *c, trioct_channel_kind kind, const char *name,
                    char out[TRIOCT_MAX_CHANNEL_LEN + 1], trioct_reply *r, const char *what);
-/* Request ids count up from 1 per connection. */
-int64_t client_next_request_id(trioct_client *c);
-/* The fields every request carries; h->world points at world (or "") until sent. */
-void client_request_header(trioct_client *c, trioct_request_header_t *h, int64_t request_id,
-                           const char *world);
 
 /* How one request type is encoded (wrappers over the generated functions). */
 typedef struct request_codec {
@@ -100,35 +126,58 @@ typedef struct request_codec {
     int (*encode)(void *buf, int size, const void *msg); /* bytes written or < 0 */
 } request_codec;
 
-/* Encodes msg, refuses it over TRIOCT_MAX_REQUEST_BYTES (nothing sent), publishes it.
- * Returns TRIOCT_OK, or a status with r filled. */
-int client_send(trioct_client *c, const char *channel, const request_codec *codec,
-                const void *msg, trioct_reply *r);
+/* A new request with the next request id, its deadline from timeout_ms, waiting for replies
+ * of ops; NULL with r filled when out of memory or the connection is closing. */
+pending *client_pending_new(trioct_client *c, const reply_ops *ops, int timeout_ms,
+                            trioct_reply *r);
+/* The fields every request carries for p; h->world points at world (or "") until sent. */
+void client_request_header(trioct_client *c, trioct_request_header_t *h, const pending *p,
+                           const char *world);
+/* Encodes msg, refuses it over TRIOCT_MAX_REQUEST_BYTES, publishes it and puts p in the
+ * table. Returns TRIOCT_OK, or a status with r filled and p freed (nothing was sent). */
+int client_pending_send(trioct_client *c, pending *p, const char *channel,
+                        const request_codec *codec, const void *msg, trioct_reply *r);
+/* Unlinks p from the table and the ready queue. */
+void client_pending_unlink(trioct_client *c, pending *p);
+/* Frees p and what it holds (p must be unlinked). */
+void client_pending_free(pending *p);
 
-/* One request, one answer: sends msg (whose header carries p's request id; p begun by the
- * caller, who also ends it), waits, and on TRIOCT_OK or a daemon's error status gives the
- * complete answer in *answer with r filled from its first chunk's header. Otherwise *answer
- * is NULL and r says why. Returns r->status. */
-int client_call(trioct_client *c, pending *p, const char *channel, const request_codec *codec,
-                const void *msg, int timeout_ms, const char *no_daemon_msg, trioct_reply *r,
-                const assembly **answer);
+/* Frees the connection, after completing its async requests as closed. */
+void client_destroy(trioct_client *c);
 
 /* ---- client.c: waiting --------------------------------------------------------------- */
 
-void client_pending_begin(trioct_client *c, pending *p, const reply_ops *ops, int64_t request_id);
-/* Unlinks p and frees what it holds. */
-void client_pending_end(trioct_client *c, pending *p);
-/* Handles messages until p is done or the deadline (client_deadline) passes. Returns 0, or
- * -1 when the bus failed. */
-int client_wait(trioct_client *c, pending *p, int64_t deadline);
-/* Handles messages until *flag is set or the deadline passes (status waits). */
+/* Handles what is queued on the bus without blocking, until nothing is, *flag is set (flag
+ * may be NULL) or the deadline passes. Returns messages handled, or -1 when the bus failed. */
+int client_drain(trioct_client *c, const int *flag, int64_t deadline);
+/* Handles messages until *flag is set or the deadline passes. 0, or -1 when the bus failed. */
 int client_wait_flag(trioct_client *c, const int *flag, int64_t deadline);
 
-/* After client_wait for a one-answer request: the complete answer, or NULL with r filled
- * (TRIOCT_ERR_NO_DAEMON with no_daemon_msg, TRIOCT_ERR_TIMEOUT, TRIOCT_ERR_BAD_REPLY,
- * TRIOCT_ERR_TRANSPORT when wait_rc < 0). */
-const assembly *client_single_answer(trioct_client *c, pending *p, int wait_rc, int timeout_ms,
-                                     const char *no_daemon_msg, trioct_reply *r);
+/* For a one-answer request whose waiting is over: the complete answer with r filled from
+ * its first chunk's header (a daemon's error status included), or NULL with r saying why
+ * (TRIOCT_ERR_NO_DAEMON with p->no_daemon, _TIMEOUT, _BAD_REPLY, _TRANSPORT). */
+const assembly *client_answer(trioct_client *c, const pending *p, trioct_reply *r);
+/* r for a request that ended without its answers because the bus failed or the
+ * connection closed; returns 1 when that is so, else 0. */
+int client_ended_early(const trioct_client *c, const pending *p, trioct_reply *r);
+
+/* ---- client_async.c: completions ----------------------------------------------------- */
+
+/* Queues p's completion when p is async; called once p is done. */
+void client_pending_ready(trioct_client *c, pending *p);
+/* Before an async call: refuses it (r filled, returns the status) on a NULL callback or a
+ * closing connection. */
+int client_async_check(trioct_client *c, int has_callback, trioct_reply *r);
+/* After an async call's start: on TRIOCT_OK makes p async with cb and user and gives its id;
+ * otherwise records r's message as the connection's last error. Returns rc. */
+int client_async_started(trioct_client *c, int rc, const trioct_reply *r, pending *p,
+                         void (*cb)(void), void *user, int64_t *request_id);
+/* Completes every async request still in flight as closed (TRIOCT_ERR_TRANSPORT), so their
+ * callers' user data can be released; frees the rest. */
+void client_close_requests(trioct_client *c);
+/* A sync call's wait: handles messages until p is answered or its deadline passes, then runs
+ * its completion with cb and user (which keep the result) and frees it. */
+void client_sync_finish(trioct_client *c, pending *p, void (*cb)(void), void *user);
 
 /* ---- per-type encoders and result builders shared across files ----------------------- */
 

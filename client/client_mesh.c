@@ -1,5 +1,5 @@
 /* A query shape at a batch of poses: the request on <prefix>_MESH_<world>, the answer's
- * chunks joined into one list of touching pairs. */
+ * chunks joined into one list of touching pairs, synchronously or through a callback. */
 #include "client_internal.h"
 
 #include <stdio.h>
@@ -117,11 +117,24 @@ static int build_result(const assembly *a, size_t n, trioct_mesh_result *out)
     return TRIOCT_OK;
 }
 
-int trioct_mesh(trioct_client *c, const trioct_mesh_query *q, int timeout_ms,
-                trioct_mesh_result *out)
+/* Builds the result, hands it to the callback and frees what the callback left. */
+static void complete_mesh(trioct_client *c, pending *p)
 {
-    memset(out, 0, sizeof *out);
-    trioct_reply *r = &out->reply;
+    trioct_mesh_result res;
+    memset(&res, 0, sizeof res);
+    const assembly *answer = client_answer(c, p, &res.reply);
+    if (answer != NULL && res.reply.status == TRIOCT_OK)
+        build_result(answer, p->count, &res);
+    if (res.reply.status != TRIOCT_OK)
+        trioct_mesh_result_free(&res); /* a failed request leaves no half result */
+    ((trioct_mesh_done)p->cb)(c, &res, p->user);
+    trioct_mesh_result_free(&res);
+}
+
+/* Checks, encodes and sends q; *out is then the request waiting for its answer. */
+static int start_mesh(trioct_client *c, const trioct_mesh_query *q, int timeout_ms,
+                      trioct_reply *r, pending **out)
+{
     char channel[TRIOCT_MAX_CHANNEL_LEN + 1];
     if (check_query(q, r) != TRIOCT_OK ||
         client_channel(c, TRIOCT_CHANNEL_MESH, q->world, channel, r, "world") != TRIOCT_OK)
@@ -137,35 +150,63 @@ int trioct_mesh(trioct_client *c, const trioct_mesh_query *q, int timeout_ms,
         .num_poses = (int32_t)np,
         .poses = calloc(np ? np : 1, sizeof(trioct_pose_t)),
     };
+    pending *p = NULL;
+    int rc;
     if (msg.shape_triangles == NULL || msg.poses == NULL) {
-        free(msg.shape_triangles);
-        free(msg.poses);
-        return client_fail(r, TRIOCT_ERR_NOMEM, "out of memory for %zu poses", np);
+        rc = client_fail(r, TRIOCT_ERR_NOMEM, "out of memory for %zu poses", np);
+    } else if ((p = client_pending_new(c, &mesh_reply_ops, timeout_ms, r)) == NULL) {
+        rc = r->status;
+    } else {
+        for (size_t i = 0; i < nt; i++)
+            msg.shape_triangles[i] = (trioct_triangle_t){wire_vec(q->shape_triangles[i].a),
+                                                         wire_vec(q->shape_triangles[i].b),
+                                                         wire_vec(q->shape_triangles[i].c)};
+        for (size_t i = 0; i < np; i++) {
+            memcpy(msg.poses[i].r, q->poses[i].r, sizeof msg.poses[i].r);
+            msg.poses[i].t = wire_vec(q->poses[i].t);
+        }
+        p->count = np;
+        p->complete = complete_mesh;
+        client_no_daemon_world(c, q->world, timeout_ms, p->no_daemon, sizeof p->no_daemon);
+        client_request_header(c, &msg.header, p, q->world);
+        rc = client_pending_send(c, p, channel, &mesh_codec, &msg, r);
     }
-    for (size_t i = 0; i < nt; i++)
-        msg.shape_triangles[i] = (trioct_triangle_t){wire_vec(q->shape_triangles[i].a),
-                                                     wire_vec(q->shape_triangles[i].b),
-                                                     wire_vec(q->shape_triangles[i].c)};
-    for (size_t i = 0; i < np; i++) {
-        memcpy(msg.poses[i].r, q->poses[i].r, sizeof msg.poses[i].r);
-        msg.poses[i].t = wire_vec(q->poses[i].t);
-    }
-
-    pending p;
-    client_pending_begin(c, &p, &mesh_reply_ops, client_next_request_id(c));
-    client_request_header(c, &msg.header, p.request_id, q->world);
-    char no_daemon[TRIOCT_MAX_MESSAGE_LEN + 1];
-    client_no_daemon_world(c, q->world, timeout_ms, no_daemon, sizeof no_daemon);
-    const assembly *answer;
-    int rc = client_call(c, &p, channel, &mesh_codec, &msg, timeout_ms, no_daemon, r, &answer);
     free(msg.shape_triangles);
     free(msg.poses);
-    if (answer != NULL && rc == TRIOCT_OK)
-        rc = build_result(answer, np, out);
-    client_pending_end(c, &p);
-    if (rc != TRIOCT_OK)
-        trioct_mesh_result_free(out); /* a failed call leaves no half result */
+    *out = rc == TRIOCT_OK ? p : NULL;
     return rc;
+}
+
+/* A sync call's callback: the result moves to the caller's struct. */
+static void keep_mesh(trioct_client *c, trioct_mesh_result *res, void *user)
+{
+    (void)c;
+    *(trioct_mesh_result *)user = *res;
+    memset(res, 0, sizeof *res);
+}
+
+int trioct_mesh(trioct_client *c, const trioct_mesh_query *q, int timeout_ms,
+                trioct_mesh_result *out)
+{
+    memset(out, 0, sizeof *out);
+    pending *p;
+    int rc = start_mesh(c, q, timeout_ms, &out->reply, &p);
+    if (rc != TRIOCT_OK)
+        return rc;
+    client_sync_finish(c, p, (void (*)(void))keep_mesh, out);
+    return out->reply.status;
+}
+
+int trioct_mesh_async(trioct_client *c, const trioct_mesh_query *q, int timeout_ms,
+                      trioct_mesh_done cb, void *user, int64_t *request_id)
+{
+    trioct_reply r;
+    memset(&r, 0, sizeof r);
+    pending *p = NULL;
+    int rc = client_async_check(c, cb != NULL, &r);
+    if (rc == TRIOCT_OK)
+        rc = start_mesh(c, q, timeout_ms, &r, &p);
+    return client_async_started(c, rc, &r, p, (void (*)(void))cb, user, request_id);
 }
 
 /* Keeps .reply: the status and message stay readable after the arrays are gone. */

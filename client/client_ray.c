@@ -1,5 +1,5 @@
 /* Ray batches: the request on <prefix>_RAY_<world>, the answer's chunks joined into one
- * list of hits. */
+ * list of hits, synchronously or through a callback. */
 #include "client_internal.h"
 
 #include <math.h>
@@ -133,11 +133,24 @@ static int build_result(const assembly *a, size_t num_rays, trioct_ray_result *o
     return TRIOCT_OK;
 }
 
-int trioct_rays(trioct_client *c, const trioct_ray_query *q, int timeout_ms,
-                trioct_ray_result *out)
+/* Builds the result, hands it to the callback and frees what the callback left. */
+static void complete_rays(trioct_client *c, pending *p)
 {
-    memset(out, 0, sizeof *out);
-    trioct_reply *r = &out->reply;
+    trioct_ray_result res;
+    memset(&res, 0, sizeof res);
+    const assembly *answer = client_answer(c, p, &res.reply);
+    if (answer != NULL && res.reply.status == TRIOCT_OK)
+        build_result(answer, p->count, &res);
+    if (res.reply.status != TRIOCT_OK)
+        trioct_ray_result_free(&res); /* a failed request leaves no half result */
+    ((trioct_ray_done)p->cb)(c, &res, p->user);
+    trioct_ray_result_free(&res);
+}
+
+/* Checks, encodes and sends q; *out is then the request waiting for its answer. */
+static int start_rays(trioct_client *c, const trioct_ray_query *q, int timeout_ms,
+                      trioct_reply *r, pending **out)
+{
     char channel[TRIOCT_MAX_CHANNEL_LEN + 1];
     if (check_query(q, r) != TRIOCT_OK ||
         client_channel(c, TRIOCT_CHANNEL_RAY, q->world, channel, r, "world") != TRIOCT_OK)
@@ -154,32 +167,60 @@ int trioct_rays(trioct_client *c, const trioct_ray_query *q, int timeout_ms,
         .origin = calloc(n ? n : 1, sizeof(trioct_vec3_t)),
         .direction = calloc(n ? n : 1, sizeof(trioct_vec3_t)),
     };
+    pending *p = NULL;
+    int rc;
     if (msg.origin == NULL || msg.direction == NULL) {
-        free(msg.origin);
-        free(msg.direction);
-        return client_fail(r, TRIOCT_ERR_NOMEM, "out of memory for %zu rays", n);
+        rc = client_fail(r, TRIOCT_ERR_NOMEM, "out of memory for %zu rays", n);
+    } else if ((p = client_pending_new(c, &ray_reply_ops, timeout_ms, r)) == NULL) {
+        rc = r->status;
+    } else {
+        for (size_t i = 0; i < n; i++) {
+            msg.origin[i] = (trioct_vec3_t){q->origins[i].x, q->origins[i].y, q->origins[i].z};
+            msg.direction[i] =
+                (trioct_vec3_t){q->directions[i].x, q->directions[i].y, q->directions[i].z};
+        }
+        p->count = n;
+        p->complete = complete_rays;
+        client_no_daemon_world(c, q->world, timeout_ms, p->no_daemon, sizeof p->no_daemon);
+        client_request_header(c, &msg.header, p, q->world);
+        rc = client_pending_send(c, p, channel, &ray_codec, &msg, r);
     }
-    for (size_t i = 0; i < n; i++) {
-        msg.origin[i] = (trioct_vec3_t){q->origins[i].x, q->origins[i].y, q->origins[i].z};
-        msg.direction[i] =
-            (trioct_vec3_t){q->directions[i].x, q->directions[i].y, q->directions[i].z};
-    }
-
-    pending p;
-    client_pending_begin(c, &p, &ray_reply_ops, client_next_request_id(c));
-    client_request_header(c, &msg.header, p.request_id, q->world);
-    char no_daemon[TRIOCT_MAX_MESSAGE_LEN + 1];
-    client_no_daemon_world(c, q->world, timeout_ms, no_daemon, sizeof no_daemon);
-    const assembly *answer;
-    int rc = client_call(c, &p, channel, &ray_codec, &msg, timeout_ms, no_daemon, r, &answer);
     free(msg.origin);
     free(msg.direction);
-    if (answer != NULL && rc == TRIOCT_OK)
-        rc = build_result(answer, n, out);
-    client_pending_end(c, &p);
-    if (rc != TRIOCT_OK)
-        trioct_ray_result_free(out); /* a failed call leaves no half result */
+    *out = rc == TRIOCT_OK ? p : NULL;
     return rc;
+}
+
+/* A sync call's callback: the result moves to the caller's struct. */
+static void keep_rays(trioct_client *c, trioct_ray_result *res, void *user)
+{
+    (void)c;
+    *(trioct_ray_result *)user = *res;
+    memset(res, 0, sizeof *res);
+}
+
+int trioct_rays(trioct_client *c, const trioct_ray_query *q, int timeout_ms,
+                trioct_ray_result *out)
+{
+    memset(out, 0, sizeof *out);
+    pending *p;
+    int rc = start_rays(c, q, timeout_ms, &out->reply, &p);
+    if (rc != TRIOCT_OK)
+        return rc;
+    client_sync_finish(c, p, (void (*)(void))keep_rays, out);
+    return out->reply.status;
+}
+
+int trioct_rays_async(trioct_client *c, const trioct_ray_query *q, int timeout_ms,
+                      trioct_ray_done cb, void *user, int64_t *request_id)
+{
+    trioct_reply r;
+    memset(&r, 0, sizeof r);
+    pending *p = NULL;
+    int rc = client_async_check(c, cb != NULL, &r);
+    if (rc == TRIOCT_OK)
+        rc = start_rays(c, q, timeout_ms, &r, &p);
+    return client_async_started(c, rc, &r, p, (void (*)(void))cb, user, request_id);
 }
 
 /* Keeps .reply: the status and message stay readable after the arrays are gone. */

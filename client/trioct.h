@@ -2,8 +2,11 @@
  *
  * A connection (trioct_client) joins an LCM bus, picks a random client id and its own reply
  * channel, and sends ray, triangle, mesh and world-admin requests to whichever daemon holds
- * the world. Every call here is synchronous with a timeout in milliseconds (< 0: no limit;
- * 0: only what is already queued) and returns a status code:
+ * the world. Every request comes in two forms: a synchronous call with a timeout in
+ * milliseconds (< 0: no limit; 0: only what is already queued) that returns a status code,
+ * and an asynchronous one (trioct_rays_async, ...) that returns at once and hands the result
+ * to a callback later, from trioct_pump or trioct_poll (see "Asynchronous calls" below;
+ * docs/client.md shows both). The status codes:
  *
  *   0 TRIOCT_OK, and the daemon's codes 1..13 (TRIOCT_ERR_BAD_REQUEST, _UNKNOWN_WORLD,
  *   _NONFINITE, _ZERO_DIRECTION, _OVER_CAP, _EFFECT, _BAD_PATH, _DEADLINE, _BUSY,
@@ -11,7 +14,8 @@
  *   (TRIOCT_ERR_NOMEM also when this process runs out of memory for a request or result);
  *   100 TRIOCT_ERR_TIMEOUT      part of the reply came, not all of it, within the timeout;
  *   101 TRIOCT_ERR_NO_DAEMON    nothing came back: no daemon serves the world (or answers);
- *   102 TRIOCT_ERR_TRANSPORT    the LCM bus could not be opened or used;
+ *   102 TRIOCT_ERR_TRANSPORT    the LCM bus could not be opened or used (or, for a request in
+ *                               flight, the connection was closed before the answer came);
  *   103 TRIOCT_ERR_BAD_REPLY    replies came back but could not be made sense of.
  *
  * The table and its texts are trioct_status.h, included below: trioct_status_text(code) and
@@ -28,8 +32,9 @@
  * the process or keeps global state.
  *
  * Threads: a connection is used by one thread at a time (calls on one connection must not
- * overlap, including from inside an LCM handler of a shared LCM instance). Separate
- * connections are independent and may be used from separate threads at once.
+ * overlap, including from inside an LCM handler of a shared LCM instance); callbacks run on
+ * the thread that calls trioct_pump or trioct_poll. Separate connections are independent and
+ * may be used from separate threads at once.
  */
 #ifndef TRIOCT_H
 #define TRIOCT_H
@@ -37,8 +42,17 @@
 #include <stddef.h>
 #include <stdint.h>
 
+/* The headers beside this one, wherever it is installed. */
 #include "trioct_limits.h"
 #include "trioct_status.h"
+
+/* The shared library exports what this header declares and nothing else (it is built with
+ * -fvisibility=hidden); TRIOCT_API marks each declaration. */
+#if defined(__GNUC__) || defined(__clang__)
+#define TRIOCT_API __attribute__((visibility("default")))
+#else
+#define TRIOCT_API
+#endif
 
 #ifdef __cplusplus
 extern "C" {
@@ -90,29 +104,42 @@ typedef struct trioct_connect_options {
     struct _lcm_t *lcm;
     int queue_capacity; /* messages the reply subscription buffers; 0: 4096 (a chunked
                            reply is many messages at once) */
+    /* Nonzero: every request with a timeout carries deadline_utime = now + timeout (the
+     * wall clock, microseconds), and a daemon that cannot start it by then answers
+     * TRIOCT_ERR_DEADLINE at once instead of working for a caller that has given up. Needs
+     * the clocks of client and daemon hosts in step. 0: no deadline is sent. */
+    int send_deadlines;
 } trioct_connect_options;
 
 /* Connects (opt may be NULL for all defaults). On failure returns NULL, sets *status
  * (TRIOCT_ERR_TRANSPORT or TRIOCT_ERR_BAD_REQUEST) and writes why into err (both optional). */
-trioct_client *trioct_connect(const trioct_connect_options *opt, int *status, char *err,
-                              size_t err_len);
+TRIOCT_API trioct_client *trioct_connect(const trioct_connect_options *opt, int *status,
+                                         char *err, size_t err_len);
 
-/* Unsubscribes and, when the connection created it, closes the LCM instance. NULL is fine. */
-void trioct_disconnect(trioct_client *c);
+/* Unsubscribes and, when the connection created it, closes the LCM instance. NULL is fine.
+ * Asynchronous requests still in flight complete first, their callbacks called with
+ * TRIOCT_ERR_TRANSPORT ("closed before the answer came") unless their answer was already
+ * whole, so that what their user pointers hold can be released. Called from a completion
+ * callback, it takes effect when the trioct_pump or trioct_poll running the callback returns
+ * (the connection must not be used after that). */
+TRIOCT_API void trioct_disconnect(trioct_client *c);
 
 /* The file descriptor that becomes readable when messages wait; for poll/select/libuv
- * loops, which then call trioct_pump. */
-int trioct_fileno(const trioct_client *c);
+ * loops, which then call trioct_pump (and also when trioct_next_timeout_ms says so). It is
+ * LCM's notification pipe, not a socket: readable does not promise a whole reply. */
+TRIOCT_API int trioct_fileno(const trioct_client *c);
 
 /* Handles the messages already queued without blocking (replies that arrive after their
- * call gave up are dropped and counted here). Returns how many were handled, or -1 when the
- * bus failed. */
-int trioct_pump(trioct_client *c);
+ * call gave up are dropped and counted here), then fires the timeouts of asynchronous
+ * requests whose deadline has passed and runs the completions that are due. Returns how
+ * many messages were handled, or -1 when the bus failed or when called from inside a
+ * completion callback (trioct_last_error says which). */
+TRIOCT_API int trioct_pump(trioct_client *c);
 
-uint64_t trioct_client_id(const trioct_client *c);     /* random, nonzero */
-const char *trioct_reply_channel(const trioct_client *c); /* <prefix>_R_<16 hex digits> */
-const char *trioct_url(const trioct_client *c);
-const char *trioct_prefix(const trioct_client *c);
+TRIOCT_API uint64_t trioct_client_id(const trioct_client *c); /* random, nonzero */
+TRIOCT_API const char *trioct_reply_channel(const trioct_client *c); /* <prefix>_R_<16 hex> */
+TRIOCT_API const char *trioct_url(const trioct_client *c);
+TRIOCT_API const char *trioct_prefix(const trioct_client *c);
 
 /* What the connection saw; for diagnostics and tests. */
 typedef struct trioct_client_stats {
@@ -124,7 +151,7 @@ typedef struct trioct_client_stats {
     uint64_t malformed;          /* replies failing the wire check; dropped */
 } trioct_client_stats;
 
-void trioct_client_get_stats(const trioct_client *c, trioct_client_stats *out);
+TRIOCT_API void trioct_client_get_stats(const trioct_client *c, trioct_client_stats *out);
 
 /* ---- Replies ------------------------------------------------------------------------- */
 
@@ -158,7 +185,7 @@ typedef struct trioct_ray_query {
 } trioct_ray_query;
 
 /* CLOSEST, the world's accuracy, t in [0, INFINITY), TRIOCT_MAX_HITS_PER_RAY; no rays. */
-trioct_ray_query trioct_ray_query_default(const char *world);
+TRIOCT_API trioct_ray_query trioct_ray_query_default(const char *world);
 
 typedef struct trioct_ray_hit {
     int32_t ray;      /* index of the ray in the query */
@@ -178,9 +205,9 @@ typedef struct trioct_ray_result {
     trioct_ray_hit *hits;  /* by ray, then by increasing t */
 } trioct_ray_result;
 
-int trioct_rays(trioct_client *c, const trioct_ray_query *q, int timeout_ms,
-                trioct_ray_result *out);
-void trioct_ray_result_free(trioct_ray_result *r);
+TRIOCT_API int trioct_rays(trioct_client *c, const trioct_ray_query *q, int timeout_ms,
+                           trioct_ray_result *out);
+TRIOCT_API void trioct_ray_result_free(trioct_ray_result *r);
 
 /* ---- Triangles ----------------------------------------------------------------------- */
 
@@ -213,9 +240,9 @@ typedef struct trioct_triangle_result {
     trioct_segment *segments;  /* SEGMENTS: one per contact; else NULL */
 } trioct_triangle_result;
 
-int trioct_triangles(trioct_client *c, const trioct_triangle_query *q, int timeout_ms,
-                     trioct_triangle_result *out);
-void trioct_triangle_result_free(trioct_triangle_result *r);
+TRIOCT_API int trioct_triangles(trioct_client *c, const trioct_triangle_query *q,
+                                int timeout_ms, trioct_triangle_result *out);
+TRIOCT_API void trioct_triangle_result_free(trioct_triangle_result *r);
 
 /* ---- Mesh at poses ------------------------------------------------------------------- */
 
@@ -248,9 +275,9 @@ typedef struct trioct_mesh_result {
     trioct_mesh_pair *pairs; /* PAIRS: sorted by (pose, shape triangle, world triangle) */
 } trioct_mesh_result;
 
-int trioct_mesh(trioct_client *c, const trioct_mesh_query *q, int timeout_ms,
-                trioct_mesh_result *out);
-void trioct_mesh_result_free(trioct_mesh_result *r);
+TRIOCT_API int trioct_mesh(trioct_client *c, const trioct_mesh_query *q, int timeout_ms,
+                           trioct_mesh_result *out);
+TRIOCT_API void trioct_mesh_result_free(trioct_mesh_result *r);
 
 /* ---- Worlds -------------------------------------------------------------------------- */
 
@@ -288,7 +315,7 @@ typedef struct trioct_admin_result {
     trioct_world_info *worlds;
 } trioct_admin_result;
 
-void trioct_admin_result_free(trioct_admin_result *r);
+TRIOCT_API void trioct_admin_result_free(trioct_admin_result *r);
 
 typedef struct trioct_load_options {
     const char *world;     /* the name it is served under */
@@ -302,10 +329,12 @@ typedef struct trioct_load_options {
 } trioct_load_options;
 
 /* Loads (or rebuilds) a world; the answer comes when it is built, so give the timeout room. */
-int trioct_load(trioct_client *c, const trioct_load_options *opt, int timeout_ms,
-                trioct_admin_result *out);
-int trioct_unload(trioct_client *c, const char *world, int timeout_ms, trioct_admin_result *out);
-int trioct_info(trioct_client *c, const char *world, int timeout_ms, trioct_admin_result *out);
+TRIOCT_API int trioct_load(trioct_client *c, const trioct_load_options *opt, int timeout_ms,
+                           trioct_admin_result *out);
+TRIOCT_API int trioct_unload(trioct_client *c, const char *world, int timeout_ms,
+                             trioct_admin_result *out);
+TRIOCT_API int trioct_info(trioct_client *c, const char *world, int timeout_ms,
+                           trioct_admin_result *out);
 
 typedef struct trioct_list_options {
     int gather_ms;      /* > 0: stop gathering after this long even when the timeout is later */
@@ -328,9 +357,9 @@ typedef struct trioct_list_result {
 /* Asks every daemon on the bus for its worlds and gathers the answers until the timeout,
  * the gather window or the expected count, whichever comes first (opt may be NULL: the
  * whole timeout). Without a timeout, one of the other two is needed. */
-int trioct_list(trioct_client *c, const trioct_list_options *opt, int timeout_ms,
-                trioct_list_result *out);
-void trioct_list_result_free(trioct_list_result *r);
+TRIOCT_API int trioct_list(trioct_client *c, const trioct_list_options *opt, int timeout_ms,
+                           trioct_list_result *out);
+TRIOCT_API void trioct_list_result_free(trioct_list_result *r);
 
 /* ---- Daemon status (heartbeat) ------------------------------------------------------- */
 
@@ -360,9 +389,91 @@ typedef struct trioct_daemon_status {
 /* Waits for the next status message heard while the call runs (from daemon, or from any
  * daemon when daemon is NULL): the connection listens to the heartbeat only during this
  * call, so a status is never stale. TRIOCT_ERR_NO_DAEMON when none came in time. */
-int trioct_next_status(trioct_client *c, const char *daemon, int timeout_ms,
-                       trioct_daemon_status *out);
-void trioct_daemon_status_free(trioct_daemon_status *s);
+TRIOCT_API int trioct_next_status(trioct_client *c, const char *daemon, int timeout_ms,
+                                  trioct_daemon_status *out);
+TRIOCT_API void trioct_daemon_status_free(trioct_daemon_status *s);
+
+/* ---- Asynchronous calls -------------------------------------------------------------- */
+
+/* Each call below checks and sends its request like its synchronous twin and returns at
+ * once, without waiting:
+ *
+ *   TRIOCT_OK   the request is in flight; *request_id (when request_id is not NULL) is its
+ *               id, and cb will be called exactly once with the result (unless the request
+ *               is cancelled first);
+ *   otherwise   the refusal of the synchronous twin (a bad or over-cap request, no callback,
+ *               a closing connection, a publish that failed); nothing is in flight, cb is
+ *               never called, *request_id is 0, and trioct_last_error(c) says why.
+ *
+ * The query is encoded and sent before the call returns: its arrays may be reused at once.
+ * Any number of requests may be in flight on one connection; they complete in the order
+ * their answers become whole (or their deadlines pass), whatever order they were sent in.
+ *
+ * Completions run only from trioct_pump and trioct_poll (and, as closed, from
+ * trioct_disconnect), on the calling thread, never from inside lcm_handle. The timeout
+ * works as for the synchronous calls, measured from the call: when it passes, the next pump
+ * or poll completes the request with TRIOCT_ERR_NO_DAEMON or TRIOCT_ERR_TIMEOUT, and
+ * trioct_next_timeout_ms says when that is due. A timeout < 0 never fires.
+ *
+ * The callback gets the result in the same struct the synchronous call fills, with
+ * res->reply.status the outcome and res->reply.request_id the id. The library owns *res and
+ * frees it with its _free function when the callback returns; to keep it, move it out:
+ * `*mine = *res; memset(res, 0, sizeof *res);` (the free then finds nothing to free). A
+ * callback may send new requests (synchronous ones too), cancel others and disconnect; it
+ * may not call trioct_pump or trioct_poll (they refuse, returning -1). */
+
+typedef void (*trioct_ray_done)(trioct_client *c, trioct_ray_result *res, void *user);
+typedef void (*trioct_triangle_done)(trioct_client *c, trioct_triangle_result *res, void *user);
+typedef void (*trioct_mesh_done)(trioct_client *c, trioct_mesh_result *res, void *user);
+typedef void (*trioct_admin_done)(trioct_client *c, trioct_admin_result *res, void *user);
+typedef void (*trioct_list_done)(trioct_client *c, trioct_list_result *res, void *user);
+
+TRIOCT_API int trioct_rays_async(trioct_client *c, const trioct_ray_query *q, int timeout_ms,
+                                 trioct_ray_done cb, void *user, int64_t *request_id);
+TRIOCT_API int trioct_triangles_async(trioct_client *c, const trioct_triangle_query *q,
+                                      int timeout_ms, trioct_triangle_done cb, void *user,
+                                      int64_t *request_id);
+TRIOCT_API int trioct_mesh_async(trioct_client *c, const trioct_mesh_query *q, int timeout_ms,
+                                 trioct_mesh_done cb, void *user, int64_t *request_id);
+TRIOCT_API int trioct_load_async(trioct_client *c, const trioct_load_options *opt,
+                                 int timeout_ms, trioct_admin_done cb, void *user,
+                                 int64_t *request_id);
+TRIOCT_API int trioct_unload_async(trioct_client *c, const char *world, int timeout_ms,
+                                   trioct_admin_done cb, void *user, int64_t *request_id);
+TRIOCT_API int trioct_info_async(trioct_client *c, const char *world, int timeout_ms,
+                                 trioct_admin_done cb, void *user, int64_t *request_id);
+/* Gathers until the timeout, the gather window or the expected count, as trioct_list. */
+TRIOCT_API int trioct_list_async(trioct_client *c, const trioct_list_options *opt,
+                                 int timeout_ms, trioct_list_done cb, void *user,
+                                 int64_t *request_id);
+
+/* Waits up to timeout_ms (< 0: no limit) for the bus or the next deadline of a request in
+ * flight, handles what came and runs the completions due. Returns as soon as at least one
+ * completion ran (how many ran), 0 when the timeout passed with none (at once when
+ * timeout_ms < 0 and nothing is in flight, as nothing could end the wait), or -1 when the
+ * bus failed or when called from inside a completion callback (trioct_last_error says). */
+TRIOCT_API int trioct_poll(trioct_client *c, int timeout_ms);
+
+/* How long an external loop may sleep before it must call trioct_pump even if
+ * trioct_fileno stays quiet: milliseconds until the earliest deadline of a request in
+ * flight (rounded up), 0 when one has passed or completions wait to run, -1 when no request
+ * in flight has a deadline. Read it again after every pump and after any call that sends a
+ * request or waits (a synchronous call handles the replies of async requests too and leaves
+ * their completions for the next pump). */
+TRIOCT_API int trioct_next_timeout_ms(const trioct_client *c);
+
+/* Asynchronous requests sent and not yet completed or cancelled. */
+TRIOCT_API size_t trioct_in_flight(const trioct_client *c);
+
+/* Forgets an asynchronous request in flight: its callback will not be called (the user
+ * pointer is the caller's again) and replies that still come are dropped and counted as
+ * unmatched. TRIOCT_OK, or TRIOCT_ERR_BAD_REQUEST when no such request is in flight (it
+ * completed, its callback is running, it was cancelled, or it was never sent). */
+TRIOCT_API int trioct_cancel(trioct_client *c, int64_t request_id);
+
+/* Why the last asynchronous call, trioct_cancel, trioct_pump or trioct_poll on c failed;
+ * "" after one that succeeded. Valid until the next such call on c. */
+TRIOCT_API const char *trioct_last_error(const trioct_client *c);
 
 #ifdef __cplusplus
 }
