@@ -1291,7 +1291,9 @@ static void test_driven_from_a_libuv_loop(void **state)
         assert_int_equal(log.tag[i], N - 1 - i);
         assert_int_equal(log.status[i], TRIOCT_OK);
         assert_true(jobs[i].checked);
-        assert_true(log.at_ms[i] - t0 >= 30.0);
+        /* libuv's loop clock counts whole milliseconds, truncated: a 30 ms timer may
+         * fire up to 1 ms early by a finer clock. */
+        assert_true(log.at_ms[i] - t0 >= 29.0);
     }
     assert_int_equal(log.tag[N], N);
     assert_int_equal(log.status[N], TRIOCT_ERR_NO_DAEMON);
