@@ -1,0 +1,1294 @@
+/* End to end: the trioct command against a real trioctd over udpm, inside the private
+ * network and pid namespace that tests/e2e/netns.sh makes.
+ *
+ *   e2e_cli TRIOCTD_BINARY TRIOCT_BINARY
+ *
+ * The daemon serves a box whose triangles this file writes one by one, so every answer is
+ * known exactly: a ray straight down at (x, y) crosses the top face at t = 8 in triangle 1
+ * when y > x (triangle 0 when y < x) with known barycentric weights, and the bottom face at
+ * t = 10. Each subcommand runs as a subprocess with --json; its one line of output is parsed
+ * by the small JSON reader below (which also rejects anything that is not strict JSON) and
+ * checked field by field. Every documented exit code is provoked, 5 with a fake daemon
+ * that answers with bytes no reply decoder accepts. */
+#include <errno.h>
+#include <fcntl.h>
+#include <math.h>
+#include <poll.h>
+#include <pthread.h>
+#include <setjmp.h>
+#include <signal.h>
+#include <stdarg.h>
+#include <stdatomic.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/wait.h>
+#include <time.h>
+#include <unistd.h>
+
+#include <cmocka.h>
+#include <lcm/lcm.h>
+
+#include "support/daemon_proc.h"
+#include "trioct.h"
+#include "trioct_version.h"
+
+#define BUS_URL "udpm://239.255.76.67:7667?ttl=0&recv_buf_size=4194304"
+#define DAEMON "dE"
+#define RUN_LIMIT_MS 30000 /* a trioct run that takes longer than this has hung */
+
+static const char *daemon_bin, *cli_bin;
+static char dir[256];
+static pid_t daemon_pid = -1;
+
+/* ====================================================================================== */
+/* A strict JSON reader, just enough for trioct's output                                    */
+/* ====================================================================================== */
+
+typedef enum { J_NULL, J_BOOL, J_NUM, J_STR, J_ARR, J_OBJ } jtype;
+
+typedef struct jv {
+    jtype type;
+    double num; /* J_NUM; J_BOOL: 0 or 1 */
+    char *str;  /* J_STR */
+    size_t n;   /* J_ARR, J_OBJ: items */
+    struct jv *items;
+    char **keys; /* J_OBJ */
+} jv;
+
+typedef struct jreader {
+    const char *p;
+    char err[128];
+} jreader;
+
+static int jvalue(jreader *r, jv *out);
+
+static void jfree_value(jv *v)
+{
+    for (size_t i = 0; i < v->n; i++) {
+        jfree_value(&v->items[i]);
+        if (v->keys)
+            free(v->keys[i]);
+    }
+    free(v->items);
+    free(v->keys);
+    free(v->str);
+}
+
+static void jfree(jv *v)
+{
+    if (v) {
+        jfree_value(v);
+        free(v);
+    }
+}
+
+static int jfail(jreader *r, const char *what)
+{
+    if (r->err[0] == '\0')
+        snprintf(r->err, sizeof r->err, "%s at '%.20s'", what, r->p);
+    return -1;
+}
+
+static void skip_ws(jreader *r)
+{
+    while (*r->p == ' ' || *r->p == '\t' || *r->p == '\n' || *r->p == '\r')
+        r->p++;
+}
+
+static void put_utf8(char **o, unsigned cp)
+{
+    if (cp < 0x80) {
+        *(*o)++ = (char)cp;
+    } else if (cp < 0x800) {
+        *(*o)++ = (char)(0xC0 | cp >> 6);
+        *(*o)++ = (char)(0x80 | (cp & 0x3F));
+    } else if (cp < 0x10000) {
+        *(*o)++ = (char)(0xE0 | cp >> 12);
+        *(*o)++ = (char)(0x80 | ((cp >> 6) & 0x3F));
+        *(*o)++ = (char)(0x80 | (cp & 0x3F));
+    } else {
+        *(*o)++ = (char)(0xF0 | cp >> 18);
+        *(*o)++ = (char)(0x80 | ((cp >> 12) & 0x3F));
+        *(*o)++ = (char)(0x80 | ((cp >> 6) & 0x3F));
+        *(*o)++ = (char)(0x80 | (cp & 0x3F));
+    }
+}
+
+static int hex_digit(char c)
+{
+    if (c >= '0' && c <= '9')
+        return c - '0';
+    if (c >= 'a' && c <= 'f')
+        return c - 'a' + 10;
+    if (c >= 'A' && c <= 'F')
+        return c - 'A' + 10;
+    return -1;
+}
+
+static int hex4(const char *p, unsigned *out)
+{
+    unsigned v = 0;
+    for (int i = 0; i < 4; i++) {
+        int d = hex_digit(p[i]);
+        if (d < 0)
+            return -1;
+        v = v * 16 + (unsigned)d;
+    }
+    *out = v;
+    return 0;
+}
+
+static int jstring(jreader *r, char **out)
+{
+    if (*r->p != '"')
+        return jfail(r, "expected a string");
+    r->p++;
+    char *buf = malloc(strlen(r->p) * 2 + 8), *o = buf;
+    assert_non_null(buf);
+    for (;;) {
+        unsigned char c = (unsigned char)*r->p;
+        if (c == '\0' || c < 0x20) {
+            free(buf);
+            return jfail(r, "unterminated string or raw control character");
+        }
+        r->p++;
+        if (c == '"')
+            break;
+        if (c != '\\') {
+            *o++ = (char)c;
+            continue;
+        }
+        char e = *r->p++;
+        const char *simple = strchr("\"\\/bfnrt", e);
+        if (e != '\0' && simple != NULL) {
+            *o++ = "\"\\/\b\f\n\r\t"[simple - "\"\\/bfnrt"];
+            continue;
+        }
+        unsigned cp;
+        if (e != 'u' || hex4(r->p, &cp) != 0) {
+            free(buf);
+            return jfail(r, "bad escape");
+        }
+        r->p += 4;
+        if (cp >= 0xD800 && cp <= 0xDBFF) {
+            unsigned lo;
+            if (r->p[0] != '\\' || r->p[1] != 'u' || hex4(r->p + 2, &lo) != 0 || lo < 0xDC00 || lo > 0xDFFF) {
+                free(buf);
+                return jfail(r, "lone surrogate");
+            }
+            r->p += 6;
+            cp = 0x10000 + ((cp - 0xD800) << 10) + (lo - 0xDC00);
+        }
+        put_utf8(&o, cp);
+    }
+    *o = '\0';
+    *out = buf;
+    return 0;
+}
+
+/* JSON's number grammar, exactly: no "inf", "nan", hex, leading '+' or leading zeros. */
+static int jnumber(jreader *r, double *out)
+{
+    const char *p = r->p;
+    if (*p == '-')
+        p++;
+    if (*p == '0')
+        p++;
+    else if (*p >= '1' && *p <= '9')
+        while (*p >= '0' && *p <= '9')
+            p++;
+    else
+        return jfail(r, "bad number");
+    if (*p == '.') {
+        p++;
+        if (!(*p >= '0' && *p <= '9'))
+            return jfail(r, "bad fraction");
+        while (*p >= '0' && *p <= '9')
+            p++;
+    }
+    if (*p == 'e' || *p == 'E') {
+        p++;
+        if (*p == '+' || *p == '-')
+            p++;
+        if (!(*p >= '0' && *p <= '9'))
+            return jfail(r, "bad exponent");
+        while (*p >= '0' && *p <= '9')
+            p++;
+    }
+    *out = strtod(r->p, NULL);
+    r->p = p;
+    return 0;
+}
+
+static void jpush(jv *v, size_t *cap)
+{
+    if (v->n == *cap) {
+        *cap = *cap ? *cap * 2 : 8;
+        v->items = realloc(v->items, *cap * sizeof *v->items);
+        assert_non_null(v->items);
+        if (v->type == J_OBJ) {
+            v->keys = realloc(v->keys, *cap * sizeof *v->keys);
+            assert_non_null(v->keys);
+        }
+    }
+    memset(&v->items[v->n], 0, sizeof v->items[v->n]);
+}
+
+static int jcontainer(jreader *r, jv *out, char close)
+{
+    out->type = close == '}' ? J_OBJ : J_ARR;
+    size_t cap = 0;
+    r->p++;
+    skip_ws(r);
+    if (*r->p == close) {
+        r->p++;
+        return 0;
+    }
+    for (;;) {
+        skip_ws(r);
+        jpush(out, &cap);
+        if (out->type == J_OBJ) {
+            char *key = NULL;
+            if (jstring(r, &key) != 0)
+                return -1;
+            out->keys[out->n] = key;
+            skip_ws(r);
+            if (*r->p++ != ':') {
+                out->n++; /* the key is freed with the object */
+                return jfail(r, "expected ':'");
+            }
+        }
+        int rc = jvalue(r, &out->items[out->n]);
+        out->n++;
+        if (rc != 0)
+            return -1;
+        skip_ws(r);
+        if (*r->p == ',') {
+            r->p++;
+            continue;
+        }
+        if (*r->p == close) {
+            r->p++;
+            return 0;
+        }
+        return jfail(r, "expected ',' or the container's end");
+    }
+}
+
+static int jvalue(jreader *r, jv *out)
+{
+    skip_ws(r);
+    memset(out, 0, sizeof *out);
+    switch (*r->p) {
+    case '{':
+        return jcontainer(r, out, '}');
+    case '[':
+        return jcontainer(r, out, ']');
+    case '"':
+        out->type = J_STR;
+        return jstring(r, &out->str);
+    case 't':
+    case 'f':
+    case 'n': {
+        const char *word = *r->p == 't' ? "true" : *r->p == 'f' ? "false" : "null";
+        if (strncmp(r->p, word, strlen(word)) != 0)
+            return jfail(r, "bad literal");
+        r->p += strlen(word);
+        out->type = word[0] == 'n' ? J_NULL : J_BOOL;
+        out->num = word[0] == 't';
+        return 0;
+    }
+    default:
+        out->type = J_NUM;
+        return jnumber(r, &out->num);
+    }
+}
+
+/* Parses exactly one JSON value followed by one newline. */
+static jv *jparse_line(const char *text)
+{
+    jreader r = {.p = text};
+    jv *v = calloc(1, sizeof *v);
+    assert_non_null(v);
+    if (jvalue(&r, v) != 0 || strcmp(r.p, "\n") != 0) {
+        fprintf(stderr, "not one line of JSON (%s): %s\n", r.err[0] ? r.err : "trailing text", text);
+        jfree(v);
+        fail();
+    }
+    return v;
+}
+
+/* Follows a path like "hits.0.normal.2": object keys and array indices. NULL when absent. */
+static const jv *jget(const jv *v, const char *path)
+{
+    char buf[256];
+    snprintf(buf, sizeof buf, "%s", path);
+    char *save = NULL;
+    for (char *part = strtok_r(buf, ".", &save); part && v; part = strtok_r(NULL, ".", &save)) {
+        const jv *next = NULL;
+        if (v->type == J_OBJ) {
+            for (size_t i = 0; i < v->n && !next; i++)
+                if (strcmp(v->keys[i], part) == 0)
+                    next = &v->items[i];
+        } else if (v->type == J_ARR) {
+            char *end;
+            unsigned long i = strtoul(part, &end, 10);
+            if (*end == '\0' && i < v->n)
+                next = &v->items[i];
+        }
+        v = next;
+    }
+    return v;
+}
+
+static const jv *jneed(const jv *root, const char *path, jtype type)
+{
+    const jv *v = jget(root, path);
+    if (v == NULL)
+        fail_msg("JSON has no %s", path);
+    if (v->type != type)
+        fail_msg("JSON %s has type %d, not %d", path, v->type, type);
+    return v;
+}
+
+static double jnum(const jv *root, const char *path)
+{
+    return jneed(root, path, J_NUM)->num;
+}
+
+static const char *jstr(const jv *root, const char *path)
+{
+    return jneed(root, path, J_STR)->str;
+}
+
+static int jbool(const jv *root, const char *path)
+{
+    return (int)jneed(root, path, J_BOOL)->num;
+}
+
+static size_t jlen(const jv *root, const char *path)
+{
+    const jv *v = jget(root, path);
+    if (v == NULL || (v->type != J_ARR && v->type != J_OBJ))
+        fail_msg("JSON %s is no array or object", path);
+    return v->n;
+}
+
+/* ====================================================================================== */
+/* Running trioct                                                                           */
+/* ====================================================================================== */
+
+typedef struct cli_run {
+    int code;
+    char *out, *err;
+} cli_run;
+
+static void run_free(cli_run *r)
+{
+    free(r->out);
+    free(r->err);
+}
+
+static int64_t now_ms(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (int64_t)ts.tv_sec * 1000 + ts.tv_nsec / 1000000;
+}
+
+typedef struct sink {
+    int fd;
+    char *buf;
+    size_t len, cap;
+} sink;
+
+static int sink_read(sink *s)
+{
+    if (s->len + 4096 + 1 > s->cap) {
+        s->cap = (s->cap + 4096) * 2;
+        s->buf = realloc(s->buf, s->cap);
+        assert_non_null(s->buf);
+    }
+    ssize_t n = read(s->fd, s->buf + s->len, s->cap - s->len - 1);
+    if (n > 0)
+        s->len += (size_t)n;
+    s->buf[s->len] = '\0';
+    return n > 0 || (n < 0 && errno == EINTR);
+}
+
+/* Runs trioct --url BUS_URL args... with stdin from stdin_path (or /dev/null). A later
+ * --url in args wins. */
+static cli_run run_cli(const char *stdin_path, const char *const *args)
+{
+    const char *argv[64];
+    int n = 0;
+    argv[n++] = cli_bin;
+    argv[n++] = "--url";
+    argv[n++] = BUS_URL;
+    for (int i = 0; args[i] && n < 63; i++)
+        argv[n++] = args[i];
+    argv[n] = NULL;
+
+    int out_pipe[2], err_pipe[2];
+    assert_int_equal(pipe(out_pipe), 0);
+    assert_int_equal(pipe(err_pipe), 0);
+    fflush(NULL);
+    pid_t pid = fork();
+    assert_true(pid >= 0);
+    if (pid == 0) {
+        int in = open(stdin_path ? stdin_path : "/dev/null", O_RDONLY);
+        if (in >= 0)
+            dup2(in, STDIN_FILENO);
+        dup2(out_pipe[1], STDOUT_FILENO);
+        dup2(err_pipe[1], STDERR_FILENO);
+        close(out_pipe[0]);
+        close(err_pipe[0]);
+        execv(cli_bin, (char *const *)argv);
+        fprintf(stderr, "exec %s: %s\n", cli_bin, strerror(errno));
+        _exit(127);
+    }
+    close(out_pipe[1]);
+    close(err_pipe[1]);
+    sink out = {.fd = out_pipe[0], .buf = calloc(1, 1), .cap = 1};
+    sink err = {.fd = err_pipe[0], .buf = calloc(1, 1), .cap = 1};
+    assert_true(out.buf != NULL && err.buf != NULL);
+    int64_t deadline = now_ms() + RUN_LIMIT_MS;
+    int open_out = 1, open_err = 1;
+    while ((open_out || open_err) && now_ms() < deadline) {
+        struct pollfd pfd[2] = {{out.fd, open_out ? POLLIN : 0, 0}, {err.fd, open_err ? POLLIN : 0, 0}};
+        if (poll(pfd, 2, 200) <= 0)
+            continue;
+        if (open_out && pfd[0].revents)
+            open_out = sink_read(&out);
+        if (open_err && pfd[1].revents)
+            open_err = sink_read(&err);
+    }
+    if (open_out || open_err)
+        kill(pid, SIGKILL);
+    close(out.fd);
+    close(err.fd);
+    int wstatus = 0;
+    waitpid(pid, &wstatus, 0);
+    cli_run r = {.out = out.buf, .err = err.buf};
+    r.code = WIFEXITED(wstatus) ? WEXITSTATUS(wstatus) : 128 + WTERMSIG(wstatus);
+    return r;
+}
+
+#define CLI(...) run_cli(NULL, (const char *const[]){__VA_ARGS__, NULL})
+#define CLI_STDIN(path, ...) run_cli(path, (const char *const[]){__VA_ARGS__, NULL})
+
+/* Runs trioct, expects exit code `code` and one JSON line, returns it parsed. */
+static jv *json_run(int code, const char *const *args)
+{
+    cli_run r = run_cli(NULL, args);
+    if (r.code != code) {
+        fprintf(stderr, "trioct exited %d, expected %d\nstdout: %s\nstderr: %s\n", r.code, code, r.out,
+                r.err);
+        run_free(&r);
+        fail();
+    }
+    jv *v = jparse_line(r.out);
+    run_free(&r);
+    assert_int_equal((int)jnum(v, "exit_code"), code);
+    assert_int_equal(jbool(v, "ok"), code == 0);
+    return v;
+}
+
+#define JSON(code, ...) json_run(code, (const char *const[]){"--json", __VA_ARGS__, NULL})
+
+static void expect_code(const cli_run *r, int code)
+{
+    if (r->code != code)
+        fail_msg("trioct exited %d, expected %d\nstdout: %s\nstderr: %s", r->code, code, r->out, r->err);
+}
+
+static void expect_text(const char *text, const char *needle)
+{
+    if (strstr(text, needle) == NULL)
+        fail_msg("expected \"%s\" in:\n%s", needle, text);
+}
+
+/* ====================================================================================== */
+/* The scene                                                                                */
+/* ====================================================================================== */
+
+static void path_in_dir(char *out, size_t len, const char *name)
+{
+    snprintf(out, len, "%s/%s", dir, name);
+}
+
+static void write_text(const char *name, const char *text)
+{
+    char path[320];
+    path_in_dir(path, sizeof path, name);
+    FILE *f = fopen(path, "w");
+    assert_non_null(f);
+    fputs(text, f);
+    assert_int_equal(fclose(f), 0);
+}
+
+/* The box [0,4] x [0,4] x [0,2], outward normals. Triangle ids: 0, 1 the top (0 where
+ * y < x), 2, 3 the bottom (2 where y < x), then the four sides. */
+static const char box_obj[] = "v 0 0 0\nv 4 0 0\nv 4 4 0\nv 0 4 0\n"
+                              "v 0 0 2\nv 4 0 2\nv 4 4 2\nv 0 4 2\n"
+                              "f 5 6 7\nf 5 7 8\n"
+                              "f 1 3 2\nf 1 4 3\n"
+                              "f 1 2 6\nf 1 6 5\n"
+                              "f 2 3 7\nf 2 7 6\n"
+                              "f 3 4 8\nf 3 8 7\n"
+                              "f 4 1 5\nf 4 5 8\n";
+
+/* The query shape: the cube [-0.5, 0.5]^3. */
+static const char cube_obj[] = "v -0.5 -0.5 -0.5\nv 0.5 -0.5 -0.5\nv 0.5 0.5 -0.5\nv -0.5 0.5 -0.5\n"
+                               "v -0.5 -0.5 0.5\nv 0.5 -0.5 0.5\nv 0.5 0.5 0.5\nv -0.5 0.5 0.5\n"
+                               "f 5 6 7\nf 5 7 8\nf 1 3 2\nf 1 4 3\nf 1 2 6\nf 1 6 5\n"
+                               "f 2 3 7\nf 2 7 6\nf 3 4 8\nf 3 8 7\nf 4 1 5\nf 4 5 8\n";
+
+static int group_setup(void **state)
+{
+    (void)state;
+    snprintf(dir, sizeof dir, "/tmp/trioct-e2e-cli-XXXXXX");
+    if (mkdtemp(dir) == NULL)
+        return -1;
+    write_text("box.obj", box_obj);
+    write_text("cube.obj", cube_obj);
+    write_text("scene.ini", "[box]\nmesh = box.obj\neffects = rays triangles meshes\n"
+                            "shape.cube = cube.obj\n\n"
+                            "[box_rays]\nmesh = box.obj\neffects = rays\n");
+    char scene[320], log[320];
+    path_in_dir(scene, sizeof scene, "scene.ini");
+    path_in_dir(log, sizeof log, "daemon.log");
+    const char *extra[] = {"--threads", "2", "--status-interval", "200", NULL};
+    daemon_pid = daemon_proc_start(daemon_bin, scene, BUS_URL, DAEMON, extra, log);
+    if (daemon_pid < 0)
+        return -1;
+    trioct_connect_options opt = {.url = BUS_URL};
+    trioct_client *c = trioct_connect(&opt, NULL, NULL, 0);
+    if (c == NULL)
+        return -1;
+    int ready = daemon_proc_wait_ready(c, DAEMON, 20000) == 0;
+    trioct_disconnect(c);
+    if (!ready)
+        fprintf(stderr, "e2e_cli: the daemon did not report READY; see %s\n", log);
+    return ready ? 0 : -1;
+}
+
+static int group_teardown(void **state)
+{
+    (void)state;
+    if (daemon_pid > 0)
+        daemon_proc_stop(daemon_pid, SIGTERM, 5000);
+    char cmd[300];
+    snprintf(cmd, sizeof cmd, "rm -rf '%s'", dir);
+    return system(cmd) == 0 ? 0 : -1;
+}
+
+/* ====================================================================================== */
+/* The tests                                                                                */
+/* ====================================================================================== */
+
+static void test_help_and_version(void **state)
+{
+    (void)state;
+    cli_run r = CLI("--help");
+    expect_code(&r, 0);
+    expect_text(r.out, "Exit codes:");
+    expect_text(r.out, "  3  no reply");
+    expect_text(r.out, "  4  transport failure");
+    run_free(&r);
+    const char *commands[] = {"worlds", "info", "load", "unload", "ray", "rays", "tri", "mesh", "status"};
+    for (size_t i = 0; i < sizeof commands / sizeof commands[0]; i++) {
+        r = CLI(commands[i], "--help");
+        expect_code(&r, 0);
+        char usage[64];
+        snprintf(usage, sizeof usage, "Usage: trioct %s", commands[i]);
+        expect_text(r.out, usage);
+        expect_text(r.out, "Examples:");
+        run_free(&r);
+    }
+    r = CLI("help", "rays");
+    expect_code(&r, 0);
+    expect_text(r.out, "Usage: trioct rays");
+    run_free(&r);
+    r = CLI("--version");
+    expect_code(&r, 0);
+    assert_string_equal(r.out, "trioct " TRIOCT_VERSION "\n");
+    run_free(&r);
+}
+
+static int has_world(const jv *v, const char *list, const char *name)
+{
+    char path[64];
+    for (size_t i = 0; i < jlen(v, list); i++) {
+        snprintf(path, sizeof path, "%s.%zu.name", list, i);
+        if (strcmp(jstr(v, path), name) == 0)
+            return (int)i;
+    }
+    return -1;
+}
+
+static void check_box_info(const jv *v, const char *at)
+{
+    char p[96];
+#define AT(field) (snprintf(p, sizeof p, "%s.%s", at, field), p)
+    assert_string_equal(jstr(v, AT("daemon")), DAEMON);
+    assert_int_equal((int)jnum(v, AT("triangles")), 12);
+    assert_int_equal((int)jnum(v, AT("degenerate")), 0);
+    assert_true(jnum(v, AT("bbox_min.0")) == 0 && jnum(v, AT("bbox_min.2")) == 0);
+    assert_true(jnum(v, AT("bbox_max.0")) == 4 && jnum(v, AT("bbox_max.1")) == 4);
+    assert_true(jnum(v, AT("bbox_max.2")) == 2);
+    assert_string_equal(jstr(v, AT("accuracy")), "exact");
+    assert_true(jnum(v, AT("nodes")) >= 1);
+    assert_true(jnum(v, AT("bytes.total")) > 0);
+    assert_string_equal(jstr(v, AT("last_error")), "");
+#undef AT
+}
+
+static void test_worlds(void **state)
+{
+    (void)state;
+    jv *v = JSON(0, "worlds", "--expect", "1");
+    assert_int_equal(jlen(v, "daemons"), 1);
+    assert_string_equal(jstr(v, "daemons.0.daemon"), DAEMON);
+    assert_string_equal(jstr(v, "daemons.0.status"), "OK");
+    assert_int_equal(jlen(v, "worlds"), 2);
+    int box = has_world(v, "worlds", "box"), rays = has_world(v, "worlds", "box_rays");
+    assert_true(box >= 0 && rays >= 0);
+    char at[32];
+    snprintf(at, sizeof at, "worlds.%d", box);
+    check_box_info(v, at);
+    char p[64];
+    snprintf(p, sizeof p, "worlds.%d.effects", box);
+    assert_int_equal(jlen(v, p), 3);
+    snprintf(p, sizeof p, "worlds.%d.shapes.0", box);
+    assert_string_equal(jstr(v, p), "cube");
+    snprintf(p, sizeof p, "worlds.%d.effects", rays);
+    assert_int_equal(jlen(v, p), 1);
+    snprintf(p, sizeof p, "worlds.%d.effects.0", rays);
+    assert_string_equal(jstr(v, p), "rays");
+    jfree(v);
+
+    cli_run r = CLI("worlds");
+    expect_code(&r, 0);
+    expect_text(r.out, "2 worlds on 1 daemon");
+    expect_text(r.out, "WORLD");
+    expect_text(r.out, "box_rays");
+    expect_text(r.out, "rays triangles meshes");
+    run_free(&r);
+}
+
+static void test_info(void **state)
+{
+    (void)state;
+    jv *v = JSON(0, "info", "box");
+    assert_string_equal(jstr(v, "world"), "box");
+    assert_int_equal((int)jnum(v, "world_version"), 1);
+    assert_int_equal(jlen(v, "worlds"), 1);
+    assert_string_equal(jstr(v, "worlds.0.name"), "box");
+    check_box_info(v, "worlds.0");
+    jfree(v);
+    cli_run r = CLI("info", "box");
+    expect_code(&r, 0);
+    expect_text(r.out, "triangles   12");
+    expect_text(r.out, "shapes      cube");
+    run_free(&r);
+}
+
+static void check_hit(const jv *v, int i, int ray, double t, int triangle, double u, double w)
+{
+    char p[64];
+#define H(field) (snprintf(p, sizeof p, "hits.%d.%s", i, field), p)
+    assert_int_equal((int)jnum(v, H("ray")), ray);
+    assert_true(jnum(v, H("t")) == t);
+    assert_int_equal((int)jnum(v, H("triangle")), triangle);
+    assert_true(fabs(jnum(v, H("u")) - u) < 1e-12);
+    assert_true(fabs(jnum(v, H("v")) - w) < 1e-12);
+    /* Top and bottom faces: unit normals along z, outward. */
+    assert_true(jnum(v, H("normal.0")) == 0 && jnum(v, H("normal.1")) == 0);
+    assert_true(jnum(v, H("normal.2")) == (triangle <= 1 ? 1 : -1));
+#undef H
+}
+
+static void test_ray(void **state)
+{
+    (void)state;
+    /* Straight down at (1, 3): the top's triangle 1 (y > x) at t = 8, u = x/4, v = (y-x)/4. */
+    jv *v = JSON(0, "ray", "box", "1", "3", "10", "0", "0", "-1");
+    assert_string_equal(jstr(v, "status"), "OK");
+    assert_string_equal(jstr(v, "daemon"), DAEMON);
+    assert_string_equal(jstr(v, "world"), "box");
+    assert_string_equal(jstr(v, "detail"), "closest");
+    assert_int_equal((int)jnum(v, "rays"), 1);
+    assert_int_equal((int)jnum(v, "requests"), 1);
+    assert_true(jneed(v, "tmax", J_NULL) != NULL); /* infinity: no limit */
+    assert_int_equal(jlen(v, "found"), 1);
+    assert_int_equal((int)jnum(v, "found.0"), 1);
+    assert_int_equal(jlen(v, "hits"), 1);
+    check_hit(v, 0, 0, 8, 1, 0.25, 0.5);
+    jfree(v);
+
+    /* At (3, 1): triangle 0, u = (x-y)/4, v = y/4. Negative numbers pass unquoted. */
+    v = JSON(0, "ray", "box", "3", "1", "10", "-0", "-0", "-2");
+    check_hit(v, 0, 0, 4, 0, 0.5, 0.25);
+    jfree(v);
+
+    /* Every crossing: the top at 8, the bottom's triangle 3 at 10. */
+    v = JSON(0, "ray", "box", "1", "3", "10", "0", "0", "-1", "--all");
+    assert_string_equal(jstr(v, "detail"), "all");
+    assert_int_equal((int)jnum(v, "found.0"), 2);
+    assert_int_equal(jlen(v, "hits"), 2);
+    check_hit(v, 0, 0, 8, 1, 0.25, 0.5);
+    assert_true(jnum(v, "hits.1.t") == 10);
+    assert_int_equal((int)jnum(v, "hits.1.triangle"), 3);
+    jfree(v);
+
+    /* max_hits stores fewer; found still counts both crossings. */
+    v = JSON(0, "ray", "box", "1", "3", "10", "0", "0", "-1", "--all", "--max-hits", "1");
+    assert_int_equal((int)jnum(v, "found.0"), 2);
+    assert_int_equal(jlen(v, "hits"), 1);
+    assert_true(jnum(v, "hits.0.t") == 8);
+    jfree(v);
+
+    v = JSON(0, "ray", "box", "1", "3", "10", "0", "0", "-1", "--any");
+    assert_string_equal(jstr(v, "detail"), "any");
+    assert_int_equal((int)jnum(v, "found.0"), 1);
+    double t = jnum(v, "hits.0.t");
+    assert_true(t == 8 || t == 10);
+    jfree(v);
+
+    /* The interval: the top is past tmax 5; from tmin 9 the bottom is the closest; the
+     * interval is closed, so [8, 8] still hits. */
+    v = JSON(0, "ray", "box", "1", "3", "10", "0", "0", "-1", "--tmax", "5");
+    assert_int_equal((int)jnum(v, "found.0"), 0);
+    assert_int_equal(jlen(v, "hits"), 0);
+    assert_true(jnum(v, "tmax") == 5);
+    jfree(v);
+    v = JSON(0, "ray", "box", "1", "3", "10", "0", "0", "-1", "--tmin", "9");
+    assert_true(jnum(v, "hits.0.t") == 10);
+    assert_int_equal((int)jnum(v, "hits.0.triangle"), 3);
+    jfree(v);
+    v = JSON(0, "ray", "box", "1", "3", "10", "0", "0", "-1", "--tmin=8", "--tmax=8", "--accuracy", "fast");
+    assert_string_equal(jstr(v, "accuracy"), "fast");
+    assert_int_equal((int)jnum(v, "found.0"), 1);
+    jfree(v);
+
+    /* Options before the command, and the human table. */
+    cli_run r = CLI("--timeout", "3000", "ray", "box", "1", "3", "10", "0", "0", "-1", "--all");
+    expect_code(&r, 0);
+    expect_text(r.out, "world box (version 1, daemon " DAEMON "), all hit: 1 of 1 ray hit");
+    expect_text(r.out, "RAY  FOUND   T  TRIANGLE     U     V  NORMAL\n"
+                       "  0      2   8         1  0.25   0.5  0 0 1\n"
+                       "  0      2  10         3   0.5  0.25  0 0 -1\n");
+    run_free(&r);
+}
+
+/* (x, y) of ray i of the batch: off the diagonal, so which top triangle is never a tie. */
+static void batch_xy(int i, double *x, double *y)
+{
+    *x = 0.25 + 0.5 * (i % 7);
+    *y = 0.375 + 0.5 * ((i / 7) % 7);
+}
+
+static void test_rays_batch(void **state)
+{
+    (void)state;
+    enum { N = 3000 };
+    char path[320];
+    path_in_dir(path, sizeof path, "rays.csv");
+    FILE *f = fopen(path, "w");
+    assert_non_null(f);
+    fprintf(f, "# ox,oy,oz,dx,dy,dz\n\n");
+    for (int i = 0; i < N; i++) {
+        double x, y;
+        batch_xy(i, &x, &y);
+        fprintf(f, "%.17g, %.17g, 10, 0, 0, -1\r\n", x, y);
+        if (i % 1000 == 999)
+            fprintf(f, "   # a thousand\n\n");
+    }
+    assert_int_equal(fclose(f), 0);
+
+    /* From standard input: 3000 rays are three requests (1280 + 1280 + 440), numbered as one. */
+    cli_run r = CLI_STDIN(path, "--json", "rays", "box", "-");
+    expect_code(&r, 0);
+    jv *v = jparse_line(r.out);
+    run_free(&r);
+    assert_int_equal((int)jnum(v, "rays"), N);
+    assert_int_equal((int)jnum(v, "requests"), 3);
+    assert_int_equal((int)jnum(v, "hit_rays"), N);
+    assert_int_equal(jlen(v, "found"), N);
+    assert_int_equal(jlen(v, "hits"), N);
+    const jv *hits = jget(v, "hits");
+    for (int i = 0; i < N; i++) {
+        double x, y;
+        batch_xy(i, &x, &y);
+        const jv *h = &hits->items[i];
+        assert_int_equal((int)jnum(h, "ray"), i);
+        assert_true(jnum(h, "t") == 8);
+        assert_int_equal((int)jnum(h, "triangle"), y > x ? 1 : 0);
+        double u = y > x ? x / 4 : (x - y) / 4, w = y > x ? (y - x) / 4 : y / 4;
+        assert_true(fabs(jnum(h, "u") - u) < 1e-12 && fabs(jnum(h, "v") - w) < 1e-12);
+    }
+    jfree(v);
+
+    /* From the file, by name, with every crossing: two per ray, each ray's in t order. */
+    r = CLI("rays", "box", path, "--all", "--json");
+    expect_code(&r, 0);
+    v = jparse_line(r.out);
+    run_free(&r);
+    assert_int_equal(jlen(v, "hits"), 2 * N);
+    hits = jget(v, "hits");
+    for (int i = 0; i < N; i++) {
+        assert_int_equal((int)jnum(&hits->items[2 * i], "ray"), i);
+        assert_int_equal((int)jnum(&hits->items[2 * i + 1], "ray"), i);
+        assert_true(jnum(&hits->items[2 * i + 1], "t") == 10);
+    }
+    jfree(v);
+
+    r = CLI("rays", "box", path);
+    expect_code(&r, 0);
+    expect_text(r.out, "closest hit: 3000 of 3000 rays hit");
+    expect_text(r.out, "\n2999 ");
+    run_free(&r);
+}
+
+static void test_tri(void **state)
+{
+    (void)state;
+    /* Upright in the plane y = 1, poking through the top between x = 1.5 and 2.5, where
+     * y < x: it touches triangle 0 along that segment and nothing else. */
+    jv *v = JSON(0, "tri", "box", "1", "1", "1", "3", "1", "1", "2", "1", "3");
+    assert_string_equal(jstr(v, "detail"), "yesno");
+    assert_true(jbool(v, "touching"));
+    assert_int_equal((int)jnum(v, "found.0"), 1);
+    assert_int_equal(jlen(v, "contacts"), 0);
+    jfree(v);
+
+    v = JSON(0, "tri", "box", "1", "1", "1", "3", "1", "1", "2", "1", "3", "--ids");
+    assert_int_equal((int)jnum(v, "found.0"), 1);
+    assert_int_equal(jlen(v, "contacts"), 1);
+    assert_int_equal((int)jnum(v, "contacts.0.query"), 0);
+    assert_int_equal((int)jnum(v, "contacts.0.triangle"), 0);
+    jfree(v);
+
+    v = JSON(0, "tri", "box", "1", "1", "1", "3", "1", "1", "2", "1", "3", "--segments");
+    assert_int_equal(jlen(v, "contacts"), 1);
+    double px = jnum(v, "contacts.0.segment.p.0"), qx = jnum(v, "contacts.0.segment.q.0");
+    assert_true((px == 1.5 && qx == 2.5) || (px == 2.5 && qx == 1.5));
+    assert_true(jnum(v, "contacts.0.segment.p.1") == 1 && jnum(v, "contacts.0.segment.q.1") == 1);
+    assert_true(jnum(v, "contacts.0.segment.p.2") == 2 && jnum(v, "contacts.0.segment.q.2") == 2);
+    jfree(v);
+
+    /* Inside the box, touching no face. */
+    v = JSON(0, "tri", "box", "1", "1", "0.5", "3", "1", "0.5", "2", "3", "0.5", "--ids");
+    assert_false(jbool(v, "touching"));
+    assert_int_equal((int)jnum(v, "found.0"), 0);
+    assert_int_equal(jlen(v, "contacts"), 0);
+    jfree(v);
+
+    cli_run r = CLI("tri", "box", "1", "1", "1", "3", "1", "1", "2", "1", "3", "--segments");
+    expect_code(&r, 0);
+    expect_text(r.out, "touching 1 world triangle\n");
+    expect_text(r.out, "TRIANGLE  FROM");
+    run_free(&r);
+}
+
+static void test_mesh(void **state)
+{
+    (void)state;
+    /* The unit cube resting on the top (coplanar contact), lifted clear, turned 45 degrees
+     * about z while resting, and turned 90 about x (exact) while resting. */
+    jv *v = JSON(0, "mesh", "box", "cube", "--pose", "2 2 2.5", "--pose", "2,2,5", "--pose", "2 2 2.5 0 0 45",
+                 "--pose", "2 2 2.5 90 0 0");
+    assert_string_equal(jstr(v, "shape"), "cube");
+    assert_string_equal(jstr(v, "detail"), "yesno");
+    assert_int_equal((int)jnum(v, "poses"), 4);
+    assert_int_equal(jlen(v, "found"), 4);
+    assert_int_equal((int)jnum(v, "found.0"), 1);
+    assert_int_equal((int)jnum(v, "found.1"), 0);
+    assert_int_equal((int)jnum(v, "found.2"), 1);
+    assert_int_equal((int)jnum(v, "found.3"), 1);
+    assert_int_equal((int)jnum(v, "touching_poses"), 3);
+    jfree(v);
+
+    /* Lifted by 2.5 + 0.5 after a quarter turn about x: clear of the top by exactly 0.5. */
+    v = JSON(0, "mesh", "box", "cube", "--pose", "2 2 3 90 0 0");
+    assert_int_equal((int)jnum(v, "found.0"), 0);
+    jfree(v);
+
+    /* Without a pose the cube stays where it is, around the box's corner (0, 0, 0). */
+    v = JSON(0, "mesh", "box", "cube");
+    assert_int_equal((int)jnum(v, "poses"), 1);
+    assert_int_equal((int)jnum(v, "found.0"), 1);
+    jfree(v);
+
+    /* Pairs: every one for pose 0, against the two top triangles only (the cube's footprint
+     * [1.5, 2.5]^2 straddles their shared diagonal). */
+    v = JSON(0, "mesh", "box", "cube", "--pose", "2 2 2.5", "--pose", "2 2 5", "--pairs");
+    assert_string_equal(jstr(v, "detail"), "pairs");
+    size_t n = jlen(v, "pairs");
+    assert_true(n > 0);
+    assert_int_equal((int)jnum(v, "found.0"), (int)n);
+    assert_int_equal((int)jnum(v, "found.1"), 0);
+    int seen[2] = {0, 0};
+    const jv *pairs = jget(v, "pairs");
+    for (size_t i = 0; i < n; i++) {
+        assert_int_equal((int)jnum(&pairs->items[i], "pose"), 0);
+        int w = (int)jnum(&pairs->items[i], "world_triangle");
+        int s = (int)jnum(&pairs->items[i], "shape_triangle");
+        assert_true(w == 0 || w == 1);
+        assert_true(s >= 0 && s < 12);
+        seen[w] = 1;
+    }
+    assert_true(seen[0] && seen[1]);
+    jfree(v);
+
+    /* 600 poses from a file: two requests (512 + 88), numbered as one list. */
+    char path[320];
+    path_in_dir(path, sizeof path, "poses.csv");
+    FILE *f = fopen(path, "w");
+    assert_non_null(f);
+    fprintf(f, "# tx,ty,tz,rx,ry,rz\n");
+    for (int i = 0; i < 600; i++)
+        fprintf(f, i % 2 ? "2,2,5\n\n" : "2, 2, 2.5, 0, 0, %d\n", i % 360);
+    assert_int_equal(fclose(f), 0);
+    v = JSON(0, "mesh", "box", "cube", "--poses", path);
+    assert_int_equal((int)jnum(v, "poses"), 600);
+    assert_int_equal((int)jnum(v, "requests"), 2);
+    assert_int_equal((int)jnum(v, "touching_poses"), 300);
+    for (int i = 0; i < 600; i++) {
+        char p[32];
+        snprintf(p, sizeof p, "found.%d", i);
+        assert_int_equal((int)jnum(v, p), i % 2 == 0);
+    }
+    jfree(v);
+
+    cli_run r = CLI("mesh", "box", "cube", "--pose", "2 2 2.5", "--pose", "2 2 5");
+    expect_code(&r, 0);
+    expect_text(r.out, "shape cube: 1 of 2 poses touching");
+    expect_text(r.out, "POSE  TOUCHING\n   0  yes\n   1  no\n");
+    run_free(&r);
+}
+
+static void test_load_and_unload(void **state)
+{
+    (void)state;
+    jv *v = JSON(0, "load", "extra", "--mesh", "box.obj", "--effects", "rays", "--resolution", "0.5",
+                 "--daemon", DAEMON);
+    assert_string_equal(jstr(v, "worlds.0.name"), "extra");
+    assert_string_equal(jstr(v, "worlds.0.daemon"), DAEMON);
+    assert_int_equal((int)jnum(v, "worlds.0.version"), 1);
+    assert_int_equal((int)jnum(v, "worlds.0.triangles"), 12);
+    assert_true(jnum(v, "worlds.0.resolution") == 0.5);
+    assert_int_equal(jlen(v, "worlds.0.effects"), 1);
+    assert_string_equal(jstr(v, "worlds.0.effects.0"), "rays");
+    jfree(v);
+
+    v = JSON(0, "ray", "extra", "1", "3", "10", "0", "0", "-1");
+    check_hit(v, 0, 0, 8, 1, 0.25, 0.5);
+    jfree(v);
+
+    /* Loading again rebuilds: version 2. */
+    v = JSON(0, "load", "extra", "--mesh", "box.obj", "--effects", "rays", "--daemon", DAEMON);
+    assert_int_equal((int)jnum(v, "worlds.0.version"), 2);
+    jfree(v);
+
+    v = JSON(0, "unload", "extra");
+    assert_string_equal(jstr(v, "status"), "OK");
+    jfree(v);
+    cli_run r = CLI("info", "extra", "--timeout", "300");
+    expect_code(&r, 3);
+    run_free(&r);
+}
+
+static void test_exit_usage(void **state)
+{
+    (void)state;
+    struct {
+        const char *args[12]; /* NULL-terminated */
+        const char *says;
+    } cases[] = {
+        {{NULL}, "no command given"},
+        {{"fly"}, "unknown command 'fly'"},
+        {{"ray", "box", "1", "2"}, "expected 7 arguments"},
+        {{"ray", "box", "1", "2", "3", "0", "0", "x"}, "dz: 'x' is not a finite number"},
+        {{"ray", "box", "1", "2", "3", "0", "0", "nan"}, "dz: 'nan' is not a finite number"},
+        {{"ray", "a-b", "1", "2", "3", "0", "0", "1"}, "world name 'a-b' is not"},
+        {{"worlds", "--timeout", "0"}, "--timeout: '0' is not a whole number"},
+        {{"worlds", "--bogus"}, "unknown option '--bogus'"},
+        {{"tri", "box", "1", "2", "3"}, "expected 10 arguments"},
+        {{"mesh", "box", "cube", "--pose", "1 2"}, "expected 3 or 6 numbers"},
+        {{"load", "w", "--accuracy", "world"}, "is not exact, seed or fast"},
+        {{"load", "w", "--effects", "sound"}, "unknown effect 'sound'"},
+        {{"rays", "box", "/nonexistent/rays.csv"}, "cannot read /nonexistent/rays.csv"},
+        {{"status", "--count", "-3"}, "--count: '-3'"},
+    };
+    /* Option combinations that exclude each other. */
+    const char *any_all[] = {"ray", "box", "1", "2", "3", "0", "0", "1", "--any", "--all", NULL};
+    const char *max_hits[] = {"ray", "box", "1", "2", "3", "0", "0", "1", "--max-hits", "3", NULL};
+    for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
+        cli_run r = run_cli(NULL, cases[i].args);
+        expect_code(&r, 2);
+        expect_text(r.err, cases[i].says);
+        expect_text(r.err, "Try 'trioct");
+        assert_string_equal(r.out, "");
+        run_free(&r);
+    }
+    cli_run r = run_cli(NULL, any_all);
+    expect_code(&r, 2);
+    expect_text(r.err, "--any and --all exclude each other");
+    run_free(&r);
+    r = run_cli(NULL, max_hits);
+    expect_code(&r, 2);
+    expect_text(r.err, "--max-hits counts the hits of --all");
+    run_free(&r);
+
+    /* A bad line of a ray file is named by file and line. */
+    char path[320];
+    path_in_dir(path, sizeof path, "bad.csv");
+    FILE *f = fopen(path, "w");
+    assert_non_null(f);
+    fputs("0,0,10,0,0,-1\n# comment\n0,0,10,0,0\n", f);
+    assert_int_equal(fclose(f), 0);
+    r = CLI("rays", "box", path);
+    expect_code(&r, 2);
+    char where[400];
+    snprintf(where, sizeof where, "%s:3: expected 6 numbers ox,oy,oz,dx,dy,dz: found 5", path);
+    expect_text(r.err, where);
+    run_free(&r);
+
+    /* With --json, the usage error is one JSON object too. */
+    jv *v = JSON(2, "ray", "box", "1");
+    assert_true(jneed(v, "status", J_NULL) != NULL);
+    expect_text(jstr(v, "message"), "expected 7 arguments");
+    assert_string_equal(jstr(v, "command"), "ray");
+    jfree(v);
+}
+
+static void test_exit_daemon_error(void **state)
+{
+    (void)state;
+    jv *v = JSON(1, "ray", "box", "0", "0", "5", "0", "0", "0");
+    assert_string_equal(jstr(v, "status"), "ERR_ZERO_DIRECTION");
+    assert_int_equal((int)jnum(v, "status_code"), TRIOCT_ERR_ZERO_DIRECTION);
+    assert_string_equal(jstr(v, "daemon"), DAEMON);
+    expect_text(jstr(v, "message"), "direction[0]");
+    jfree(v);
+
+    v = JSON(1, "tri", "box_rays", "0", "0", "0", "1", "0", "0", "0", "1", "0");
+    assert_string_equal(jstr(v, "status"), "ERR_EFFECT");
+    jfree(v);
+
+    /* The daemon's message quotes the shape: the quotes come back escaped and parse. */
+    v = JSON(1, "mesh", "box", "nosuch", "--pose", "0 0 0");
+    assert_string_equal(jstr(v, "status"), "ERR_UNKNOWN_SHAPE");
+    expect_text(jstr(v, "message"), "\"nosuch\"");
+    jfree(v);
+
+    v = JSON(1, "load", "bad", "--mesh", "../etc/passwd", "--daemon", DAEMON);
+    assert_string_equal(jstr(v, "status"), "ERR_BAD_PATH");
+    jfree(v);
+
+    cli_run r = CLI("ray", "box", "0", "0", "5", "0", "0", "0");
+    expect_code(&r, 1);
+    expect_text(r.err, "daemon " DAEMON " answered ERR_ZERO_DIRECTION (4, a ray direction has zero length)");
+    run_free(&r);
+
+    /* A batch that fails in its second request says which rays. */
+    char path[320];
+    path_in_dir(path, sizeof path, "zero.csv");
+    FILE *f = fopen(path, "w");
+    assert_non_null(f);
+    for (int i = 0; i < 1500; i++)
+        fprintf(f, i == 1400 ? "1,1,5,0,0,0\n" : "1,1,5,0,0,-1\n");
+    assert_int_equal(fclose(f), 0);
+    r = CLI("rays", "box", path);
+    expect_code(&r, 1);
+    expect_text(r.err, "rays 1280..1499 of 1500: daemon " DAEMON " answered ERR_ZERO_DIRECTION");
+    run_free(&r);
+}
+
+static void test_exit_no_reply(void **state)
+{
+    (void)state;
+    cli_run r = CLI("ray", "nobody", "0", "0", "5", "0", "0", "-1", "--timeout", "300");
+    expect_code(&r, 3);
+    expect_text(r.err, "no reply from trioctd on " BUS_URL
+                       " within 300 ms: is it running? is the multicast route set?");
+    expect_text(r.err, "no daemon serves world nobody");
+    run_free(&r);
+
+    jv *v = JSON(3, "ray", "nobody", "0", "0", "5", "0", "0", "-1", "--timeout", "300");
+    assert_string_equal(jstr(v, "status"), "ERR_NO_DAEMON");
+    expect_text(jstr(v, "hint"), "is the multicast route set?");
+    expect_text(jstr(v, "message"), "no daemon serves world nobody");
+    jfree(v);
+
+    r = CLI("worlds", "--prefix", "NOBODY", "--timeout", "300");
+    expect_code(&r, 3);
+    expect_text(r.err, "no reply from trioctd on " BUS_URL " within 300 ms");
+    run_free(&r);
+    r = CLI("status", "--daemon", "nobody", "--timeout", "500");
+    expect_code(&r, 3);
+    expect_text(r.err, "no reply from trioctd");
+    run_free(&r);
+    r = CLI("load", "w", "--daemon", "nobody", "--timeout", "300");
+    expect_code(&r, 3);
+    expect_text(r.err, "no daemon named nobody");
+    run_free(&r);
+}
+
+static void test_exit_transport(void **state)
+{
+    (void)state;
+    jv *v = JSON(4, "worlds", "--url", "nosuchprovider://");
+    assert_string_equal(jstr(v, "status"), "ERR_TRANSPORT");
+    expect_text(jstr(v, "message"), "nosuchprovider://");
+    jfree(v);
+    cli_run r = CLI("--url", "nosuchprovider://", "ray", "box", "0", "0", "5", "0", "0", "-1");
+    expect_code(&r, 4);
+    expect_text(r.err, "ERR_TRANSPORT");
+    run_free(&r);
+}
+
+/* A "daemon" for world `fake` that answers every ray request with bytes that carry the
+ * right client and request ids but no valid reply. */
+typedef struct fake_daemon {
+    lcm_t *lcm;
+    atomic_int stop;
+    atomic_int answered;
+} fake_daemon;
+
+static void on_fake_request(const lcm_recv_buf_t *rbuf, const char *channel, void *user)
+{
+    (void)channel;
+    fake_daemon *f = user;
+    const uint8_t *b = rbuf->data;
+    /* fingerprint, client id, request id, then the reply channel (length with its NUL). */
+    if (rbuf->data_size < 28)
+        return;
+    uint32_t len = (uint32_t)b[24] << 24 | (uint32_t)b[25] << 16 | (uint32_t)b[26] << 8 | b[27];
+    if (len < 2 || len > 64 || 28 + len > rbuf->data_size)
+        return;
+    char reply_channel[64];
+    memcpy(reply_channel, b + 28, len);
+    reply_channel[len - 1] = '\0';
+    uint8_t junk[48];
+    memset(junk, 0xA5, sizeof junk);
+    memset(junk, 0, 8);          /* a fingerprint of no type */
+    memcpy(junk + 8, b + 8, 16); /* the ids, so the client takes it as its reply */
+    lcm_publish(f->lcm, reply_channel, junk, sizeof junk);
+    atomic_fetch_add(&f->answered, 1);
+}
+
+static void *fake_loop(void *arg)
+{
+    fake_daemon *f = arg;
+    while (!atomic_load(&f->stop))
+        lcm_handle_timeout(f->lcm, 50);
+    return NULL;
+}
+
+static void test_exit_bad_reply(void **state)
+{
+    (void)state;
+    fake_daemon f = {.lcm = lcm_create(BUS_URL)};
+    assert_non_null(f.lcm);
+    atomic_init(&f.stop, 0);
+    atomic_init(&f.answered, 0);
+    lcm_subscription_t *sub = lcm_subscribe(f.lcm, "TRIOCT_RAY_fake", on_fake_request, &f);
+    assert_non_null(sub);
+    pthread_t thread;
+    assert_int_equal(pthread_create(&thread, NULL, fake_loop, &f), 0);
+
+    jv *v = JSON(5, "ray", "fake", "0", "0", "5", "0", "0", "-1", "--timeout", "800");
+    assert_string_equal(jstr(v, "status"), "ERR_BAD_REPLY");
+    expect_text(jstr(v, "message"), "malformed");
+    jfree(v);
+
+    atomic_store(&f.stop, 1);
+    pthread_join(thread, NULL);
+    lcm_unsubscribe(f.lcm, sub);
+    lcm_destroy(f.lcm);
+    assert_int_equal(atomic_load(&f.answered), 1);
+}
+
+/* Runs after the others: the heartbeat counts what they asked. */
+static void test_status(void **state)
+{
+    (void)state;
+    jv *v = JSON(0, "status");
+    assert_string_equal(jstr(v, "command"), "status");
+    assert_int_equal(jlen(v, "daemons"), 1);
+    assert_string_equal(jstr(v, "daemons.0.daemon"), DAEMON);
+    assert_string_equal(jstr(v, "daemons.0.state"), "ready");
+    assert_int_equal((int)jnum(v, "daemons.0.threads"), 2);
+    assert_true(jnum(v, "daemons.0.served.ray") >= 10);
+    assert_true(jnum(v, "daemons.0.served.triangle") >= 5);
+    assert_true(jnum(v, "daemons.0.served.mesh") >= 5);
+    assert_true(jnum(v, "daemons.0.served.admin") >= 4);
+    assert_true(jnum(v, "daemons.0.replies_by_status.ERR_ZERO_DIRECTION") >= 2);
+    assert_true(jnum(v, "daemons.0.replies_by_status.ERR_EFFECT") >= 1);
+    assert_true(jnum(v, "daemons.0.errors") >= 5);
+    assert_true(jnum(v, "daemons.0.replies_by_status.OK") >= 20);
+    assert_true(jnum(v, "daemons.0.latency_us.count") >= 0);
+    assert_true(jnum(v, "daemons.0.uptime_s") > 0);
+    int box = has_world(v, "daemons.0.worlds", "box");
+    assert_true(box >= 0);
+    char at[48];
+    snprintf(at, sizeof at, "daemons.0.worlds.%d", box);
+    check_box_info(v, at);
+    assert_true(has_world(v, "daemons.0.worlds", "extra") < 0); /* unloaded */
+    jfree(v);
+
+    /* --count: that many heartbeats, one JSON line each. */
+    cli_run r = CLI("status", "--count", "3", "--json");
+    expect_code(&r, 0);
+    int lines = 0;
+    for (char *line = r.out, *nl; (nl = strchr(line, '\n')) != NULL; line = nl + 1, lines++) {
+        char saved = nl[1];
+        nl[1] = '\0';
+        v = jparse_line(line);
+        nl[1] = saved;
+        assert_string_equal(jstr(v, "daemons.0.daemon"), DAEMON);
+        jfree(v);
+    }
+    assert_int_equal(lines, 3);
+    run_free(&r);
+
+    r = CLI("status");
+    expect_code(&r, 0);
+    expect_text(r.out, "daemon " DAEMON ": ready");
+    expect_text(r.out, "ERR_ZERO_DIRECTION");
+    expect_text(r.out, "box_rays");
+    run_free(&r);
+}
+
+int main(int argc, char **argv)
+{
+    if (argc != 3) {
+        fprintf(stderr, "usage: %s TRIOCTD_BINARY TRIOCT_BINARY (inside tests/e2e/netns.sh)\n", argv[0]);
+        return 2;
+    }
+    daemon_bin = argv[1];
+    cli_bin = argv[2];
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_help_and_version),
+        cmocka_unit_test(test_worlds),
+        cmocka_unit_test(test_info),
+        cmocka_unit_test(test_ray),
+        cmocka_unit_test(test_rays_batch),
+        cmocka_unit_test(test_tri),
+        cmocka_unit_test(test_mesh),
+        cmocka_unit_test(test_load_and_unload),
+        cmocka_unit_test(test_exit_usage),
+        cmocka_unit_test(test_exit_daemon_error),
+        cmocka_unit_test(test_exit_no_reply),
+        cmocka_unit_test(test_exit_transport),
+        cmocka_unit_test(test_exit_bad_reply),
+        cmocka_unit_test(test_status),
+    };
+    return cmocka_run_group_tests(tests, group_setup, group_teardown);
+}

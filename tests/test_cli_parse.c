@@ -1,0 +1,664 @@
+/* The pure parts of the trioct command: argument scanning, numbers, CSV ray files, poses,
+ * the JSON writer's escaping and numbers, human number formatting, tables and the progress
+ * line. Output is captured with open_memstream and compared byte for byte. */
+#include <math.h>
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include <cmocka.h>
+
+#include "cli/cli_args.h"
+#include "cli/cli_csv.h"
+#include "cli/cli_json.h"
+#include "cli/cli_pose.h"
+#include "cli/cli_progress.h"
+#include "cli/cli_text.h"
+
+/* ---------- capturing a FILE ---------- */
+
+typedef struct capture {
+    FILE *f;
+    char *text;
+    size_t len;
+} capture;
+
+static void capture_open(capture *c)
+{
+    c->text = NULL;
+    c->len = 0;
+    c->f = open_memstream(&c->text, &c->len);
+    assert_non_null(c->f);
+}
+
+/* Closes the stream; the text stays in c->text until capture_free. */
+static const char *capture_close(capture *c)
+{
+    assert_int_equal(fclose(c->f), 0);
+    c->f = NULL;
+    return c->text;
+}
+
+static void capture_free(capture *c)
+{
+    free(c->text);
+    c->text = NULL;
+}
+
+static FILE *file_of(const char *text)
+{
+    FILE *f = fmemopen((void *)text, strlen(text), "r");
+    assert_non_null(f);
+    return f;
+}
+
+/* ---------- argument scanning ---------- */
+
+typedef struct seen {
+    int flag;
+    char value[64];
+    int calls;
+} seen;
+
+enum { ID_FLAG, ID_VALUE, ID_REFUSE };
+
+static int record(void *user, int id, const char *value, char *err, size_t err_len)
+{
+    seen *s = user;
+    s->calls++;
+    if (id == ID_FLAG)
+        s->flag++;
+    if (id == ID_VALUE)
+        snprintf(s->value, sizeof s->value, "%s", value);
+    if (id == ID_REFUSE) {
+        snprintf(err, err_len, "refused '%s'", value);
+        return -1;
+    }
+    return 0;
+}
+
+static const cli_option test_options[] = {
+    {"flag", 'f', 0, ID_FLAG},
+    {"value", 0, 1, ID_VALUE},
+    {"refuse", 0, 1, ID_REFUSE},
+    {NULL, 0, 0, 0},
+};
+
+static int scan(char **argv, int argc, seen *s, char **pos, int cap, int *npos, char *err)
+{
+    cli_option_set set = {test_options, record, s};
+    memset(s, 0, sizeof *s);
+    return cli_scan(argc, argv, &set, 1, 0, pos, cap, npos, NULL, err, 256);
+}
+
+static void test_scan_negative_numbers_are_positional(void **state)
+{
+    (void)state;
+    char *argv[] = {"w", "0", "-1", "--flag", "-.5", "-", "-2e3", "--value=a=b"};
+    seen s;
+    char *pos[8], err[256];
+    int n;
+    assert_int_equal(scan(argv, 8, &s, pos, 8, &n, err), 0);
+    assert_int_equal(n, 6);
+    assert_string_equal(pos[0], "w");
+    assert_string_equal(pos[1], "0");
+    assert_string_equal(pos[2], "-1");
+    assert_string_equal(pos[3], "-.5");
+    assert_string_equal(pos[4], "-");
+    assert_string_equal(pos[5], "-2e3");
+    /* --value=a=b keeps everything after the first '='. */
+    assert_int_equal(s.flag, 1);
+    assert_string_equal(s.value, "a=b");
+}
+
+static void test_scan_values_aliases_and_terminator(void **state)
+{
+    (void)state;
+    char *argv[] = {"-f", "--value", "--flag", "x", "--", "--flag", "-f"};
+    seen s;
+    char *pos[8], err[256];
+    int n;
+    assert_int_equal(scan(argv, 7, &s, pos, 8, &n, err), 0);
+    /* "--value --flag": the next word is the value, whatever it looks like. */
+    assert_string_equal(s.value, "--flag");
+    assert_int_equal(s.flag, 1);
+    assert_int_equal(n, 3);
+    assert_string_equal(pos[0], "x");
+    assert_string_equal(pos[1], "--flag");
+    assert_string_equal(pos[2], "-f");
+}
+
+static void test_scan_errors(void **state)
+{
+    (void)state;
+    seen s;
+    char *pos[2], err[256];
+    int n;
+    char *unknown[] = {"--nope"};
+    assert_int_equal(scan(unknown, 1, &s, pos, 2, &n, err), -1);
+    assert_string_equal(err, "unknown option '--nope'");
+    char *short_unknown[] = {"-x"};
+    assert_int_equal(scan(short_unknown, 1, &s, pos, 2, &n, err), -1);
+    assert_string_equal(err, "unknown option '-x'");
+    char *missing[] = {"a", "--value"};
+    assert_int_equal(scan(missing, 2, &s, pos, 2, &n, err), -1);
+    assert_string_equal(err, "option --value needs a value");
+    char *flag_value[] = {"--flag=1"};
+    assert_int_equal(scan(flag_value, 1, &s, pos, 2, &n, err), -1);
+    assert_string_equal(err, "option --flag takes no value");
+    char *refused[] = {"--refuse", "zz"};
+    assert_int_equal(scan(refused, 2, &s, pos, 2, &n, err), -1);
+    assert_string_equal(err, "refused 'zz'");
+    char *too_many[] = {"a", "b", "c"};
+    assert_int_equal(scan(too_many, 3, &s, pos, 2, &n, err), -1);
+    assert_string_equal(err, "too many arguments (from 'c' on)");
+}
+
+static void test_scan_stops_at_the_command(void **state)
+{
+    (void)state;
+    char *argv[] = {"--flag", "--value", "v", "ray", "--flag"};
+    seen s;
+    memset(&s, 0, sizeof s);
+    cli_option_set set = {test_options, record, &s};
+    int consumed = -1;
+    char err[256];
+    assert_int_equal(cli_scan(5, argv, &set, 1, 1, NULL, 0, NULL, &consumed, err, sizeof err), 0);
+    assert_int_equal(consumed, 3);
+    assert_int_equal(s.flag, 1);
+}
+
+/* ---------- numbers and names ---------- */
+
+static void test_parse_double(void **state)
+{
+    (void)state;
+    double v = 0;
+    assert_int_equal(cli_parse_double("1.5", 0, &v), 0);
+    assert_true(v == 1.5);
+    assert_int_equal(cli_parse_double("-0.25", 0, &v), 0);
+    assert_true(v == -0.25);
+    assert_int_equal(cli_parse_double("0x1p-3", 0, &v), 0);
+    assert_true(v == 0.125);
+    assert_int_equal(cli_parse_double("1e3", 0, &v), 0);
+    assert_true(v == 1000);
+    const char *bad[] = {"", " 1", "1 ", "1x", "abc", "nan", "NaN", "inf", "-inf", "1e999", "--1"};
+    for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++)
+        assert_int_equal(cli_parse_double(bad[i], 0, &v), -1);
+    assert_int_equal(cli_parse_double("inf", 1, &v), 0);
+    assert_true(isinf(v) && v > 0);
+    assert_int_equal(cli_parse_double("Infinity", 1, &v), 0);
+    assert_true(isinf(v));
+    /* An overflow is no way to say infinity, and NaN never is a number. */
+    assert_int_equal(cli_parse_double("1e999", 1, &v), -1);
+    assert_int_equal(cli_parse_double("nan", 1, &v), -1);
+}
+
+static void test_parse_int(void **state)
+{
+    (void)state;
+    long long v = 0;
+    assert_int_equal(cli_parse_int("42", 1, 100, &v), 0);
+    assert_int_equal(v, 42);
+    assert_int_equal(cli_parse_int("0", 1, 100, &v), -1);
+    assert_int_equal(cli_parse_int("101", 1, 100, &v), -1);
+    assert_int_equal(cli_parse_int("4.5", 1, 100, &v), -1);
+    assert_int_equal(cli_parse_int("99999999999999999999", 1, 100, &v), -1);
+    assert_int_equal(cli_parse_int("", 1, 100, &v), -1);
+}
+
+static void test_accuracy_effects_names(void **state)
+{
+    (void)state;
+    int a = 99;
+    assert_int_equal(cli_parse_accuracy("exact", &a), 0);
+    assert_int_equal(a, TRIOCT_ACCURACY_EXACT);
+    assert_int_equal(cli_parse_accuracy("seed", &a), 0);
+    assert_int_equal(a, TRIOCT_ACCURACY_SEED);
+    assert_int_equal(cli_parse_accuracy("fast", &a), 0);
+    assert_int_equal(a, TRIOCT_ACCURACY_FAST);
+    assert_int_equal(cli_parse_accuracy("world", &a), 0);
+    assert_int_equal(a, TRIOCT_ACCURACY_WORLD);
+    assert_int_equal(cli_parse_accuracy("Exact", &a), -1);
+    assert_string_equal(cli_accuracy_name(TRIOCT_ACCURACY_SEED), "seed");
+
+    int e = 0;
+    char err[128];
+    assert_int_equal(cli_parse_effects("rays,meshes", &e, err, sizeof err), 0);
+    assert_int_equal(e, TRIOCT_EFFECT_RAYS | TRIOCT_EFFECT_MESHES);
+    assert_int_equal(cli_parse_effects(" triangles  rays ", &e, err, sizeof err), 0);
+    assert_int_equal(e, TRIOCT_EFFECT_RAYS | TRIOCT_EFFECT_TRIANGLES);
+    assert_int_equal(cli_parse_effects("all", &e, err, sizeof err), 0);
+    assert_int_equal(e, 7);
+    assert_int_equal(cli_parse_effects("rays,lasers", &e, err, sizeof err), -1);
+    assert_string_equal(err, "unknown effect 'lasers' (rays, triangles, meshes or all)");
+    assert_int_equal(cli_parse_effects(" , ", &e, err, sizeof err), -1);
+
+    assert_true(cli_name_valid("yard_2", 32));
+    assert_false(cli_name_valid("", 32));
+    assert_false(cli_name_valid("a-b", 32));
+    assert_false(cli_name_valid("a b", 32));
+    assert_true(cli_name_valid("abcd", 4));
+    assert_false(cli_name_valid("abcde", 4));
+}
+
+/* ---------- CSV ---------- */
+
+static void test_parse_numbers(void **state)
+{
+    (void)state;
+    double v[6];
+    char err[160];
+    assert_int_equal(cli_parse_numbers("1,2,3", v, 6, err, sizeof err), 3);
+    assert_true(v[0] == 1 && v[1] == 2 && v[2] == 3);
+    assert_int_equal(cli_parse_numbers("  1 , -2 ,3\t4 5e-1\r", v, 6, err, sizeof err), 5);
+    assert_true(v[1] == -2 && v[3] == 4 && v[4] == 0.5);
+    assert_int_equal(cli_parse_numbers("   ", v, 6, err, sizeof err), 0);
+    assert_int_equal(cli_parse_numbers("1,,2", v, 6, err, sizeof err), -1);
+    assert_string_equal(err, "field 2 is empty");
+    assert_int_equal(cli_parse_numbers("1,2,", v, 6, err, sizeof err), -1);
+    assert_string_equal(err, "field 3 is empty");
+    assert_int_equal(cli_parse_numbers(",1", v, 6, err, sizeof err), -1);
+    assert_string_equal(err, "field 1 is empty");
+    assert_int_equal(cli_parse_numbers("1,2,x3", v, 6, err, sizeof err), -1);
+    assert_string_equal(err, "field 3 'x3' is not a finite number");
+    assert_int_equal(cli_parse_numbers("1,nan", v, 6, err, sizeof err), -1);
+    assert_string_equal(err, "field 2 'nan' is not a finite number");
+    assert_int_equal(cli_parse_numbers("1 2 3 4 5 6 7", v, 6, err, sizeof err), -1);
+    assert_string_equal(err, "more than 6 fields");
+}
+
+static void test_read_rays(void **state)
+{
+    (void)state;
+    FILE *f = file_of("# origin, direction\n"
+                      "0,0,10,0,0,-1\n"
+                      "\n"
+                      "   # indented comment\n"
+                      "1.5, 2.5, 3, 0, 1, 0\r\n"
+                      "\t\n"
+                      "-1 -2 -3 4 5 6");
+    cli_ray_list rays;
+    char err[256];
+    assert_int_equal(cli_read_rays(f, "r.csv", &rays, err, sizeof err), 0);
+    fclose(f);
+    assert_int_equal(rays.count, 3);
+    assert_true(rays.origins[0].z == 10 && rays.directions[0].z == -1);
+    assert_true(rays.origins[1].x == 1.5 && rays.origins[1].y == 2.5 && rays.directions[1].y == 1);
+    assert_true(rays.origins[2].x == -1 && rays.directions[2].z == 6);
+    cli_ray_list_free(&rays);
+    assert_null(rays.origins);
+
+    f = file_of("0,0,10,0,0,-1\n# fine\n\n1,2,3,4,5\n");
+    assert_int_equal(cli_read_rays(f, "bad.csv", &rays, err, sizeof err), -1);
+    fclose(f);
+    assert_string_equal(err, "bad.csv:4: expected 6 numbers ox,oy,oz,dx,dy,dz: found 5");
+    assert_int_equal(rays.count, 0);
+
+    f = file_of("0,0,10,0,0,-1\nox,oy,oz,dx,dy,dz\n");
+    assert_int_equal(cli_read_rays(f, "<stdin>", &rays, err, sizeof err), -1);
+    fclose(f);
+    assert_string_equal(err, "<stdin>:2: expected 6 numbers ox,oy,oz,dx,dy,dz: "
+                             "field 1 'ox' is not a finite number");
+
+    f = file_of("# nothing but comments\n\n");
+    assert_int_equal(cli_read_rays(f, "empty.csv", &rays, err, sizeof err), 0);
+    fclose(f);
+    assert_int_equal(rays.count, 0);
+    cli_ray_list_free(&rays);
+}
+
+/* Many rays: the arrays grow past their first allocation and keep every value. */
+static void test_read_many_rays(void **state)
+{
+    (void)state;
+    capture c;
+    capture_open(&c);
+    for (int i = 0; i < 5000; i++)
+        fprintf(c.f, "%d,0,0,0,0,%d\n", i, -1 - i);
+    const char *text = capture_close(&c);
+    FILE *f = file_of(text);
+    cli_ray_list rays;
+    char err[256];
+    assert_int_equal(cli_read_rays(f, "many.csv", &rays, err, sizeof err), 0);
+    fclose(f);
+    assert_int_equal(rays.count, 5000);
+    for (int i = 0; i < 5000; i++) {
+        assert_true(rays.origins[i].x == i);
+        assert_true(rays.directions[i].z == -1 - i);
+    }
+    cli_ray_list_free(&rays);
+    capture_free(&c);
+}
+
+/* ---------- poses ---------- */
+
+static void assert_matrix(const double r[9], const double want[9])
+{
+    /* Exact entries, and no -0 (a printed matrix would show it). */
+    for (int i = 0; i < 9; i++)
+        if (r[i] != want[i] || (want[i] == 0 && signbit(r[i])))
+            fail_msg("entry %d: %.17g, want %.17g", i, r[i], want[i]);
+}
+
+static void test_rotation_exact_quarter_turns(void **state)
+{
+    (void)state;
+    double r[9];
+    cli_rotation_degrees(0, 0, 0, r);
+    assert_matrix(r, (double[9]){1, 0, 0, 0, 1, 0, 0, 0, 1});
+    /* About z by 90: x goes to y, exactly (cos 90 in double is not 0; here it must be). */
+    cli_rotation_degrees(0, 0, 90, r);
+    assert_matrix(r, (double[9]){0, -1, 0, 1, 0, 0, 0, 0, 1});
+    cli_rotation_degrees(90, 0, 0, r);
+    assert_matrix(r, (double[9]){1, 0, 0, 0, 0, -1, 0, 1, 0});
+    cli_rotation_degrees(0, 90, 0, r);
+    assert_matrix(r, (double[9]){0, 0, 1, 0, 1, 0, -1, 0, 0});
+    cli_rotation_degrees(0, 0, 180, r);
+    assert_matrix(r, (double[9]){-1, 0, 0, 0, -1, 0, 0, 0, 1});
+    cli_rotation_degrees(0, 0, -90, r);
+    assert_matrix(r, (double[9]){0, 1, 0, -1, 0, 0, 0, 0, 1});
+    cli_rotation_degrees(0, 0, 450, r); /* 450 = 360 + 90 */
+    assert_matrix(r, (double[9]){0, -1, 0, 1, 0, 0, 0, 0, 1});
+    /* x first, then z (fixed axes): R = Rz(90) Rx(90). Column j is where axis j goes:
+     * x -> y, y -> z, z -> x. */
+    cli_rotation_degrees(90, 0, 90, r);
+    assert_matrix(r, (double[9]){0, 0, 1, 1, 0, 0, 0, 1, 0});
+}
+
+static void test_rotation_general_angle(void **state)
+{
+    (void)state;
+    double r[9];
+    cli_rotation_degrees(0, 0, 30, r);
+    assert_true(fabs(r[0] - sqrt(3.0) / 2) < 1e-15);
+    assert_true(fabs(r[1] + 0.5) < 1e-15);
+    assert_true(fabs(r[3] - 0.5) < 1e-15);
+    assert_true(r[8] == 1);
+    /* 135 = 90 + 45: the rest angle goes through cos and sin, the quarter turn exactly. */
+    cli_rotation_degrees(0, 0, 135, r);
+    assert_true(fabs(r[0] + sqrt(0.5)) < 1e-15);
+    assert_true(fabs(r[3] - sqrt(0.5)) < 1e-15);
+    /* Orthonormal rows for an odd rotation. */
+    cli_rotation_degrees(17, -33, 251, r);
+    for (int i = 0; i < 3; i++)
+        for (int j = 0; j < 3; j++) {
+            double dot = r[3 * i] * r[3 * j] + r[3 * i + 1] * r[3 * j + 1] + r[3 * i + 2] * r[3 * j + 2];
+            assert_true(fabs(dot - (i == j)) < 1e-14);
+        }
+}
+
+static void test_parse_pose(void **state)
+{
+    (void)state;
+    trioct_pose p;
+    char err[256];
+    assert_int_equal(cli_parse_pose("1 2 3", &p, err, sizeof err), 0);
+    assert_true(p.t.x == 1 && p.t.y == 2 && p.t.z == 3);
+    assert_matrix(p.r, (double[9]){1, 0, 0, 0, 1, 0, 0, 0, 1});
+    assert_int_equal(cli_parse_pose("1,2,3,0,0,90", &p, err, sizeof err), 0);
+    assert_matrix(p.r, (double[9]){0, -1, 0, 1, 0, 0, 0, 0, 1});
+    assert_int_equal(cli_parse_pose("1 2 3 4", &p, err, sizeof err), -1);
+    assert_string_equal(err, "expected 3 or 6 numbers \"tx ty tz [rx ry rz]\" (degrees): found 4");
+    assert_int_equal(cli_parse_pose("1 2 z", &p, err, sizeof err), -1);
+    assert_string_equal(err, "expected 3 or 6 numbers \"tx ty tz [rx ry rz]\" (degrees): "
+                             "field 3 'z' is not a finite number");
+}
+
+static void test_read_poses(void **state)
+{
+    (void)state;
+    cli_pose_list list = {0};
+    trioct_pose first;
+    char err[256];
+    assert_int_equal(cli_parse_pose("9 9 9", &first, err, sizeof err), 0);
+    assert_int_equal(cli_pose_list_add(&list, &first), 0);
+    FILE *f = file_of("# poses\n0,0,1\n\n2,0,0,0,0,90\n");
+    assert_int_equal(cli_read_poses(f, "p.csv", &list, err, sizeof err), 0);
+    fclose(f);
+    assert_int_equal(list.count, 3);
+    assert_true(list.poses[0].t.x == 9);
+    assert_true(list.poses[1].t.z == 1);
+    assert_true(list.poses[2].t.x == 2 && list.poses[2].r[1] == -1);
+    f = file_of("0,0,1\n0,0\n");
+    assert_int_equal(cli_read_poses(f, "p.csv", &list, err, sizeof err), -1);
+    fclose(f);
+    assert_string_equal(err, "p.csv:2: expected 3 or 6 numbers \"tx ty tz [rx ry rz]\" (degrees): found 2");
+    cli_pose_list_free(&list);
+}
+
+/* ---------- JSON ---------- */
+
+static void assert_escaped(const char *in, const char *want)
+{
+    capture c;
+    capture_open(&c);
+    cli_json_write_string(c.f, in);
+    assert_string_equal(capture_close(&c), want);
+    capture_free(&c);
+}
+
+static void test_json_escaping(void **state)
+{
+    (void)state;
+    assert_escaped("plain", "\"plain\"");
+    assert_escaped("world box has no query shape \"x\"", "\"world box has no query shape \\\"x\\\"\"");
+    assert_escaped("a\\b", "\"a\\\\b\"");
+    assert_escaped("l1\nl2\r\t\b\f", "\"l1\\nl2\\r\\t\\b\\f\"");
+    assert_escaped("\x01\x1f", "\"\\u0001\\u001f\"");
+    assert_escaped("/", "\"/\"");
+    /* Well-formed UTF-8 passes unchanged: e acute, euro sign, a 4-byte emoji. */
+    assert_escaped("caf\xc3\xa9 \xe2\x82\xac \xf0\x9f\x98\x80",
+                   "\"caf\xc3\xa9 \xe2\x82\xac \xf0\x9f\x98\x80\"");
+    /* Not UTF-8: a Latin-1 byte, a stray continuation byte, an overlong '/', a truncated
+     * sequence, a surrogate, past U+10FFFF: each bad byte becomes U+FFFD. */
+    assert_escaped("caf\xe9", "\"caf\\ufffd\"");
+    assert_escaped("\x80x", "\"\\ufffdx\"");
+    assert_escaped("\xc0\xaf", "\"\\ufffd\\ufffd\"");
+    assert_escaped("\xe2\x82", "\"\\ufffd\\ufffd\"");
+    assert_escaped("\xed\xa0\x80", "\"\\ufffd\\ufffd\\ufffd\"");
+    assert_escaped("\xf4\x90\x80\x80", "\"\\ufffd\\ufffd\\ufffd\\ufffd\"");
+    assert_escaped("\xff", "\"\\ufffd\"");
+}
+
+static void test_json_writer(void **state)
+{
+    (void)state;
+    capture c;
+    capture_open(&c);
+    cli_json j;
+    cli_json_init(&j, c.f);
+    cli_json_object_begin(&j);
+    cli_json_key_string(&j, "s", "x");
+    cli_json_key_int(&j, "i", -42);
+    cli_json_key_double(&j, "tenth", 0.1);
+    cli_json_key_double(&j, "eight", 8.0);
+    cli_json_key_double(&j, "negzero", -0.0);
+    cli_json_key_double(&j, "big", 1e300);
+    cli_json_key_double(&j, "inf", INFINITY);
+    cli_json_key_double(&j, "nan", NAN);
+    cli_json_key_bool(&j, "yes", 1);
+    cli_json_key(&j, "empty");
+    cli_json_array_begin(&j);
+    cli_json_array_end(&j);
+    cli_json_key(&j, "list");
+    cli_json_array_begin(&j);
+    cli_json_vec3(&j, (trioct_vec3){1, -2.5, 3});
+    cli_json_object_begin(&j);
+    cli_json_key(&j, "n");
+    cli_json_null(&j);
+    cli_json_object_end(&j);
+    cli_json_int(&j, 7);
+    cli_json_array_end(&j);
+    cli_json_object_end(&j);
+    assert_string_equal(capture_close(&c),
+                        "{\"s\":\"x\",\"i\":-42,\"tenth\":0.10000000000000001,\"eight\":8,"
+                        "\"negzero\":-0,\"big\":1.0000000000000001e+300,\"inf\":null,\"nan\":null,"
+                        "\"yes\":true,\"empty\":[],\"list\":[[1,-2.5,3],{\"n\":null},7]}");
+    capture_free(&c);
+}
+
+/* %.17g reads back as the same double, for any double. */
+static void test_json_doubles_round_trip(void **state)
+{
+    (void)state;
+    double values[] = {1.0 / 3, 2.0 / 3, 1e-300, 4.9406564584124654e-324, 1.7976931348623157e308,
+                       0.1 + 0.2, -123456.789, 8.000000000000002};
+    for (size_t i = 0; i < sizeof values / sizeof values[0]; i++) {
+        capture c;
+        capture_open(&c);
+        cli_json j;
+        cli_json_init(&j, c.f);
+        cli_json_double(&j, values[i]);
+        const char *text = capture_close(&c);
+        assert_true(strtod(text, NULL) == values[i]);
+        capture_free(&c);
+    }
+}
+
+/* ---------- text ---------- */
+
+static void test_format_double(void **state)
+{
+    (void)state;
+    char buf[CLI_NUMBER_LEN];
+    assert_string_equal(cli_format_double(0.1, buf), "0.1");
+    assert_string_equal(cli_format_double(8, buf), "8");
+    assert_string_equal(cli_format_double(-0.25, buf), "-0.25");
+    assert_string_equal(cli_format_double(0.1 + 0.2, buf), "0.30000000000000004");
+    assert_string_equal(cli_format_double(1.0 / 3, buf), "0.3333333333333333");
+    assert_string_equal(cli_format_double(1e21, buf), "1e+21");
+    assert_string_equal(cli_format_double(INFINITY, buf), "inf");
+    assert_string_equal(cli_format_double(-INFINITY, buf), "-inf");
+    assert_string_equal(cli_format_double(NAN, buf), "nan");
+    double x = 8.000000000000002;
+    assert_true(strtod(cli_format_double(x, buf), NULL) == x);
+
+    assert_string_equal(cli_format_bytes(812, buf), "812 B");
+    assert_string_equal(cli_format_bytes(1024, buf), "1.0 KiB");
+    assert_string_equal(cli_format_bytes(12595, buf), "12.3 KiB");
+    assert_string_equal(cli_format_bytes(4 * 1024 * 1024, buf), "4.0 MiB");
+    assert_string_equal(cli_format_bytes(3LL << 40, buf), "3.0 TiB");
+}
+
+static void test_table(void **state)
+{
+    (void)state;
+    cli_table t;
+    assert_int_equal(cli_table_init(&t, 3, 1u << 1), 0);
+    cli_table_cell(&t, "NAME");
+    cli_table_cell(&t, "N");
+    cli_table_cell(&t, "NOTE");
+    cli_table_cell(&t, "a");
+    cli_table_cell(&t, "%d", 12345);
+    cli_table_cell(&t, "first");
+    cli_table_cell(&t, "longer");
+    cli_table_cell(&t, "%d", 7);
+    cli_table_cell(&t, "x");
+    capture c;
+    capture_open(&c);
+    assert_int_equal(cli_table_print(&t, c.f, "> "), 0);
+    assert_string_equal(capture_close(&c), "> NAME        N  NOTE\n"
+                                           "> a       12345  first\n"
+                                           "> longer      7  x\n");
+    capture_free(&c);
+    cli_table_free(&t);
+}
+
+/* ---------- progress ---------- */
+
+#define MS 1000000LL
+
+static void test_progress_lines(void **state)
+{
+    (void)state;
+    capture c;
+    capture_open(&c);
+    cli_progress p;
+    cli_progress_begin(&p, c.f, CLI_PROGRESS_LINES, "rays", 4000, 0);
+    cli_progress_update(&p, 1280, 400 * MS);  /* under a second: nothing */
+    cli_progress_update(&p, 2560, 1200 * MS); /* shown */
+    cli_progress_update(&p, 3000, 1700 * MS); /* within a second of the last: nothing */
+    cli_progress_update(&p, 3840, 2300 * MS); /* shown */
+    cli_progress_end(&p, 4000, 2500 * MS);
+    assert_string_equal(capture_close(&c), "rays: 2560 of 4000 (64%), 1.2 s\n"
+                                           "rays: 3840 of 4000 (96%), 2.3 s\n"
+                                           "rays: 4000 of 4000 (100%), 2.5 s\n");
+    capture_free(&c);
+}
+
+static void test_progress_terminal(void **state)
+{
+    (void)state;
+    capture c;
+    capture_open(&c);
+    cli_progress p;
+    cli_progress_begin(&p, c.f, CLI_PROGRESS_TERMINAL, "poses", 10, 0);
+    cli_progress_update(&p, 5, 1000 * MS);
+    cli_progress_update(&p, 6, 1050 * MS); /* within a tenth of a second: nothing */
+    cli_progress_end(&p, 10, 1300 * MS);
+    assert_string_equal(capture_close(&c), "\rposes: 5 of 10 (50%), 1.0 s   "
+                                           "\rposes: 10 of 10 (100%), 1.3 s   \n");
+    capture_free(&c);
+}
+
+static void test_progress_quiet_cases(void **state)
+{
+    (void)state;
+    capture c;
+    capture_open(&c);
+    cli_progress p;
+    /* A batch done within a second shows nothing at all. */
+    cli_progress_begin(&p, c.f, CLI_PROGRESS_TERMINAL, "rays", 10, 0);
+    cli_progress_update(&p, 5, 500 * MS);
+    cli_progress_end(&p, 10, 900 * MS);
+    /* Off shows nothing however long it takes. */
+    cli_progress_begin(&p, c.f, CLI_PROGRESS_OFF, "rays", 10, 0);
+    cli_progress_update(&p, 5, 5000 * MS);
+    cli_progress_end(&p, 10, 9000 * MS);
+    /* A long batch whose only update came early still ends with its count. */
+    cli_progress_begin(&p, c.f, CLI_PROGRESS_LINES, "rays", 2, 0);
+    cli_progress_update(&p, 1, 600 * MS);
+    cli_progress_end(&p, 2, 1500 * MS);
+    assert_string_equal(capture_close(&c), "rays: 2 of 2 (100%), 1.5 s\n");
+    capture_free(&c);
+    /* A memory stream is no terminal: only --progress turns lines on. */
+    capture_open(&c);
+    assert_int_equal(cli_progress_mode_for(c.f, 0), CLI_PROGRESS_OFF);
+    assert_int_equal(cli_progress_mode_for(c.f, 1), CLI_PROGRESS_LINES);
+    capture_close(&c);
+    capture_free(&c);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_scan_negative_numbers_are_positional),
+        cmocka_unit_test(test_scan_values_aliases_and_terminator),
+        cmocka_unit_test(test_scan_errors),
+        cmocka_unit_test(test_scan_stops_at_the_command),
+        cmocka_unit_test(test_parse_double),
+        cmocka_unit_test(test_parse_int),
+        cmocka_unit_test(test_accuracy_effects_names),
+        cmocka_unit_test(test_parse_numbers),
+        cmocka_unit_test(test_read_rays),
+        cmocka_unit_test(test_read_many_rays),
+        cmocka_unit_test(test_rotation_exact_quarter_turns),
+        cmocka_unit_test(test_rotation_general_angle),
+        cmocka_unit_test(test_parse_pose),
+        cmocka_unit_test(test_read_poses),
+        cmocka_unit_test(test_json_escaping),
+        cmocka_unit_test(test_json_writer),
+        cmocka_unit_test(test_json_doubles_round_trip),
+        cmocka_unit_test(test_format_double),
+        cmocka_unit_test(test_table),
+        cmocka_unit_test(test_progress_lines),
+        cmocka_unit_test(test_progress_terminal),
+        cmocka_unit_test(test_progress_quiet_cases),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}
