@@ -1,0 +1,120 @@
+#include "logs_requests.h"
+
+#include <math.h>
+#include <string.h>
+
+#include "channels.h"
+
+static trioct_request_header_t header_of(const lr_req *q)
+{
+    trioct_request_header_t h = lw_header(q->client, q->id, q->reply, q->world);
+    h.deadline_utime = q->deadline;
+    return h;
+}
+
+static const char *channel_of(const lr_req *q, int kind)
+{
+    return q->channel != NULL ? q->channel : lw_channel(kind, q->world);
+}
+
+static trioct_ray_request_t ray_message(const lr_req *q, int8_t detail, int8_t accuracy, double tmin,
+                                        double tmax, int32_t max_hits, int n, const trioct_vec3_t *origin,
+                                        const trioct_vec3_t *direction)
+{
+    trioct_ray_request_t m;
+    memset(&m, 0, sizeof m);
+    m.header = header_of(q);
+    m.detail = detail;
+    m.accuracy = accuracy;
+    m.tmin = tmin;
+    m.tmax = tmax;
+    m.max_hits = max_hits;
+    m.num_rays = n;
+    m.origin = (trioct_vec3_t *)origin;
+    m.direction = (trioct_vec3_t *)direction;
+    return m;
+}
+
+void lr_rays(logs_writer *w, const lr_req *q, int8_t detail, int8_t accuracy, double tmin, double tmax,
+             int32_t max_hits, int n, const trioct_vec3_t *origin, const trioct_vec3_t *direction)
+{
+    trioct_ray_request_t m = ray_message(q, detail, accuracy, tmin, tmax, max_hits, n, origin, direction);
+    lw_ray(w, channel_of(q, TRIOCT_CHANNEL_RAY), &m);
+}
+
+uint8_t *lr_encode_rays(const lr_req *q, int n, const trioct_vec3_t *origin, const trioct_vec3_t *direction,
+                        size_t *size)
+{
+    trioct_ray_request_t m = ray_message(q, TRIOCT_RAY_REQUEST_T_CLOSEST, TRIOCT_RAY_REQUEST_T_ACCURACY_WORLD,
+                                         0, INFINITY, 1, n, origin, direction);
+    return lw_encode_ray(&m, size);
+}
+
+void lr_triangles(logs_writer *w, const lr_req *q, int8_t detail, int8_t accuracy, int n,
+                  const trioct_triangle_t *triangles)
+{
+    trioct_triangle_request_t m;
+    memset(&m, 0, sizeof m);
+    m.header = header_of(q);
+    m.detail = detail;
+    m.accuracy = accuracy;
+    m.num_triangles = n;
+    m.triangles = (trioct_triangle_t *)triangles;
+    lw_triangle(w, channel_of(q, TRIOCT_CHANNEL_TRI), &m);
+}
+
+void lr_mesh(logs_writer *w, const lr_req *q, int8_t detail, int8_t accuracy, const char *shape,
+             int n_shape, const trioct_triangle_t *shape_triangles, int n_poses, const trioct_pose_t *poses)
+{
+    trioct_mesh_request_t m;
+    memset(&m, 0, sizeof m);
+    m.header = header_of(q);
+    m.detail = detail;
+    m.accuracy = accuracy;
+    m.shape = (char *)(shape != NULL ? shape : "");
+    m.num_shape_triangles = n_shape;
+    m.shape_triangles = (trioct_triangle_t *)shape_triangles;
+    m.num_poses = n_poses;
+    m.poses = (trioct_pose_t *)poses;
+    lw_mesh(w, channel_of(q, TRIOCT_CHANNEL_MESH), &m);
+}
+
+void lr_load(logs_writer *w, const lr_req *q, const char *mesh_path, double resolution, int8_t accuracy,
+             double seed_epsilon, int32_t effects)
+{
+    trioct_admin_request_t m;
+    memset(&m, 0, sizeof m);
+    m.header = header_of(q);
+    m.op = TRIOCT_ADMIN_REQUEST_T_LOAD;
+    m.mesh_path = (char *)mesh_path;
+    m.resolution = resolution;
+    m.accuracy = accuracy;
+    m.seed_epsilon = seed_epsilon;
+    m.effects = effects;
+    lw_admin(w, q->channel != NULL ? q->channel : lw_channel(TRIOCT_CHANNEL_LOAD, LOGS_DAEMON), &m);
+}
+
+void lr_admin(logs_writer *w, const lr_req *q, int8_t op, const char *mesh_path)
+{
+    if (op == TRIOCT_ADMIN_REQUEST_T_LOAD) {
+        lr_load(w, q, mesh_path, 0, TRIOCT_RAY_REQUEST_T_ACCURACY_WORLD, 0, 0);
+        return;
+    }
+    trioct_admin_request_t m;
+    memset(&m, 0, sizeof m);
+    m.header = header_of(q);
+    m.op = op;
+    m.mesh_path = (char *)(mesh_path != NULL ? mesh_path : "");
+    m.accuracy = TRIOCT_RAY_REQUEST_T_ACCURACY_WORLD;
+    const char *channel = q->channel;
+    if (channel == NULL)
+        channel = op == TRIOCT_ADMIN_REQUEST_T_LIST ? lw_channel(TRIOCT_CHANNEL_LIST, "")
+                                                    : lw_channel(TRIOCT_CHANNEL_ADMIN, q->world);
+    lw_admin(w, channel, &m);
+}
+
+void lr_reload(logs_writer *w)
+{
+    /* Any bytes: the daemon reads only that the message came. */
+    lw_raw(w, LOGS_PREFIX "_RELOAD_" LOGS_DAEMON, "reload", 6);
+}
