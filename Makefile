@@ -105,6 +105,23 @@ E2E_BIN := $(BUILD)/tests/e2e_daemon
 $(E2E_BIN): $(BUILD)/tests/e2e/e2e_daemon.o $(ALL_LIBS)
 	$(CC) $(ALL_CFLAGS) $< $(ALL_LIBS) -lcmocka $(SYS_LIBS) -o $@
 
+# The trioct command (issue 5): client/cli/, linked with libtrioct.a alone, no server code.
+# Its pure parts (arguments, CSV, poses, JSON, text, progress) are unit-tested by
+# test_cli_parse; e2e_cli runs the command against a real daemon inside netns.sh.
+CLI_SRC      := $(wildcard client/cli/*.c)
+CLI_OBJ      := $(CLI_SRC:%.c=$(BUILD)/%.o)
+CLI_PURE_OBJ := $(addprefix $(BUILD)/client/cli/,cli_args.o cli_csv.o cli_pose.o cli_json.o cli_text.o cli_progress.o)
+CLI_BIN      := $(BUILD)/trioct
+E2E_CLI_BIN  := $(BUILD)/tests/e2e_cli
+all: $(CLI_BIN)
+$(CLI_BIN): $(CLI_OBJ) $(CLIENT_LIB)
+	$(CC) $(ALL_CFLAGS) $(CLI_OBJ) $(CLIENT_LIB) -llcm -lm -pthread -o $@
+$(BUILD)/tests/test_cli_parse: $(BUILD)/tests/test_cli_parse.o $(CLI_PURE_OBJ)
+	$(CC) $(ALL_CFLAGS) $< $(CLI_PURE_OBJ) -lcmocka -lm -o $@
+$(E2E_CLI_BIN): $(BUILD)/tests/e2e/e2e_cli.o $(ALL_LIBS)
+	$(CC) $(ALL_CFLAGS) $< $(ALL_LIBS) -lcmocka $(SYS_LIBS) -o $@
+test: $(CLI_BIN) $(E2E_CLI_BIN)
+
 DAEMON_BENCH_BIN := $(BUILD)/bench/daemon_bench
 $(DAEMON_BENCH_BIN): $(BUILD)/bench/daemon_bench.o $(ALL_LIBS)
 	$(CC) $(ALL_CFLAGS) $< $(ALL_LIBS) $(SYS_LIBS) -o $@
@@ -136,8 +153,15 @@ run: $(DAEMON_BIN) $(DEMO_BIN) $(DEMO_DIR)/.stamp
 test: $(TEST_BIN) $(E2E_BIN) $(DAEMON_BIN)
 	@export LCM_DEFAULT_URL=memq://; fail=0; \
 	for t in $(TEST_BIN); do echo "== $$t"; $$t || fail=1; done; \
+	echo "== tests/e2e/systemd_test.sh (the unit, its sandbox score, man pages, install)"; \
+	MAKE="$(MAKE)" sh tests/e2e/systemd_test.sh $(BUILD) || fail=1; \
+	echo "== tests/e2e/install_test.sh (make install into a DESTDIR, pkg-config, C and C++ users)"; \
+	MAKE="$(MAKE)" TRIOCT_TEST_SAN="$(SAN)" sh tests/e2e/install_test.sh $(BUILD) || fail=1; \
 	echo "== $(E2E_BIN) (udpm in a private network namespace)"; \
 	tests/e2e/netns.sh $(E2E_BIN) $(DAEMON_BIN); rc=$$?; \
+	if [ $$rc -eq 77 ]; then echo "SKIPPED: end-to-end tests need root"; elif [ $$rc -ne 0 ]; then fail=1; fi; \
+	echo "== $(E2E_CLI_BIN) (the trioct command against trioctd, udpm in a private network namespace)"; \
+	tests/e2e/netns.sh $(E2E_CLI_BIN) $(DAEMON_BIN) $(CLI_BIN); rc=$$?; \
 	if [ $$rc -eq 77 ]; then echo "SKIPPED: end-to-end tests need root"; elif [ $$rc -ne 0 ]; then fail=1; fi; \
 	if [ $$fail -ne 0 ]; then echo "make test: FAILED"; exit 1; fi; echo "make test: all test programs passed"
 
@@ -153,6 +177,100 @@ bench: $(BENCH_BIN) $(DAEMON_BENCH_BIN) $(DAEMON_BIN)
 # Issue 3: what accuracy costs in time. Writes docs/accuracy.md and its plots.
 accuracy-report: $(ACC_BIN)
 	sh scripts/accuracy_report.sh $(ACC_BIN) $(BUILD)/accuracy
+
+# Issue 7: the systemd unit, the example scene and the man pages; `make install` runs it.
+# The unit goes to $(PREFIX)/lib/systemd/system, which systemd reads for /usr and
+# /usr/local alike, its ExecStart pointing at $(PREFIX)/bin/trioctd. The scene goes to
+# /etc/trioct, where the unit reads it whatever the prefix, and only when none is there: a
+# reinstall never overwrites an edited one. A pristine copy goes to share/trioct always.
+PREFIX ?= /usr/local
+SYSTEMD_UNIT_DIR ?= $(PREFIX)/lib/systemd/system
+MAN_DIR ?= $(PREFIX)/share/man
+.PHONY: install-service
+install-service:
+	install -d $(DESTDIR)$(SYSTEMD_UNIT_DIR) $(DESTDIR)/etc/trioct/worlds \
+	    $(DESTDIR)$(PREFIX)/share/trioct $(DESTDIR)$(MAN_DIR)/man1 $(DESTDIR)$(MAN_DIR)/man8
+	sed 's|^ExecStart=/usr/bin/trioctd |ExecStart=$(PREFIX)/bin/trioctd |' systemd/trioctd.service \
+	    > $(DESTDIR)$(SYSTEMD_UNIT_DIR)/trioctd.service
+	chmod 0644 $(DESTDIR)$(SYSTEMD_UNIT_DIR)/trioctd.service
+	install -m 0644 systemd/scene.ini $(DESTDIR)$(PREFIX)/share/trioct/scene.ini.example
+	test -e $(DESTDIR)/etc/trioct/scene.ini || \
+	    install -m 0644 systemd/scene.ini $(DESTDIR)/etc/trioct/scene.ini
+	install -m 0644 man/trioctd.8 $(DESTDIR)$(MAN_DIR)/man8/trioctd.8
+	install -m 0644 man/trioct.1 $(DESTDIR)$(MAN_DIR)/man1/trioct.1
+
+# libtrioct as a shared library (issue 5): position-independent objects of their own, built
+# with every symbol hidden but those trioct.h marks TRIOCT_API, so the .so exports the
+# public API and nothing else (not the generated wire code, not common/).
+PIC_DIR        := $(BUILD)/pic
+CLIENT_PIC_OBJ := $(CLIENT_SRC:%.c=$(PIC_DIR)/%.o) $(COMMON_SRC:%.c=$(PIC_DIR)/%.o) \
+                  $(GEN_SRC:$(GEN_DIR)/%.c=$(PIC_DIR)/gen/%.o)
+CLIENT_SO      := $(BUILD)/libtrioct.so.0
+PIC_CFLAGS      = $(ALL_CFLAGS) -fPIC -fvisibility=hidden
+$(PIC_DIR)/%.o: %.c | $(DEPS_STAMP) $(GEN_STAMP)
+	@mkdir -p $(dir $@)
+	$(CC) $(PIC_CFLAGS) -MMD -MP -c $< -o $@
+$(PIC_DIR)/gen/%.o: $(GEN_DIR)/%.c
+	@mkdir -p $(dir $@)
+	$(CC) $(PIC_CFLAGS) -Wno-unused-parameter -c $< -o $@
+$(CLIENT_SO): $(CLIENT_PIC_OBJ)
+	$(CC) $(ALL_CFLAGS) -shared -Wl,-soname,libtrioct.so.0 -Wl,-z,defs $^ -llcm -o $@
+# The example docs/client.md walks through, built so that it cannot rot.
+EXAMPLE_BIN := $(BUILD)/examples/ray_example
+$(EXAMPLE_BIN): $(BUILD)/client/examples/ray_example.o $(CLIENT_LIB)
+	@mkdir -p $(dir $@)
+	$(CC) $(ALL_CFLAGS) $< $(CLIENT_LIB) -llcm -o $@
+all: $(CLIENT_SO) $(EXAMPLE_BIN)
+test: $(CLIENT_SO) $(EXAMPLE_BIN)
+
+# make install (issue 5): PREFIX (default /usr/local) and DESTDIR honoured. The daemon, the
+# command (when client/cli/ exists), both libraries, the header with the two it includes
+# (in include/trioct/, where its quoted includes find them), and trioct.pc with the prefix
+# written in; then install-service (issue 7: the unit, the example scene, the man pages).
+# tests/e2e/install_test.sh checks the installed tree file by file.
+PREFIX     ?= /usr/local
+BINDIR      = $(PREFIX)/bin
+LIBDIR      = $(PREFIX)/lib
+INCLUDEDIR  = $(PREFIX)/include
+PC_VERSION := $(or $(shell sed -n 's/^\#define TRIOCT_VERSION "\(.*\)"/\1/p' common/trioct_version.h),0)
+.PHONY: install install-lib
+install: install-lib install-service
+install-lib: $(DAEMON_BIN) $(CLIENT_LIB) $(CLIENT_SO) $(if $(wildcard client/cli/*.c),$(BUILD)/trioct)
+	install -d $(DESTDIR)$(BINDIR) $(DESTDIR)$(LIBDIR)/pkgconfig $(DESTDIR)$(INCLUDEDIR)/trioct
+	install -m 0755 $(DAEMON_BIN) $(DESTDIR)$(BINDIR)/trioctd
+	if [ -f $(BUILD)/trioct ]; then install -m 0755 $(BUILD)/trioct $(DESTDIR)$(BINDIR)/trioct; fi
+	install -m 0644 $(CLIENT_LIB) $(DESTDIR)$(LIBDIR)/libtrioct.a
+	install -m 0644 $(CLIENT_SO) $(DESTDIR)$(LIBDIR)/libtrioct.so.0
+	ln -sf libtrioct.so.0 $(DESTDIR)$(LIBDIR)/libtrioct.so
+	install -m 0644 client/trioct.h common/trioct_limits.h common/trioct_status.h \
+	    $(DESTDIR)$(INCLUDEDIR)/trioct/
+	sed -e 's|@PREFIX@|$(PREFIX)|g' -e 's|@LIBDIR@|$(LIBDIR)|g' -e 's|@VERSION@|$(PC_VERSION)|g' \
+	    client/trioct.pc.in > $(DESTDIR)$(LIBDIR)/pkgconfig/trioct.pc
+	chmod 0644 $(DESTDIR)$(LIBDIR)/pkgconfig/trioct.pc
+
+# Issue 6: replayable message logs (docs/replay.md). trioct-replay feeds an LCM log to a
+# fresh trioctd and compares its replies with recorded ones; trioct-make-logs writes the
+# request logs of tests/logs, and `make logs` regenerates that directory, golden logs
+# included (tools/replay/make_logs.sh). test_replay replays every log at 1 and 4 threads,
+# checks the regeneration byte for byte, and runs one live replay inside netns.sh.
+REPLAY_BIN    := $(BUILD)/trioct-replay
+MAKE_LOGS_BIN := $(BUILD)/trioct-make-logs
+REPLAY_LIB    := $(BUILD)/libtrioct_replay.a
+REPLAY_OBJ    := $(patsubst %.c,$(BUILD)/%.o,$(filter-out tools/replay/replay_main.c,$(wildcard tools/replay/replay_*.c)))
+MAKE_LOGS_OBJ := $(patsubst %.c,$(BUILD)/%.o,tools/replay/make_logs.c $(wildcard tools/replay/logs_*.c))
+$(REPLAY_LIB): $(REPLAY_OBJ)
+	@mkdir -p $(dir $@)
+	rm -f $@ && ar rcs $@ $^
+$(REPLAY_BIN): $(BUILD)/tools/replay/replay_main.o $(REPLAY_LIB) $(ALL_LIBS)
+	$(CC) $(ALL_CFLAGS) $< $(REPLAY_LIB) $(ALL_LIBS) $(SYS_LIBS) -o $@
+$(MAKE_LOGS_BIN): $(MAKE_LOGS_OBJ) $(REPLAY_LIB) $(ALL_LIBS)
+	$(CC) $(ALL_CFLAGS) $(MAKE_LOGS_OBJ) $(REPLAY_LIB) $(ALL_LIBS) $(SYS_LIBS) -o $@
+$(BUILD)/tests/test_replay: $(BUILD)/tests/test_replay.o $(REPLAY_LIB) $(ALL_LIBS)
+	$(CC) $(ALL_CFLAGS) $< $(REPLAY_LIB) $(ALL_LIBS) -lcmocka $(SYS_LIBS) -o $@
+test: $(REPLAY_BIN) $(MAKE_LOGS_BIN)
+.PHONY: logs
+logs: $(MAKE_LOGS_BIN) $(REPLAY_BIN) $(DAEMON_BIN)
+	sh tools/replay/make_logs.sh $(BUILD) tests/logs
 
 clean:
 	rm -rf build build-asan

@@ -204,7 +204,6 @@ static void test_help_and_version(void **state)
     /* Neither needs a scene; an error before them still wins, being read first. */
     const char *bad_first[] = {"trioctd", "--threads", "0", "--help", NULL};
     assert_int_equal(parse(&opt, err, sizeof err, bad_first), OPTIONS_ERROR);
-    assert_string_equal(TRIOCT_VERSION, "0.4.0");
 
     /* The usage text names every option. */
     char *text = NULL;

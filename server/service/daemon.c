@@ -19,7 +19,9 @@
 #include "../world/registry.h"
 #include "../world/world.h"
 #include "dispatch.h"
+#include "lcm_selftest.h"
 #include "log.h"
+#include "notify.h"
 #include "stats.h"
 #include "trioct_status_t.h"
 #include "trioct_world_info_t.h"
@@ -37,6 +39,11 @@ static const trioct_channel_kind world_kinds[] = {
 
 /* LCM's queue in front of the daemon's, per subscription, in units of --queue-depth. */
 #define DAEMON_LCM_QUEUE_FACTOR 4
+
+/* The LCM self-test before READY=1: a lost datagram is sent again each second, and a bus
+ * silent for ten seconds is broken (LCM's own udpm self-test waits as long). */
+#define DAEMON_SELFTEST_TIMEOUT_MS 10000
+#define DAEMON_SELFTEST_RESEND_MS 1000
 
 typedef struct world_subs {
     char name[TRIOCT_MAX_NAME_LEN + 1];
@@ -72,14 +79,29 @@ typedef struct daemon {
     uv_poll_t poll;
     uv_timer_t heartbeat;
     uv_signal_t sig_term, sig_int, sig_hup;
-    int handles_ready; /* the five handles above are initialised */
+    int handles_ready; /* the five handles above and the two below are initialised */
     int polling;
     int closing;
+
+    /* systemd: readiness, reload, stop and the watchdog (notify.c), and the self-test of
+     * the bus that READY=1 waits for. */
+    notifier nt;
+    uv_timer_t watchdog;
+    lcm_selftest selftest;
+    int exit_code; /* 1 when the self-test failed */
 
     int state;          /* TRIOCT_STATUS_T_* */
     int in_flight;      /* requests taken whose reply is not yet published */
     int builds;         /* world builds of start-up or of a reload still running */
     int reload_pending; /* a SIGHUP came during start-up or a reload */
+
+    /* --ordered (see "Ordered replay"): the requests one wake-up read, in input order. */
+    struct request_job *held, *held_tail;
+    int pool_running;    /* held requests handed to the pool and not yet back */
+    int alone_running;   /* one of them is an admin request, which runs alone */
+    int reload_in_order; /* a reload asked on <prefix>_RELOAD_<name> is under way */
+    int wakeup_over;     /* a LOAD or a reload was read: read no more until it is done */
+    int ordered_busy;    /* ordered_run is on the stack */
     int eof;
     uint64_t start_hr;
 
@@ -87,6 +109,7 @@ typedef struct daemon {
     char status_channel[TRIOCT_MAX_CHANNEL_LEN + 1];
     lcm_subscription_t *sub_list;
     lcm_subscription_t *sub_load;
+    lcm_subscription_t *sub_reload; /* --ordered only */
     world_subs *subs;
     size_t sub_count, sub_alloc;
     failed_world *failed;
@@ -107,6 +130,9 @@ typedef struct request_job {
     char channel[TRIOCT_MAX_CHANNEL_LEN + 1];
     int rc;
     dispatch_reply reply;
+    struct request_job *next; /* --ordered: the next one held */
+    int alone;                /* --ordered: an admin request or a reload runs by itself */
+    int reload;               /* --ordered: no request, the reload channel's mark */
     size_t size;
     uint8_t bytes[];
 } request_job;
@@ -140,6 +166,15 @@ static void publish_status(daemon *d);
 static void sync_subscriptions(daemon *d);
 static void maybe_finish(daemon *d);
 static void start_reload(daemon *d);
+
+typedef enum tell_what {
+    TELL_READY,
+    TELL_RELOADING,
+    TELL_STOPPING,
+    TELL_STATUS,
+} tell_what;
+static void tell_systemd(daemon *d, tell_what what);
+static void start_selftest(daemon *d);
 
 /* Wall clock in microseconds since the epoch: what deadlines and status utime are in. */
 static int64_t wall_utime(void)
@@ -230,6 +265,12 @@ static void reply_now(daemon *d, const dispatch_request *req, const char *channe
 
 /* ---- Requests --------------------------------------------------------------------------- */
 
+/* --ordered; see "Ordered replay". */
+static void ordered_hold(daemon *d, request_job *job);
+static void ordered_run(daemon *d);
+static int ordered_subscribe(daemon *d);
+static void start_polling(daemon *d);
+
 static void work_request(uv_work_t *work)
 {
     request_job *job = work->data;
@@ -243,6 +284,11 @@ static void after_request(uv_work_t *work, int status)
     request_job *job = work->data;
     daemon *d = job->d;
     d->in_flight--;
+    if (d->opt.ordered) {
+        d->pool_running--;
+        if (job->alone)
+            d->alone_running = 0;
+    }
 
     if (status != 0) {
         /* Only uv_cancel makes this happen, and nothing cancels requests. */
@@ -268,6 +314,8 @@ static void after_request(uv_work_t *work, int status)
     }
     free(job);
     maybe_finish(d);
+    if (d->opt.ordered)
+        ordered_run(d);
 }
 
 /* Every message of every subscription lands here, on the loop thread, inside lcm_handle. */
@@ -321,6 +369,14 @@ static void on_message(const lcm_recv_buf_t *rbuf, const char *channel, void *us
     memcpy(job->channel, channel, channel_len + 1);
     job->size = size;
     memcpy(job->bytes, rbuf->data, size);
+    if (d->opt.ordered) {
+        job->alone = req.type == REQUEST_ADMIN;
+        if (req.channel_kind == TRIOCT_CHANNEL_LOAD)
+            d->wakeup_over = 1;
+        ordered_hold(d, job);
+        d->in_flight++;
+        return;
+    }
     int rc = uv_queue_work(&d->loop, &job->work, work_request, after_request);
     if (rc != 0) {
         free(job);
@@ -366,6 +422,8 @@ static int subscribe_fixed(daemon *d)
         return -1;
     if (trioct_channel_name(ch, d->opt.prefix, TRIOCT_CHANNEL_LOAD, d->opt.name) < 0 ||
         (d->sub_load = subscribe(d, ch)) == NULL)
+        return -1;
+    if (d->opt.ordered && ordered_subscribe(d) < 0)
         return -1;
     return 0;
 }
@@ -458,7 +516,9 @@ static void unsubscribe_all(daemon *d)
         lcm_unsubscribe(d->lcm_in, d->sub_list);
     if (d->sub_load != NULL)
         lcm_unsubscribe(d->lcm_in, d->sub_load);
-    d->sub_list = d->sub_load = NULL;
+    if (d->sub_reload != NULL)
+        lcm_unsubscribe(d->lcm_in, d->sub_reload);
+    d->sub_list = d->sub_load = d->sub_reload = NULL;
 }
 
 /* ---- The LCM pump ----------------------------------------------------------------------- */
@@ -477,6 +537,7 @@ static void input_ended(daemon *d)
         LOG(LOG_INFO, "stopping at the end of the input: finishing %d requests in hand",
             d->in_flight);
         d->state = TRIOCT_STATUS_T_STOPPING;
+        tell_systemd(d, TELL_STOPPING);
         maybe_finish(d);
     }
 }
@@ -491,7 +552,7 @@ static void on_lcm_readable(uv_poll_t *handle, int status, int events)
     }
     /* lcm_handle on a descriptor with nothing queued blocks, fails, or (memq) crashes, and
      * libuv may call us when nothing is there: ask poll(2) before every single message. */
-    for (int i = 0; i < DAEMON_PUMP_BUDGET && d->polling; i++) {
+    for (int i = 0; i < DAEMON_PUMP_BUDGET && d->polling && !d->wakeup_over; i++) {
         struct pollfd p = {.fd = d->lcm_fd, .events = POLLIN, .revents = 0};
         int r = poll(&p, 1, 0);
         if (r < 0 && errno == EINTR)
@@ -506,6 +567,106 @@ static void on_lcm_readable(uv_poll_t *handle, int status, int events)
             break;
         }
     }
+    if (d->opt.ordered) {
+        if (d->polling) {
+            uv_poll_stop(&d->poll);
+            d->polling = 0;
+        }
+        ordered_run(d);
+    }
+}
+
+/* ---- Ordered replay (--ordered) --------------------------------------------------------- */
+
+/* With --ordered every answer is the one a one-thread daemon gives, whatever --threads, so
+ * a replayed log answers alike on every machine. The requests one wake-up reads wait in
+ * d->held, in input order, and go to the pool from there: queries side by side, an admin
+ * request alone (after all read before it, before all read after it). The next wake-up
+ * reads only once every one is answered. A LOAD ends its wake-up, so the messages after it
+ * hear the world it brings, as a client asks only once the LOAD is answered; the requests
+ * read after an UNLOAD in its wake-up were taken while the world was held, and get
+ * UNKNOWN_WORLD, as from one thread. A log cannot carry a signal, so a message on
+ * <prefix>_RELOAD_<name> reloads the scene at its place in the input, as SIGHUP would, and
+ * ends its wake-up too. */
+
+static void ordered_hold(daemon *d, request_job *job)
+{
+    job->next = NULL;
+    if (d->held_tail != NULL)
+        d->held_tail->next = job;
+    else
+        d->held = job;
+    d->held_tail = job;
+}
+
+static void ordered_run(daemon *d)
+{
+    if (d->ordered_busy)
+        return; /* a reload that finished at once calls back; the loop below goes on */
+    d->ordered_busy = 1;
+    while (d->held != NULL && !d->alone_running && !d->reload_in_order) {
+        request_job *job = d->held;
+        if (job->alone && d->pool_running > 0)
+            break;
+        d->held = job->next;
+        if (d->held == NULL)
+            d->held_tail = NULL;
+        if (job->reload) {
+            free(job);
+            d->reload_in_order = 1;
+            start_reload(d);
+            if (d->state != TRIOCT_STATUS_T_RELOADING)
+                d->reload_in_order = 0; /* done at once, or refused (and logged) */
+            continue;
+        }
+        int rc = uv_queue_work(&d->loop, &job->work, work_request, after_request);
+        if (rc != 0) {
+            LOG(LOG_ERROR, "could not queue a request: %s", uv_strerror(rc));
+            d->in_flight--;
+            reply_now(d, &job->req, job->channel, TRIOCT_ERR_NOMEM,
+                      "the daemon could not queue the request");
+            free(job);
+            continue;
+        }
+        d->pool_running++;
+        d->alone_running = job->alone;
+    }
+    d->ordered_busy = 0;
+    if (d->held == NULL && d->pool_running == 0 && !d->reload_in_order && !d->closing) {
+        d->wakeup_over = 0;
+        start_polling(d);
+    }
+    maybe_finish(d);
+}
+
+static void on_reload_message(const lcm_recv_buf_t *rbuf, const char *channel, void *user)
+{
+    (void)rbuf;
+    daemon *d = user;
+    request_job *mark = calloc(1, sizeof *mark);
+    if (mark == NULL) {
+        LOG(LOG_ERROR, "out of memory: the reload asked on %s is not done", channel);
+        return;
+    }
+    mark->reload = mark->alone = 1;
+    ordered_hold(d, mark);
+    d->wakeup_over = 1;
+    LOG(LOG_INFO, "%s: the scene reloads at this point of the input", channel);
+}
+
+static int ordered_subscribe(daemon *d)
+{
+    /* prefix and name are checked names: this fits, and is its own regular expression. */
+    char ch[TRIOCT_MAX_CHANNEL_LEN + 1];
+    snprintf(ch, sizeof ch, "%s_RELOAD_%s", d->opt.prefix, d->opt.name);
+    d->sub_reload = lcm_subscribe(d->lcm_in, ch, on_reload_message, d);
+    if (d->sub_reload == NULL) {
+        LOG(LOG_ERROR, "could not subscribe to %s", ch);
+        return -1;
+    }
+    lcm_subscription_set_queue_capacity(d->sub_reload, lcm_queue_capacity(d->opt.queue_depth));
+    LOG(LOG_DEBUG, "ordered: subscribed to %s", ch);
+    return 0;
 }
 
 /* ---- Worlds: start-up and reload builds ------------------------------------------------- */
@@ -630,6 +791,8 @@ static void startup_done(daemon *d)
         d->opt.queue_depth);
     /* Only now: a replayed log must not reach a world that is still being built. */
     start_polling(d);
+    start_selftest(d);
+    tell_systemd(d, TELL_READY); /* at once for a file:// input, else once the bus is heard */
     publish_status(d);
     if (d->reload_pending) {
         d->reload_pending = 0;
@@ -725,6 +888,7 @@ static void start_reload(daemon *d)
         return;
     }
     d->state = TRIOCT_STATUS_T_RELOADING;
+    tell_systemd(d, TELL_RELOADING);
     LOG(LOG_INFO, "reloading %s", d->opt.scene_path);
     apply_reloaded_options(d, &opt);
     d->reload_built = d->reload_failed = d->reload_unchanged = 0;
@@ -800,10 +964,15 @@ static void reload_done(daemon *d)
     d->state = TRIOCT_STATUS_T_READY;
     LOG(LOG_INFO, "reload done: %d built, %d failed, %d unloaded, %d unchanged", d->reload_built,
         d->reload_failed, unloaded, d->reload_unchanged);
+    tell_systemd(d, TELL_READY);
     publish_status(d);
     if (d->reload_pending) {
         d->reload_pending = 0;
         start_reload(d);
+    }
+    if (d->reload_in_order && d->state != TRIOCT_STATUS_T_RELOADING) {
+        d->reload_in_order = 0;
+        ordered_run(d);
     }
 }
 
@@ -901,6 +1070,7 @@ static void publish_status(daemon *d)
     free(space);
     free(infos);
     registry_entries_free(entries, held);
+    tell_systemd(d, TELL_STATUS);
 }
 
 static void on_heartbeat(uv_timer_t *timer)
@@ -920,6 +1090,8 @@ static void close_handles(daemon *d)
     uv_close((uv_handle_t *)&d->sig_term, NULL);
     uv_close((uv_handle_t *)&d->sig_int, NULL);
     uv_close((uv_handle_t *)&d->sig_hup, NULL);
+    uv_close((uv_handle_t *)&d->watchdog, NULL);
+    lcm_selftest_close(&d->selftest);
     d->handles_ready = 0;
 }
 
@@ -952,7 +1124,123 @@ static void on_signal(uv_signal_t *handle, int signum)
     LOG(LOG_INFO, "%s: stopping; new requests get STOPPING, %d requests in hand finish first",
         signum == SIGINT ? "SIGINT" : "SIGTERM", d->in_flight);
     d->state = TRIOCT_STATUS_T_STOPPING;
+    tell_systemd(d, TELL_STOPPING);
     maybe_finish(d);
+}
+
+/* ---- systemd ----------------------------------------------------------------------------- */
+
+/* READY=1 wants the worlds built (state READY) and the bus proven: the self-test heard its
+ * token, or the input is a file:// log, which has no bus to prove. */
+static int bus_proven(daemon *d)
+{
+    return d->input_is_file || lcm_selftest_get_state(&d->selftest) == LCM_SELFTEST_PASSED;
+}
+
+/* The line `systemctl status trioctd` shows; resent only when it changes. */
+static void service_summary(daemon *d, char *out, size_t len)
+{
+    size_t held = registry_entries(d->ctx.worlds, NULL, 0);
+    int64_t queries = d->st.served[REQUEST_RAY] + d->st.served[REQUEST_TRIANGLE] +
+                      d->st.served[REQUEST_MESH];
+    const char *state = state_names[d->state];
+    if (d->state == TRIOCT_STATUS_T_READY && !bus_proven(d))
+        state = "testing the bus";
+    snprintf(out, len, "%s: %zu world%s held, %zu failed, %" PRId64 " queries served, queue %d/%d",
+             state, held, held == 1 ? "" : "s", d->failed_count, queries, d->in_flight,
+             d->opt.queue_depth);
+}
+
+static void tell_systemd(daemon *d, tell_what what)
+{
+    static const char *const names[] = {
+        [TELL_READY] = "READY=1",
+        [TELL_RELOADING] = "RELOADING=1",
+        [TELL_STOPPING] = "STOPPING=1",
+        [TELL_STATUS] = "STATUS=",
+    };
+    if (!notify_enabled(&d->nt) || (what == TELL_READY && (d->state != TRIOCT_STATUS_T_READY ||
+                                                           !bus_proven(d))))
+        return;
+    char line[NOTIFY_STATUS_MAX];
+    service_summary(d, line, sizeof line);
+    int rc = what == TELL_READY       ? notify_ready(&d->nt, line)
+             : what == TELL_RELOADING ? notify_reloading(&d->nt, line)
+             : what == TELL_STOPPING  ? notify_stopping(&d->nt, line)
+                                      : notify_status(&d->nt, line);
+    if (rc < 0)
+        LOG(LOG_WARN, "could not tell systemd %s: %s", names[what], strerror(-rc));
+    else if (what != TELL_STATUS)
+        LOG(LOG_DEBUG, "told systemd %s (%s)", names[what], line);
+}
+
+static void open_notify(daemon *d)
+{
+    const char *where = getenv("NOTIFY_SOCKET");
+    int rc = notify_open(&d->nt);
+    if (rc < 0) {
+        LOG(LOG_WARN, "NOTIFY_SOCKET=%s cannot be used (%s): systemd will not hear from trioctd",
+            where, strerror(-rc));
+    } else if (notify_enabled(&d->nt)) {
+        LOG(LOG_INFO, "telling systemd on %s; watchdog %s", where,
+            notify_watchdog_usec(&d->nt) > 0 ? "on" : "off");
+    }
+}
+
+static void on_watchdog(uv_timer_t *timer)
+{
+    daemon *d = timer->data;
+    int rc = notify_watchdog(&d->nt);
+    if (rc < 0)
+        LOG(LOG_WARN, "could not tell systemd WATCHDOG=1: %s", strerror(-rc));
+}
+
+/* Pings at half the interval systemd asked for: the loop answers for itself, so a loop
+ * stuck anywhere stops the pings and systemd restarts the daemon. */
+static void start_watchdog(daemon *d)
+{
+    uint64_t usec = notify_watchdog_usec(&d->nt);
+    if (usec == 0)
+        return;
+    uint64_t every_ms = usec / 2000 > 0 ? usec / 2000 : 1;
+    uv_timer_start(&d->watchdog, on_watchdog, every_ms, every_ms);
+    LOG(LOG_INFO, "watchdog: WATCHDOG=1 every %" PRIu64 " ms", every_ms);
+}
+
+static void on_selftest(lcm_selftest *t, int status)
+{
+    daemon *d = t->data;
+    if (d->state == TRIOCT_STATUS_T_STOPPING)
+        return;
+    if (status == 0) {
+        LOG(LOG_INFO, "LCM self-test passed in %" PRIu64 " ms: %s hears what it publishes on %s",
+            lcm_selftest_elapsed_ms(t), d->opt.url, t->channel);
+        tell_systemd(d, TELL_READY);
+        return;
+    }
+    LOG(LOG_ERROR, "LCM self-test failed on %s: %s %s within %" PRIu64 " ms (is the multicast "
+        "route set? does a firewall drop multicast?); stopping", d->opt.url,
+        status == UV_ETIMEDOUT ? "nothing published on" : "could not publish on", t->channel,
+        lcm_selftest_elapsed_ms(t));
+    d->exit_code = 1;
+    d->state = TRIOCT_STATUS_T_STOPPING;
+    tell_systemd(d, TELL_STOPPING);
+    maybe_finish(d);
+}
+
+/* READY=1 waits for proof that the daemon hears its own bus; a file:// log has none. */
+static void start_selftest(daemon *d)
+{
+    if (d->input_is_file) {
+        LOG(LOG_INFO, "LCM self-test skipped: the input is a file:// log, not a bus");
+        return;
+    }
+    char channel[TRIOCT_MAX_CHANNEL_LEN + 1];
+    snprintf(channel, sizeof channel, "%s_SELFTEST_%s", d->opt.prefix, d->opt.name);
+    int rc = lcm_selftest_start(&d->selftest, d->lcm_in, channel, DAEMON_SELFTEST_TIMEOUT_MS,
+                                DAEMON_SELFTEST_RESEND_MS, on_selftest);
+    if (rc < 0)
+        on_selftest(&d->selftest, rc);
 }
 
 /* ---- Running ---------------------------------------------------------------------------- */
@@ -969,17 +1257,22 @@ static int init_handles(daemon *d)
     uv_signal_init(&d->loop, &d->sig_int);
     uv_signal_init(&d->loop, &d->sig_hup);
     d->poll.data = d->heartbeat.data = d->sig_term.data = d->sig_int.data = d->sig_hup.data = d;
+    uv_timer_init(&d->loop, &d->watchdog);
+    lcm_selftest_init(&d->selftest, &d->loop);
+    d->watchdog.data = d->selftest.data = d;
     d->handles_ready = 1;
     uv_signal_start(&d->sig_term, on_signal, SIGTERM);
     uv_signal_start(&d->sig_int, on_signal, SIGINT);
     uv_signal_start(&d->sig_hup, on_signal, SIGHUP);
     uint64_t every = (uint64_t)d->opt.status_interval_ms;
     uv_timer_start(&d->heartbeat, on_heartbeat, every, every);
+    start_watchdog(d);
     return 0;
 }
 
 static void destroy(daemon *d)
 {
+    notify_close(&d->nt);
     unsubscribe_all(d);
     if (d->lcm_out != NULL && d->lcm_out != d->lcm_in)
         lcm_destroy(d->lcm_out);
@@ -993,6 +1286,11 @@ static void destroy(daemon *d)
     }
     pthread_mutex_destroy(&d->ctx.scene_lock);
     stats_free(&d->st);
+    while (d->held != NULL) {
+        request_job *job = d->held;
+        d->held = job->next;
+        free(job);
+    }
     free(d->subs);
     free(d->failed);
     free(d->unload);
@@ -1028,6 +1326,7 @@ int daemon_run(const daemon_options *opt, scene *sc)
     memset(sc, 0, sizeof *sc);
     d->opt = *opt;
     d->scene = owned;
+    open_notify(d); /* first: destroy() closes its socket */
     d->state = TRIOCT_STATUS_T_STARTING;
     d->start_hr = uv_hrtime();
     d->input_is_file = options_url_is_file(opt->url);
@@ -1096,6 +1395,7 @@ int daemon_run(const daemon_options *opt, scene *sc)
     while (uv_loop_close(&d->loop) == UV_EBUSY)
         uv_run(&d->loop, UV_RUN_NOWAIT);
 
+    int code = d->exit_code;
     destroy(d);
-    return 0;
+    return code;
 }

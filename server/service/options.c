@@ -35,6 +35,7 @@ enum {
     LONGOPT_PUBLISH_URL = 256,
     LONGOPT_STATUS_INTERVAL,
     LONGOPT_EXIT_AT_EOF,
+    LONGOPT_ORDERED,
 };
 
 static const struct option long_options[] = {
@@ -49,6 +50,7 @@ static const struct option long_options[] = {
     {"log-level", required_argument, NULL, 'l'},
     {"status-interval", required_argument, NULL, LONGOPT_STATUS_INTERVAL},
     {"exit-at-eof", no_argument, NULL, LONGOPT_EXIT_AT_EOF},
+    {"ordered", no_argument, NULL, LONGOPT_ORDERED},
     {"help", no_argument, NULL, 'h'},
     {"version", no_argument, NULL, 'V'},
     {NULL, 0, NULL, 0},
@@ -246,6 +248,9 @@ options_action options_parse_args(daemon_options *opt, int argc, char **argv, ch
         case LONGOPT_EXIT_AT_EOF:
             opt->exit_at_eof = 1;
             break;
+        case LONGOPT_ORDERED:
+            opt->ordered = 1;
+            break;
         case ':':
             snprintf(err, err_len, "option '%s' needs a value", argv[optind - 1]);
             return OPTIONS_ERROR;
@@ -416,6 +421,8 @@ void options_usage(FILE *out, const char *argv0)
             "  -l, --log-level L         error, warn, info or debug (default info)\n"
             "      --status-interval MS  heartbeat period on <prefix>_STATUS (default %d)\n"
             "      --exit-at-eof         with a file:// input: answer it all, then exit 0\n"
+            "      --ordered             for replays: answer as one thread would, whatever\n"
+            "                            --threads; <prefix>_RELOAD_<name> reloads the scene\n"
             "  -h, --help                this text\n"
             "  -V, --version             the version\n"
             "\n"

@@ -15,6 +15,7 @@
  *   -l, --log-level L       log_level          info
  *       --status-interval MS status_interval   1000
  *       --exit-at-eof       -                  off
+ *       --ordered           -                  off
  *
  * A relative world_dir in the scene is relative to the scene file's directory; on the
  * command line, to the working directory. */
@@ -25,10 +26,10 @@
 #include <stdio.h>
 
 #include "../../common/trioct_limits.h"
+#include "../../common/trioct_version.h"
 #include "../world/scene.h"
 #include "log.h"
 
-#define TRIOCT_VERSION "0.4.0"
 
 /* LCM's own default (lcm_create(NULL) without LCM_DEFAULT_URL), spelled out so the log
  * says which bus the daemon is on. */
@@ -67,6 +68,7 @@ typedef struct daemon_options {
     log_level log_level;
     int status_interval_ms;
     int exit_at_eof;   /* file:// input: finish the work in hand and exit 0 at its end */
+    int ordered;       /* replays: answers as one thread gives them, whatever threads (daemon.c) */
     unsigned from_cli; /* OPT_* bits set on the command line: a reload keeps them */
 } daemon_options;
 

@@ -111,7 +111,7 @@ for pair in "$build/trioctd usr/bin/trioctd" "$build/trioct usr/bin/trioct" \
     if cmp -s "$1" "$dest/$2"; then ok "/$2 is $1"; else not_ok "/$2 differs from $1"; fi
 done
 
-version=$(sed -n 's/^#define TRIOCT_VERSION "\(.*\)"/\1/p' server/service/options.h)
+version=$(sed -n 's/^#define TRIOCT_VERSION "\(.*\)"/\1/p' common/trioct_version.h)
 cat >"$tmp/pc.want" <<EOF
 prefix=/usr
 libdir=/usr/lib
