@@ -1528,6 +1528,21 @@ static void test_load_and_unload(void **state)
     a = admin_op("missing", TRIOCT_ADMIN_REQUEST_T_LOAD);
     expect_error(&a, TRIOCT_ERR_BAD_REQUEST, "scene has no section [missing]");
     answer_free(&a);
+    /* Options with a section load are refused, each one alone: the section sets them. */
+    for (int which = 0; which < 4; which++) {
+        trioct_admin_request_t with = admin_request("spare", TRIOCT_ADMIN_REQUEST_T_LOAD);
+        if (which == 0)
+            with.resolution = 0.5;
+        else if (which == 1)
+            with.accuracy = TRIOCT_RAY_REQUEST_T_EXACT;
+        else if (which == 2)
+            with.seed_epsilon = 1e-6;
+        else
+            with.effects = TRIOCT_WORLD_INFO_T_EFFECT_RAYS | TRIOCT_WORLD_INFO_T_EFFECT_TRIANGLES;
+        a = ask_admin(TRIOCT_CHANNEL_LOAD, DAEMON, &with);
+        expect_error(&a, TRIOCT_ERR_BAD_REQUEST, "send them only with mesh_path");
+        answer_free(&a);
+    }
 
     /* LOAD for another daemon is not ours; INFO on the LOAD channel is refused. */
     trioct_admin_request_t ar = admin_request("spare", TRIOCT_ADMIN_REQUEST_T_LOAD);

@@ -139,6 +139,15 @@ static int load_spec(job *j, const trioct_admin_request_t *m, world_spec *spec)
 {
     const char *name = j->req.world;
     if (m->mesh_path[0] == '\0') {
+        /* A scene section carries its own options; taking the request's silently would
+         * build something else than either says, ignoring them would drop the caller's
+         * intent without a word. */
+        if (m->resolution > 0 || m->accuracy != TRIOCT_RAY_REQUEST_T_ACCURACY_WORLD || m->seed_epsilon > 0 ||
+            m->effects != 0)
+            return job_fail(j, TRIOCT_ERR_BAD_REQUEST,
+                            "world %s comes from the scene's section [%s], which sets its own resolution, "
+                            "accuracy and effects; send them only with mesh_path",
+                            name, name);
         dispatch_ctx *ctx = j->ctx;
         int found = 0;
         pthread_mutex_lock(&ctx->scene_lock);
