@@ -6,6 +6,7 @@
 #include <string.h>
 
 #include "cli.h"
+#include "cli_batch.h"
 #include "cli_pose.h"
 #include "cli_progress.h"
 #include "cli_text.h"
@@ -65,13 +66,12 @@ static int mesh_option(void *user, int id, const char *value, char *err, size_t 
 
 /* The answers of every request, joined. */
 typedef struct mesh_answer {
-    trioct_reply reply; /* the last request's; world_version the first's */
+    cli_batch batch;
     int detail;
-    size_t num_poses, requests;
+    size_t num_poses;
     int32_t *found;
     size_t num_pairs, cap_pairs;
     trioct_mesh_pair *pairs;
-    int64_t first_version, last_version;
 } mesh_answer;
 
 static void mesh_answer_free(mesh_answer *a)
@@ -83,16 +83,8 @@ static void mesh_answer_free(mesh_answer *a)
 
 static int mesh_answer_add(mesh_answer *a, const trioct_mesh_result *res, size_t offset)
 {
-    if (a->num_pairs + res->num_pairs > a->cap_pairs) {
-        size_t cap = a->cap_pairs ? a->cap_pairs : 1024;
-        while (cap < a->num_pairs + res->num_pairs)
-            cap *= 2;
-        trioct_mesh_pair *p = realloc(a->pairs, cap * sizeof *p);
-        if (p == NULL)
-            return -1;
-        a->pairs = p;
-        a->cap_pairs = cap;
-    }
+    if (cli_reserve((void **)&a->pairs, &a->cap_pairs, a->num_pairs + res->num_pairs, sizeof *a->pairs) != 0)
+        return -1;
     for (size_t i = 0; i < res->num_poses; i++)
         a->found[offset + i] = res->found[i];
     for (size_t i = 0; i < res->num_pairs; i++) {
@@ -100,11 +92,7 @@ static int mesh_answer_add(mesh_answer *a, const trioct_mesh_result *res, size_t
         p.pose += (int32_t)offset;
         a->pairs[a->num_pairs++] = p;
     }
-    if (a->requests == 0)
-        a->first_version = res->reply.world_version;
-    a->last_version = res->reply.world_version;
-    a->reply = res->reply;
-    a->requests++;
+    cli_batch_note(&a->batch, &res->reply);
     return 0;
 }
 
@@ -148,17 +136,16 @@ static int place_shape(cli_context *ctx, const char *world, const char *shape, c
         cli_progress_update(&progress, done, cli_now_ns());
     }
     cli_progress_end(&progress, count, cli_now_ns());
-    if (rc == CLI_EXIT_OK && answer->first_version != answer->last_version)
-        cli_warn(ctx, "world %s was rebuilt during the batch: the answers come from versions %" PRId64
-                      " to %" PRId64,
-                 world, answer->first_version, answer->last_version);
+    if (rc == CLI_EXIT_OK)
+        cli_batch_warn_rebuilt(ctx, &answer->batch, world);
     return rc;
 }
 
 static void mesh_json(cli_context *ctx, const mesh_answer *a, const char *shape, int accuracy)
 {
-    trioct_reply reply = a->reply;
-    reply.world_version = a->first_version;
+    /* The first request's version: a rebuild during the batch was warned about. */
+    trioct_reply reply = a->batch.reply;
+    reply.world_version = a->batch.first_version;
     size_t touching = 0;
     for (size_t i = 0; i < a->num_poses; i++)
         touching += a->found[i] > 0;
@@ -169,7 +156,7 @@ static void mesh_json(cli_context *ctx, const mesh_answer *a, const char *shape,
     cli_json_key_string(&j, "detail", a->detail == TRIOCT_MESH_PAIRS ? "pairs" : "yesno");
     cli_json_key_string(&j, "accuracy", cli_accuracy_name(accuracy));
     cli_json_key_int(&j, "poses", (int64_t)a->num_poses);
-    cli_json_key_int(&j, "requests", (int64_t)a->requests);
+    cli_json_key_int(&j, "requests", (int64_t)a->batch.requests);
     cli_json_key_int(&j, "touching_poses", (int64_t)touching);
     cli_json_key(&j, "found");
     cli_json_array_begin(&j);
@@ -195,7 +182,7 @@ static int mesh_print(cli_context *ctx, const mesh_answer *a, const char *shape)
     for (size_t i = 0; i < a->num_poses; i++)
         touching += a->found[i] > 0;
     fprintf(ctx->out, "world %s (version %" PRId64 ", daemon %s), shape %s: %zu of %zu pose%s touching\n",
-            a->reply.world, a->first_version, a->reply.daemon, shape, touching, a->num_poses,
+            a->batch.reply.world, a->batch.first_version, a->batch.reply.daemon, shape, touching, a->num_poses,
             a->num_poses == 1 ? "" : "s");
     cli_table t;
     int pairs = a->detail == TRIOCT_MESH_PAIRS;

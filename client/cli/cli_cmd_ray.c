@@ -7,6 +7,7 @@
 #include <string.h>
 
 #include "cli.h"
+#include "cli_batch.h"
 #include "cli_csv.h"
 #include "cli_progress.h"
 #include "cli_text.h"
@@ -92,13 +93,12 @@ static const char *detail_name(int detail)
 
 /* The answers of every request of a batch, joined. */
 typedef struct ray_answer {
-    trioct_reply reply; /* the last request's; world_version the first's */
+    cli_batch batch;
     int detail;
-    size_t num_rays, requests;
+    size_t num_rays;
     int32_t *found;
     size_t num_hits, cap_hits;
     trioct_ray_hit *hits;
-    int64_t first_version, last_version;
 } ray_answer;
 
 static void ray_answer_free(ray_answer *a)
@@ -111,16 +111,8 @@ static void ray_answer_free(ray_answer *a)
 /* Appends one request's result, its rays numbered from offset. 0, or -1 out of memory. */
 static int ray_answer_add(ray_answer *a, const trioct_ray_result *res, size_t offset)
 {
-    if (a->num_hits + res->num_hits > a->cap_hits) {
-        size_t cap = a->cap_hits ? a->cap_hits : 1024;
-        while (cap < a->num_hits + res->num_hits)
-            cap *= 2;
-        trioct_ray_hit *h = realloc(a->hits, cap * sizeof *h);
-        if (h == NULL)
-            return -1;
-        a->hits = h;
-        a->cap_hits = cap;
-    }
+    if (cli_reserve((void **)&a->hits, &a->cap_hits, a->num_hits + res->num_hits, sizeof *a->hits) != 0)
+        return -1;
     for (size_t i = 0; i < res->num_rays; i++)
         a->found[offset + i] = res->found[i];
     for (size_t i = 0; i < res->num_hits; i++) {
@@ -128,11 +120,7 @@ static int ray_answer_add(ray_answer *a, const trioct_ray_result *res, size_t of
         h.ray += (int32_t)offset;
         a->hits[a->num_hits++] = h;
     }
-    if (a->requests == 0)
-        a->first_version = res->reply.world_version;
-    a->last_version = res->reply.world_version;
-    a->reply = res->reply;
-    a->requests++;
+    cli_batch_note(&a->batch, &res->reply);
     return 0;
 }
 
@@ -178,10 +166,8 @@ static int cast_rays(cli_context *ctx, const char *world, const ray_args *args,
         cli_progress_update(&progress, done, cli_now_ns());
     }
     cli_progress_end(&progress, count, cli_now_ns());
-    if (rc == CLI_EXIT_OK && answer->first_version != answer->last_version)
-        cli_warn(ctx, "world %s was rebuilt during the batch: the answers come from versions %" PRId64
-                      " to %" PRId64,
-                 world, answer->first_version, answer->last_version);
+    if (rc == CLI_EXIT_OK)
+        cli_batch_warn_rebuilt(ctx, &answer->batch, world);
     return rc;
 }
 
@@ -189,8 +175,9 @@ static int cast_rays(cli_context *ctx, const char *world, const ray_args *args,
 
 static void ray_json(cli_context *ctx, const ray_answer *a, const ray_args *args)
 {
-    trioct_reply reply = a->reply;
-    reply.world_version = a->first_version;
+    /* The first request's version: a rebuild during the batch was warned about. */
+    trioct_reply reply = a->batch.reply;
+    reply.world_version = a->batch.first_version;
     size_t hit_rays = 0;
     for (size_t i = 0; i < a->num_rays; i++)
         hit_rays += a->found[i] > 0;
@@ -202,7 +189,7 @@ static void ray_json(cli_context *ctx, const ray_answer *a, const ray_args *args
     cli_json_key_double(&j, "tmin", args->tmin);
     cli_json_key_double(&j, "tmax", args->tmax); /* null: no limit */
     cli_json_key_int(&j, "rays", (int64_t)a->num_rays);
-    cli_json_key_int(&j, "requests", (int64_t)a->requests);
+    cli_json_key_int(&j, "requests", (int64_t)a->batch.requests);
     cli_json_key_int(&j, "hit_rays", (int64_t)hit_rays);
     cli_json_key(&j, "found");
     cli_json_array_begin(&j);
@@ -269,7 +256,7 @@ static int ray_print(cli_context *ctx, const ray_answer *a)
     for (size_t i = 0; i < a->num_rays; i++)
         hit_rays += a->found[i] > 0;
     fprintf(ctx->out, "world %s (version %" PRId64 ", daemon %s), %s hit: %zu of %zu ray%s hit\n",
-            a->reply.world, a->first_version, a->reply.daemon, detail_name(a->detail), hit_rays,
+            a->batch.reply.world, a->batch.first_version, a->batch.reply.daemon, detail_name(a->detail), hit_rays,
             a->num_rays, a->num_rays == 1 ? "" : "s");
     if (ray_table(ctx, a) != 0)
         return cli_internal_error(ctx, "out of memory printing %zu hits", a->num_hits);
