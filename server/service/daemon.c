@@ -102,6 +102,7 @@ typedef struct daemon {
     int reload_in_order; /* a reload asked on <prefix>_RELOAD_<name> is under way */
     int wakeup_over;     /* a LOAD or a reload was read: read no more until it is done */
     int ordered_busy;    /* ordered_run is on the stack */
+    int stop_marked;     /* stopping since a mark on <prefix>_STOP_<name> */
     int eof;
     uint64_t start_hr;
 
@@ -110,6 +111,7 @@ typedef struct daemon {
     lcm_subscription_t *sub_list;
     lcm_subscription_t *sub_load;
     lcm_subscription_t *sub_reload; /* --ordered only */
+    lcm_subscription_t *sub_stop;   /* --ordered only */
     world_subs *subs;
     size_t sub_count, sub_alloc;
     failed_world *failed;
@@ -269,6 +271,7 @@ static void reply_now(daemon *d, const dispatch_request *req, const char *channe
 static void ordered_hold(daemon *d, request_job *job);
 static void ordered_run(daemon *d);
 static int ordered_subscribe(daemon *d);
+static int ordered_stop_waits(const daemon *d);
 static void start_polling(daemon *d);
 
 static void work_request(uv_work_t *work)
@@ -518,7 +521,9 @@ static void unsubscribe_all(daemon *d)
         lcm_unsubscribe(d->lcm_in, d->sub_load);
     if (d->sub_reload != NULL)
         lcm_unsubscribe(d->lcm_in, d->sub_reload);
-    d->sub_list = d->sub_load = d->sub_reload = NULL;
+    if (d->sub_stop != NULL)
+        lcm_unsubscribe(d->lcm_in, d->sub_stop);
+    d->sub_list = d->sub_load = d->sub_reload = d->sub_stop = NULL;
 }
 
 /* ---- The LCM pump ----------------------------------------------------------------------- */
@@ -587,7 +592,8 @@ static void on_lcm_readable(uv_poll_t *handle, int status, int events)
  * read after an UNLOAD in its wake-up were taken while the world was held, and get
  * UNKNOWN_WORLD, as from one thread. A log cannot carry a signal, so a message on
  * <prefix>_RELOAD_<name> reloads the scene at its place in the input, as SIGHUP would, and
- * ends its wake-up too. */
+ * ends its wake-up too; one on <prefix>_STOP_<name> begins stopping there, as SIGTERM
+ * would. */
 
 static void ordered_hold(daemon *d, request_job *job)
 {
@@ -651,22 +657,60 @@ static void on_reload_message(const lcm_recv_buf_t *rbuf, const char *channel, v
     mark->reload = mark->alone = 1;
     ordered_hold(d, mark);
     d->wakeup_over = 1;
-    LOG(LOG_INFO, "%s: the scene reloads at this point of the input", channel);
+    if (d->state == TRIOCT_STATUS_T_STOPPING) /* start_reload will refuse, as for SIGHUP */
+        LOG(LOG_INFO, "%s: stopping, so the scene is not reloaded", channel);
+    else
+        LOG(LOG_INFO, "%s: the scene reloads at this point of the input", channel);
+}
+
+/* A log cannot carry SIGTERM either. Stopping begins at the mark's place in the input: the
+ * requests held before it were in hand and are answered as usual, and on_message answers
+ * every one read after it STOPPING at once. The mark does not end its wake-up, since what
+ * follows it gets the same answer whenever it is read. */
+static void on_stop_message(const lcm_recv_buf_t *rbuf, const char *channel, void *user)
+{
+    (void)rbuf;
+    daemon *d = user;
+    if (d->state == TRIOCT_STATUS_T_STOPPING) {
+        LOG(LOG_INFO, "%s: already stopping", channel);
+        return;
+    }
+    LOG(LOG_INFO, "%s: stopping at this point of the input; new requests get STOPPING, %d "
+        "requests in hand finish first", channel, d->in_flight);
+    d->stop_marked = 1;
+    d->state = TRIOCT_STATUS_T_STOPPING;
+    tell_systemd(d, TELL_STOPPING);
+    /* No maybe_finish here, inside lcm_handle: ordered_run calls it after the read. */
+}
+
+/* SIGTERM stops once the work in hand is done, and a bus has no end to wait for. A file://
+ * input stopped by its mark is read to its end first: the requests after the mark are
+ * part of the replay and must get their STOPPING. */
+static int ordered_stop_waits(const daemon *d)
+{
+    return d->stop_marked && d->input_is_file && !d->eof;
+}
+
+static lcm_subscription_t *ordered_listen(daemon *d, const char *what, lcm_msg_handler_t handler)
+{
+    /* prefix and name are checked names: this fits, and is its own regular expression. */
+    char ch[TRIOCT_MAX_CHANNEL_LEN + 1];
+    snprintf(ch, sizeof ch, "%s_%s_%s", d->opt.prefix, what, d->opt.name);
+    lcm_subscription_t *sub = lcm_subscribe(d->lcm_in, ch, handler, d);
+    if (sub == NULL) {
+        LOG(LOG_ERROR, "could not subscribe to %s", ch);
+        return NULL;
+    }
+    lcm_subscription_set_queue_capacity(sub, lcm_queue_capacity(d->opt.queue_depth));
+    LOG(LOG_DEBUG, "ordered: subscribed to %s", ch);
+    return sub;
 }
 
 static int ordered_subscribe(daemon *d)
 {
-    /* prefix and name are checked names: this fits, and is its own regular expression. */
-    char ch[TRIOCT_MAX_CHANNEL_LEN + 1];
-    snprintf(ch, sizeof ch, "%s_RELOAD_%s", d->opt.prefix, d->opt.name);
-    d->sub_reload = lcm_subscribe(d->lcm_in, ch, on_reload_message, d);
-    if (d->sub_reload == NULL) {
-        LOG(LOG_ERROR, "could not subscribe to %s", ch);
-        return -1;
-    }
-    lcm_subscription_set_queue_capacity(d->sub_reload, lcm_queue_capacity(d->opt.queue_depth));
-    LOG(LOG_DEBUG, "ordered: subscribed to %s", ch);
-    return 0;
+    d->sub_reload = ordered_listen(d, "RELOAD", on_reload_message);
+    d->sub_stop = ordered_listen(d, "STOP", on_stop_message);
+    return d->sub_reload != NULL && d->sub_stop != NULL ? 0 : -1;
 }
 
 /* ---- Worlds: start-up and reload builds ------------------------------------------------- */
@@ -1098,7 +1142,8 @@ static void close_handles(daemon *d)
 /* Stops once nothing is left in hand: every reply published, every build back. */
 static void maybe_finish(daemon *d)
 {
-    if (d->state != TRIOCT_STATUS_T_STOPPING || d->closing || d->in_flight > 0 || d->builds > 0)
+    if (d->state != TRIOCT_STATUS_T_STOPPING || d->closing || d->in_flight > 0 || d->builds > 0 ||
+        ordered_stop_waits(d))
         return;
     publish_status(d);
     LOG(LOG_INFO, "stopped: served ray %" PRId64 " triangle %" PRId64 " mesh %" PRId64

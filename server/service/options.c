@@ -423,6 +423,7 @@ void options_usage(FILE *out, const char *argv0)
             "      --exit-at-eof         with a file:// input: answer it all, then exit 0\n"
             "      --ordered             for replays: answer as one thread would, whatever\n"
             "                            --threads; <prefix>_RELOAD_<name> reloads the scene\n"
+            "                            and <prefix>_STOP_<name> stops, at that point\n"
             "  -h, --help                this text\n"
             "  -V, --version             the version\n"
             "\n"

@@ -11,7 +11,8 @@
  *   busy      bursts against a queue of four (busy.ini): the rest get BUSY
  *   errors    every error status a query can provoke without timing
  *   overcap   requests over the count caps
- *   hostile   bytes that are no request, interleaved with requests that must be answered */
+ *   hostile   bytes that are no request, interleaved with requests that must be answered
+ *   stopping  the ordered daemon's stop mark in the middle: STOPPING for what follows it */
 #ifndef TRIOCT_LOGS_CASES_H
 #define TRIOCT_LOGS_CASES_H
 
@@ -24,6 +25,7 @@ int logs_write_busy(const char *dir);
 int logs_write_errors(const char *dir);
 int logs_write_overcap(const char *dir);
 int logs_write_hostile(const char *dir);
+int logs_write_stopping(const char *dir);
 
 /* The seed every log draws its geometry from. */
 #define LOGS_SEED UINT64_C(0x7472696f63740006)

@@ -118,3 +118,9 @@ void lr_reload(logs_writer *w)
     /* Any bytes: the daemon reads only that the message came. */
     lw_raw(w, LOGS_PREFIX "_RELOAD_" LOGS_DAEMON, "reload", 6);
 }
+
+void lr_stop(logs_writer *w)
+{
+    /* Any bytes, as for the reload mark. */
+    lw_raw(w, LOGS_PREFIX "_STOP_" LOGS_DAEMON, "stop", 4);
+}

@@ -29,6 +29,8 @@ void lr_load(logs_writer *w, const lr_req *q, const char *mesh_path, double reso
              double seed_epsilon, int32_t effects);
 /* The mark at which an ordered daemon reloads its scene (TRIOCT_RELOAD_replayd). */
 void lr_reload(logs_writer *w);
+/* The mark at which an ordered daemon begins stopping (TRIOCT_STOP_replayd). */
+void lr_stop(logs_writer *w);
 
 /* The ray request as lr_rays would write it, encoded, for hostile variations (caller frees). */
 uint8_t *lr_encode_rays(const lr_req *q, int n, const trioct_vec3_t *origin, const trioct_vec3_t *direction,

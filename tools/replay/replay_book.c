@@ -364,6 +364,9 @@ int replay_book_build(replay_book *b, const replay_log *log, const replay_proto 
         case KIND_RELOAD:
             b->reloads++;
             break;
+        case KIND_STOP:
+            b->stops++;
+            break;
         case KIND_OTHER:
             b->others++;
             break;

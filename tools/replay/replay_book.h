@@ -59,6 +59,7 @@ typedef struct replay_book {
     size_t malformed;         /* events on request channels the validator refused */
     size_t statuses;          /* heartbeats, ignored */
     size_t reloads;           /* reload marks */
+    size_t stops;             /* stop marks */
     size_t bad_replies;       /* reply fingerprints the validator refused */
     size_t others;
 } replay_book;

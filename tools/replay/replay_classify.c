@@ -17,8 +17,9 @@ int replay_proto_init(replay_proto *p, const char *prefix, const char *name)
     snprintf(p->name, sizeof p->name, "%s", name);
     if (trioct_channel_name(p->status_channel, prefix, TRIOCT_CHANNEL_STATUS, NULL) < 0)
         return -1;
-    /* The daemon's --ordered reload channel (server/service/daemon.c). */
+    /* The daemon's --ordered reload and stop channels (server/service/daemon.c). */
     snprintf(p->reload_channel, sizeof p->reload_channel, "%s_RELOAD_%s", prefix, name);
+    snprintf(p->stop_channel, sizeof p->stop_channel, "%s_STOP_%s", prefix, name);
     return 0;
 }
 
@@ -95,6 +96,10 @@ void replay_classify(const replay_proto *p, const replay_event *ev, replay_class
         c->kind = KIND_RELOAD;
         return;
     }
+    if (strcmp(ev->channel, p->stop_channel) == 0) {
+        c->kind = KIND_STOP;
+        return;
+    }
     trioct_channel_kind kind;
     char name[TRIOCT_MAX_NAME_LEN + 1];
     if (trioct_channel_parse(ev->channel, p->prefix, &kind, name) == 0 && request_type_of(kind, &c->type)) {
@@ -133,5 +138,6 @@ void replay_classify(const replay_proto *p, const replay_event *ev, replay_class
 
 int replay_kind_is_input(replay_kind kind)
 {
-    return kind == KIND_REQUEST || kind == KIND_MALFORMED || kind == KIND_RELOAD || kind == KIND_OTHER;
+    return kind == KIND_REQUEST || kind == KIND_MALFORMED || kind == KIND_RELOAD || kind == KIND_STOP ||
+           kind == KIND_OTHER;
 }

@@ -1,5 +1,5 @@
 /* What one event of a log is to a replay: a request the daemon will hear (well-formed or
- * not), a reply, a heartbeat, the reload mark of an ordered replay, or anything else.
+ * not), a reply, a heartbeat, the reload or stop mark of an ordered replay, or anything else.
  *
  * Requests are told by their channel (<prefix>_RAY_<world>, ..._TRI_, ..._MESH_, ..._ADMIN_,
  * ..._LOAD_<daemon>, <prefix>_LIST); a request whose bytes the validator refuses is
@@ -18,9 +18,10 @@
 
 typedef struct replay_proto {
     char prefix[TRIOCT_MAX_PREFIX_LEN + 1];
-    char name[TRIOCT_MAX_NAME_LEN + 1]; /* the daemon's, for its LOAD and reload channels */
+    char name[TRIOCT_MAX_NAME_LEN + 1]; /* the daemon's, for its LOAD, reload and stop channels */
     char status_channel[TRIOCT_MAX_CHANNEL_LEN + 1];
     char reload_channel[TRIOCT_MAX_CHANNEL_LEN + 1];
+    char stop_channel[TRIOCT_MAX_CHANNEL_LEN + 1];
 } replay_proto;
 
 /* The channels of a daemon with this prefix and name. 0, or -1 for an invalid name. */
@@ -37,6 +38,7 @@ typedef enum replay_kind {
     KIND_BAD_REPLY, /* a reply type's fingerprint, refused by the validator */
     KIND_STATUS,    /* <prefix>_STATUS: heartbeats, never compared */
     KIND_RELOAD,    /* <prefix>_RELOAD_<name>: an ordered daemon reloads its scene here */
+    KIND_STOP,      /* <prefix>_STOP_<name>: an ordered daemon begins stopping here */
     KIND_OTHER,
 } replay_kind;
 

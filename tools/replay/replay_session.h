@@ -9,9 +9,10 @@
  * The input is every event of the log but its replies and heartbeats (replay_classify), so
  * a request log and the golden log made from it feed the daemon the very same messages.
  * The daemon runs with --ordered (answers as one thread gives them, whatever --threads; a
- * message on <prefix>_RELOAD_<name> reloads its scene), in the world directory, with the
- * scene named relative to it: world sources and messages then name no directory of this
- * machine, and a golden log recorded here replays anywhere. */
+ * message on <prefix>_RELOAD_<name> reloads its scene, one on <prefix>_STOP_<name> begins
+ * stopping), in the world directory, with the scene named relative to it: world sources
+ * and messages then name no directory of this machine, and a golden log recorded here
+ * replays anywhere. */
 #ifndef TRIOCT_REPLAY_SESSION_H
 #define TRIOCT_REPLAY_SESSION_H
 
