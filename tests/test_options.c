@@ -1,7 +1,8 @@
 /* trioctd's options: every command-line option (long and short) and every [daemon] key
  * parsed to exact values, the defaults, the command line winning over the scene key by
  * key, a reload recomputing what the command line did not set, and every error with its
- * exact wording. */
+ * exact wording. The udpm:// URLs here are only parsed as text: no LCM instance is made,
+ * so nothing needs the private network namespace (tests/e2e/netns.sh) the bus tests use. */
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
