@@ -95,6 +95,89 @@ static inline int ray_edge_sign(vec3 p, vec3 q, vec3 o, vec3 dir)
     return ray_edge_sign_undecided(p, q, o, dir);
 }
 
+/* Filter-only forms: the sign when the float filter decides it, PREDICATES_UNDECIDED when
+ * it cannot (the caller then either proves its answer another way or asks the exact stage
+ * through the full predicate). They let a test try a cheap proof before paying for exact
+ * arithmetic on nearly degenerate inputs. */
+#define PREDICATES_UNDECIDED 2
+
+/* sign_diff_products' filter alone: the same expression and bound. */
+static inline int sign_diff_products_filter(double a, double b, double c, double d, double e, double f, double g,
+                                            double h)
+{
+    double left = (a - b) * (c - d);
+    double right = (e - f) * (g - h);
+    double det = left - right;
+    double bound = PREDICATES_ERRBOUND_DIFF_PRODUCTS * (fabs(left) + fabs(right)) + PREDICATES_UNDERFLOW_ABSOLUTE;
+    if (fabs(det) > bound)
+        return (det > 0.0) - (det < 0.0);
+    return PREDICATES_UNDECIDED;
+}
+
+/* orient2d_axis' filter alone. */
+static inline int orient2d_axis_filter(vec3 a, vec3 b, vec3 c, int axis)
+{
+    double au = axis == 0 ? a.y : axis == 1 ? a.z : a.x;
+    double av = axis == 0 ? a.z : axis == 1 ? a.x : a.y;
+    double bu = axis == 0 ? b.y : axis == 1 ? b.z : b.x;
+    double bv = axis == 0 ? b.z : axis == 1 ? b.x : b.y;
+    double cu = axis == 0 ? c.y : axis == 1 ? c.z : c.x;
+    double cv = axis == 0 ? c.z : axis == 1 ? c.x : c.y;
+    return sign_diff_products_filter(au, cu, bv, cv, av, cv, bu, cu);
+}
+
+/* orient3d(a, b, c, d) for one plane a, b, c and many points d: the plane's part of the
+ * filter is computed once. The value is the same determinant, expanded along the other
+ * operand: det[d - a; b - a; c - a] = (d - a) . ((b - a) x (c - a)), a cyclic permutation
+ * of the rows of det[b - a; c - a; d - a], so its sign is orient3d's.
+ *
+ * Error bound: the evaluation has exactly the shape the orient3d bound at the top of
+ * predicates.c was derived for: three terms, each a rounded difference (here d - a) times
+ * a minor fl(fl(x1 y2) - fl(x2 y1)) of rounded differences (here b - a and c - a), summed
+ * left to right in two additions; and the permanent is formed by the same five roundings,
+ * fl(fl(fl(|m1| + |m2|) + PAD) |z|) per term, then two additions, then the same two for
+ * the bound. Where an operation happens (once per plane or once per point) does not change
+ * its rounding, so PREDICATES_ERRBOUND_ORIENT3D, PREDICATES_UNDERFLOW_MINOR_PAD and
+ * PREDICATES_UNDERFLOW_ABSOLUTE hold unchanged. Overflow gives an inf or NaN permanent or
+ * determinant, the comparison fails, and the point is left undecided. */
+typedef struct orient3d_plane {
+    vec3 a, b, c;
+    vec3 minor;     /* fl(m1 - m2) for the x, y, z components of (b - a) x (c - a) */
+    vec3 permanent; /* fl(fl(|m1| + |m2|) + PAD) for the same components */
+} orient3d_plane;
+
+static inline orient3d_plane orient3d_plane_make(vec3 a, vec3 b, vec3 c)
+{
+    vec3 e = vec3_sub(b, a), f = vec3_sub(c, a);
+    double x_1 = e.y * f.z, x_2 = e.z * f.y;
+    double y_1 = e.z * f.x, y_2 = e.x * f.z;
+    double z_1 = e.x * f.y, z_2 = e.y * f.x;
+    orient3d_plane p = {a, b, c, {x_1 - x_2, y_1 - y_2, z_1 - z_2},
+                        {fabs(x_1) + fabs(x_2) + PREDICATES_UNDERFLOW_MINOR_PAD,
+                         fabs(y_1) + fabs(y_2) + PREDICATES_UNDERFLOW_MINOR_PAD,
+                         fabs(z_1) + fabs(z_2) + PREDICATES_UNDERFLOW_MINOR_PAD}};
+    return p;
+}
+
+/* The sign of orient3d(p->a, p->b, p->c, d) when the filter decides, else PREDICATES_UNDECIDED. */
+static inline int orient3d_plane_filter(const orient3d_plane *p, vec3 d)
+{
+    vec3 w = vec3_sub(d, p->a);
+    double det = w.x * p->minor.x + w.y * p->minor.y + w.z * p->minor.z;
+    double permanent = p->permanent.x * fabs(w.x) + p->permanent.y * fabs(w.y) + p->permanent.z * fabs(w.z);
+    double bound = PREDICATES_ERRBOUND_ORIENT3D * permanent + PREDICATES_UNDERFLOW_ABSOLUTE;
+    if (fabs(det) > bound)
+        return (det > 0.0) - (det < 0.0);
+    return PREDICATES_UNDECIDED;
+}
+
+/* The exact stage for a point orient3d_plane_filter left undecided: orient3d(p->a, p->b,
+ * p->c, d), exactly. Kept apart so a caller can try cheaper proofs first. */
+static inline int orient3d_plane_exact(const orient3d_plane *p, vec3 d)
+{
+    return orient3d_undecided(p->a, p->b, p->c, d);
+}
+
 /* How many evaluations on this thread needed the exact fallback since the thread began.
  * Thread-local, so concurrent queries never share it; callers report differences. */
 uint64_t predicates_fallback_count(void);

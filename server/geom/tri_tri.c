@@ -194,15 +194,92 @@ static int tri_meets_degenerate(const vec3 t[3], tri_shape kt, const vec3 d[3], 
            point_in_tri_2d(d[kd.end0], t, kt.axis, orient2d_axis(t[0], t[1], t[2], kt.axis));
 }
 
+static int all_same_decided(const int s[3])
+{
+    return s[0] != PREDICATES_UNDECIDED && s[0] == s[1] && s[1] == s[2];
+}
+
+static int any_undecided(const int s[3])
+{
+    return s[0] == PREDICATES_UNDECIDED || s[1] == PREDICATES_UNDECIDED || s[2] == PREDICATES_UNDECIDED;
+}
+
+/* 1 when the filter proves that the projections along axis of t (whose orientation there
+ * the filter found to be turn, nonzero) and of the points x lie strictly on opposite sides
+ * of an edge line of t. Projection maps a common point to a common point, so disjoint
+ * projections prove disjoint triangles. Only decided signs count: an undecided one (a
+ * point nearly on the edge line) leaves that edge unproven, never costs exact arithmetic. */
+static int edge_separates_2d(const vec3 t[3], int turn, const vec3 x[3], int axis)
+{
+    for (int i = 0; i < 3; i++) {
+        int j = i == 2 ? 0 : i + 1;
+        if (orient2d_axis_filter(t[i], t[j], x[0], axis) == -turn &&
+            orient2d_axis_filter(t[i], t[j], x[1], axis) == -turn &&
+            orient2d_axis_filter(t[i], t[j], x[2], axis) == -turn)
+            return 1;
+    }
+    return 0;
+}
+
+/* Nearly coplanar pairs leave the plane-side filters undecided; most of them (neighbours
+ * in a flat region of a mesh) are apart in the plane, which 2D filters on the shared
+ * projection show far more cheaply than exact orient3d signs. */
+static int separated_in_projection(const tri_tri_query *q, const vec3 b[3])
+{
+    if (q->turn != PREDICATES_UNDECIDED && edge_separates_2d(q->v, q->turn, b, q->axis))
+        return 1;
+    int turn_b = orient2d_axis_filter(b[0], b[1], b[2], q->axis);
+    return turn_b != PREDICATES_UNDECIDED && edge_separates_2d(b, turn_b, q->v, q->axis);
+}
+
+/* Closed triangles whose bounding boxes are strictly apart share no point; the bounds are
+ * input coordinates, so the comparison is exact. */
+static int bounds_apart(const tri_tri_query *q, const vec3 b[3])
+{
+    box3 bb = {vec3_min(vec3_min(b[0], b[1]), b[2]), vec3_max(vec3_max(b[0], b[1]), b[2])};
+    return bb.lo.x > q->box.hi.x || bb.lo.y > q->box.hi.y || bb.lo.z > q->box.hi.z || bb.hi.x < q->box.lo.x ||
+           bb.hi.y < q->box.lo.y || bb.hi.z < q->box.lo.z;
+}
+
+void tri_tri_query_prepare(tri_tri_query *q, const vec3 a[3])
+{
+    for (int i = 0; i < 3; i++)
+        q->v[i] = a[i];
+    q->box.lo = vec3_min(vec3_min(a[0], a[1]), a[2]);
+    q->box.hi = vec3_max(vec3_max(a[0], a[1]), a[2]);
+    q->plane = orient3d_plane_make(a[0], a[1], a[2]);
+    /* Any axis makes the separation proof sound; the largest rounded normal component
+     * makes the projected triangle the least thin, so the 2D filters decide most often. */
+    vec3 n = vec3_abs(q->plane.minor);
+    q->axis = n.x >= n.y ? (n.x >= n.z ? 0 : 2) : (n.y >= n.z ? 1 : 2);
+    q->turn = orient2d_axis_filter(a[0], a[1], a[2], q->axis);
+}
+
+int tri_tri_overlap_exact(const vec3 a[3], const vec3 b[3])
+{
+    tri_tri_query q;
+    tri_tri_query_prepare(&q, a);
+    return tri_tri_overlap_exact_query(&q, b);
+}
+
 /* Why edges suffice: let X = A n B (closed, convex, compact) be nonempty and x an extreme
  * point of X. If x were in the 2D relative interior of both triangles, then near x the set
  * X would coincide with aff(A) n aff(B), a line or a plane, and x would not be extreme. So
  * x lies on the relative boundary of A or of B, i.e. on one of their edges (a degenerate
  * triangle has no 2D interior and is the union of its edges). That edge then meets the
  * other triangle. Conversely an edge meeting the other triangle is a common point. This
- * holds for crossing, coplanar and degenerate pairs alike. */
-int tri_tri_overlap_exact(const vec3 a[3], const vec3 b[3])
+ * holds for crossing, coplanar and degenerate pairs alike.
+ *
+ * The tests run cheapest first, so the common candidate that does not touch leaves early:
+ * exact bounds, shared vertices, plane sides from the float filters alone, a 2D
+ * separation proof for nearly coplanar pairs, and only then exact arithmetic for the
+ * signs the filters left open. Each rejection is a proof, so the answer is the same as
+ * deciding every sign exactly first. */
+int tri_tri_overlap_exact_query(const tri_tri_query *q, const vec3 b[3])
 {
+    const vec3 *a = q->v;
+    if (bounds_apart(q, b))
+        return 0;
     /* A vertex common to both (equal doubles) is a common point. Neighbours in a mesh share
      * vertices, and without this they would take the full edge tests, often through the
      * exact stage, to find what nine comparisons say. */
@@ -214,13 +291,28 @@ int tri_tri_overlap_exact(const vec3 a[3], const vec3 b[3])
      * rejections are sound without classifying first. */
     int sb[3], sa[3];
     for (int i = 0; i < 3; i++)
-        sb[i] = orient3d(a[0], a[1], a[2], b[i]);
-    if (sb[0] != 0 && sb[0] == sb[1] && sb[1] == sb[2])
+        sb[i] = orient3d_plane_filter(&q->plane, b[i]);
+    if (all_same_decided(sb))
         return 0;
+    orient3d_plane plane_b = orient3d_plane_make(b[0], b[1], b[2]);
     for (int i = 0; i < 3; i++)
-        sa[i] = orient3d(b[0], b[1], b[2], a[i]);
-    if (sa[0] != 0 && sa[0] == sa[1] && sa[1] == sa[2])
+        sa[i] = orient3d_plane_filter(&plane_b, a[i]);
+    if (all_same_decided(sa))
         return 0;
+    if (any_undecided(sb) || any_undecided(sa)) {
+        if (separated_in_projection(q, b))
+            return 0;
+        for (int i = 0; i < 3; i++)
+            if (sb[i] == PREDICATES_UNDECIDED)
+                sb[i] = orient3d_plane_exact(&q->plane, b[i]);
+        if (sb[0] != 0 && sb[0] == sb[1] && sb[1] == sb[2])
+            return 0;
+        for (int i = 0; i < 3; i++)
+            if (sa[i] == PREDICATES_UNDECIDED)
+                sa[i] = orient3d_plane_exact(&plane_b, a[i]);
+        if (sa[0] != 0 && sa[0] == sa[1] && sa[1] == sa[2])
+            return 0;
+    }
 
     tri_shape ka = classify_triangle(a), kb = classify_triangle(b);
     if (ka.kind == SHAPE_TRIANGLE && kb.kind == SHAPE_TRIANGLE) {

@@ -3,10 +3,26 @@
 #ifndef TRIOCT_GEOM_TRI_TRI_H
 #define TRIOCT_GEOM_TRI_TRI_H
 
+#include "predicates.h"
 #include "vec3.h"
 
 /* 1 when the closed triangles share a point, decided exactly on the double inputs. */
 int tri_tri_overlap_exact(const vec3 a[3], const vec3 b[3]);
+
+/* One triangle tested exactly against many (a triangle query against its candidates):
+ * what depends on it alone is computed once. Fill with tri_tri_query_prepare. */
+typedef struct tri_tri_query {
+    vec3 v[3];
+    box3 box;             /* the vertices' exact bounds */
+    orient3d_plane plane; /* orient3d(v[0], v[1], v[2], x) for the candidates' vertices */
+    int axis;             /* projection for the 2D separation proof: largest normal component */
+    int turn;             /* orient2d_axis_filter(v[0], v[1], v[2], axis): +-1 or PREDICATES_UNDECIDED */
+} tri_tri_query;
+
+void tri_tri_query_prepare(tri_tri_query *q, const vec3 a[3]);
+
+/* tri_tri_overlap_exact(q->v, b): the same answer, for the price of one prepared side. */
+int tri_tri_overlap_exact_query(const tri_tri_query *q, const vec3 b[3]);
 
 /* The seed's edge-plane + point-in-triangle tests with epsilon. */
 int tri_tri_overlap_seed(const vec3 a[3], const vec3 b[3], double eps);

@@ -32,7 +32,9 @@ static int node_touched(const octree *tree, const vec3 q[3], box3 qb, box3 box, 
     return tri_box_overlap_exact(q, box);
 }
 
-static int triangles_touch(const octree *tree, const vec3 q[3], const vec3 w[3], accuracy_mode mode)
+/* prepared: q made ready once per query for the exact test (exact mode only). */
+static int triangles_touch(const octree *tree, const vec3 q[3], const tri_tri_query *prepared, const vec3 w[3],
+                           accuracy_mode mode)
 {
     switch (mode) {
     case ACCURACY_SEED:
@@ -42,7 +44,7 @@ static int triangles_touch(const octree *tree, const vec3 q[3], const vec3 w[3],
     case ACCURACY_EXACT:
         break;
     }
-    return tri_tri_overlap_exact(q, w);
+    return tri_tri_overlap_exact_query(prepared, w);
 }
 
 static int compare_u64(const void *a, const void *b)
@@ -106,6 +108,11 @@ static octree_status triangle_search(const octree *tree, const vec3 q[3], accura
     triangle_box qbox = {{0}, {0}};
     if (boxes)
         qbox = triangle_box_around(qb.lo, qb.hi, tree->world.lo);
+    /* The query's side of the exact test (its bounds, plane and projection) depends on q
+     * alone: computed here once instead of once per candidate. */
+    tri_tri_query prepared;
+    if (mode == ACCURACY_EXACT)
+        tri_tri_query_prepare(&prepared, q);
     id_set tested;
     id_set_init(&tested);
     octree_status st = OCTREE_OK;
@@ -151,7 +158,7 @@ static octree_status triangle_search(const octree *tree, const vec3 q[3], accura
             if (fresh == 0)
                 continue;
             stats->candidates_tested++;
-            if (!triangles_touch(tree, q, octree_triangle_at(tree, id), mode))
+            if (!triangles_touch(tree, q, &prepared, octree_triangle_at(tree, id), mode))
                 continue;
             *any = 1;
             if (stop_at_first)
