@@ -80,17 +80,7 @@ typedef struct u32_array {
 
 static int u32_reserve(u32_array *a, size_t extra)
 {
-    if (a->count + extra <= a->capacity)
-        return 0;
-    size_t cap = a->capacity ? a->capacity : 64;
-    while (cap < a->count + extra)
-        cap *= 2;
-    uint32_t *items = realloc(a->items, cap * sizeof *items);
-    if (!items)
-        return -1;
-    a->items = items;
-    a->capacity = cap;
-    return 0;
+    return octree_reserve((void **)&a->items, &a->capacity, a->count + extra, sizeof *a->items, 64);
 }
 
 /* A triangle list shared by the eight children that test it; freed when the last of them

@@ -206,14 +206,8 @@ typedef struct hit_list {
 
 static int hit_list_push(hit_list *l, ray_hit h)
 {
-    if (l->count == l->capacity) {
-        size_t cap = l->capacity ? 2 * l->capacity : 16;
-        ray_hit *items = realloc(l->items, cap * sizeof *items);
-        if (!items)
-            return -1;
-        l->items = items;
-        l->capacity = cap;
-    }
+    if (octree_reserve((void **)&l->items, &l->capacity, l->count + 1, sizeof *l->items, 16) != 0)
+        return -1;
     l->items[l->count++] = h;
     return 0;
 }

@@ -73,14 +73,8 @@ typedef struct id_list {
 
 static int id_list_push(id_list *l, uint32_t id)
 {
-    if (l->count == l->capacity) {
-        size_t cap = l->capacity ? 2 * l->capacity : 32;
-        uint32_t *items = realloc(l->items, cap * sizeof *items);
-        if (!items)
-            return -1;
-        l->items = items;
-        l->capacity = cap;
-    }
+    if (octree_reserve((void **)&l->items, &l->capacity, l->count + 1, sizeof *l->items, 32) != 0)
+        return -1;
     l->items[l->count++] = id;
     return 0;
 }
