@@ -1202,6 +1202,66 @@ static void *count_one_fallback(void *arg)
     return NULL;
 }
 
+/* The exact stage's parallel-rows shortcut: a ray aimed exactly at p or q (dir = p - o
+ * computed without rounding) or starting on the edge's line gives zero; one ulp off in
+ * any component of dir or o gives the sign GMP gives, so the shortcut never answers zero
+ * for a determinant that is not. Coordinates on a 2^-20 grid near 1, 1e6 and 1e9 keep every
+ * difference exact. */
+static void test_ray_edge_aimed_at_endpoint_is_exact(void **state)
+{
+    (void)state;
+    rng r = rng_for(31);
+    static const double offsets[] = {1.0, 1e6, 1e9};
+    ref_ctx c;
+    ref_init(&c);
+    tally t = {0};
+    for (int o_i = 0; o_i < 3; o_i++)
+        for (int i = 0; i < 400; i++) {
+            double grid[9];
+            for (int k = 0; k < 9; k++)
+                grid[k] = offsets[o_i] + ldexp((double)(int64_t)(rng_next(&r) % 2048) - 1024.0, -20);
+            vec3 p = vec3_make(grid[0], grid[1], grid[2]), q = vec3_make(grid[3], grid[4], grid[5]);
+            vec3 o = vec3_make(grid[6], grid[7], grid[8]);
+            if (i % 3 == 2) /* o on the line through p and q, beyond q */
+                o = vec3_add(q, vec3_sub(q, p));
+            vec3 aims[2] = {vec3_sub(p, o), vec3_sub(q, o)};
+            for (int a = 0; a < 2; a++)
+                for (int nudge = 0; nudge < 13; nudge++) {
+                    /* nudge 0: exact aim; 1-6: one component of dir one ulp up or down;
+                     * 7-12: one component of o one ulp up or down. */
+                    vec3 dir = aims[a], oo = o;
+                    int comp = (nudge - 1) % 6 / 2, up = (nudge - 1) % 2;
+                    if (nudge >= 1 && nudge <= 6) {
+                        double x = vec3_get(dir, comp);
+                        dir = vec3_with(dir, comp, nextafter(x, up ? INFINITY : -INFINITY));
+                    } else if (nudge >= 7) {
+                        double x = vec3_get(oo, comp);
+                        oo = vec3_with(oo, comp, nextafter(x, up ? INFINITY : -INFINITY));
+                    }
+                    if (dir.x == 0.0 && dir.y == 0.0 && dir.z == 0.0)
+                        continue;
+                    pred_case pc = {.kind = PRED_RAY_EDGE};
+                    double vals[12] = {p.x, p.y, p.z, q.x, q.y, q.z, oo.x, oo.y, oo.z, dir.x, dir.y, dir.z};
+                    memcpy(pc.v, vals, sizeof vals);
+                    check_case(&c, &pc, &t, "aimed at an endpoint");
+                }
+        }
+    /* Rows whose cross product rounds to zero but is not: (1 + 2^-30)^2 - (1 + 2^-29) is
+     * 2^-60, lost in the high parts of the products, so only their exact low parts show
+     * that the ray misses p's line. The determinant is -2^-60. */
+    {
+        double e30 = 1.0 + 0x1p-30, e29 = 1.0 + 0x1p-29;
+        pred_case pc = {.kind = PRED_RAY_EDGE, .v = {0, e30, e29, 1, 0, 0, 0, 0, 0, 0, 1, e30}};
+        check_case(&c, &pc, &t, "products equal when rounded");
+        assert_int_equal(eval_impl(&pc), -1);
+    }
+    finish_tally(&t, "aimed at an endpoint", PRED_RAY_EDGE);
+    /* Both kinds of answer were asked for: exact zeros and ulp-sized nonzero signs. */
+    assert_true(t.zeros > 1000);
+    assert_true(t.positives > 1000 && t.negatives > 1000);
+    ref_clear(&c);
+}
+
 static void test_fallback_counter_is_per_thread(void **state)
 {
     (void)state;
@@ -1242,6 +1302,7 @@ int main(void)
         cmocka_unit_test(test_filters_reject_worst_roundings_found),
         cmocka_unit_test(test_fallback_counter_counts_only_undecided_inputs),
         cmocka_unit_test(test_axis_aligned_degeneracies_need_no_fallback),
+        cmocka_unit_test(test_ray_edge_aimed_at_endpoint_is_exact),
         cmocka_unit_test(test_fallback_counter_is_per_thread),
     };
     return cmocka_run_group_tests_name("predicates", tests, NULL, NULL);

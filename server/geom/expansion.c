@@ -10,36 +10,6 @@
  * of a and b sit at exponents summing to -1074 or more). The predicates scale their inputs
  * by a power of two before calling in, which guarantees both. */
 
-void two_sum(double a, double b, double *hi, double *lo)
-{
-    double sum = a + b;
-    double b_virtual = sum - a;
-    double a_virtual = sum - b_virtual;
-    double b_roundoff = b - b_virtual;
-    double a_roundoff = a - a_virtual;
-    *hi = sum;
-    *lo = a_roundoff + b_roundoff;
-}
-
-void two_diff(double a, double b, double *hi, double *lo)
-{
-    double diff = a - b;
-    double b_virtual = a - diff;
-    double a_virtual = diff + b_virtual;
-    double b_roundoff = b_virtual - b;
-    double a_roundoff = a - a_virtual;
-    *hi = diff;
-    *lo = a_roundoff + b_roundoff;
-}
-
-void two_product(double a, double b, double *hi, double *lo)
-{
-    double product = a * b;
-    *hi = product;
-    /* fma rounds once, and a*b - product is representable, so this is its exact value. */
-    *lo = fma(a, b, -product);
-}
-
 /* Merge step of the sum: takes the not yet consumed component of smaller magnitude. */
 static inline double take_smaller(const double *e, size_t en, size_t *ei,
                                   const double *f, size_t fn, size_t *fi)

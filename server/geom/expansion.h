@@ -5,15 +5,43 @@
 #ifndef TRIOCT_GEOM_EXPANSION_H
 #define TRIOCT_GEOM_EXPANSION_H
 
+#include <math.h>
 #include <stddef.h>
 
 /* The relative rounding unit of double (2^-53), the epsilon of every error bound. */
 #define EXPANSION_EPS 0x1p-53
 
-/* Error-free transforms: a op b = hi + lo exactly. */
-void two_sum(double a, double b, double *hi, double *lo);
-void two_diff(double a, double b, double *hi, double *lo);
-void two_product(double a, double b, double *hi, double *lo);
+/* Error-free transforms: a op b = hi + lo exactly. Inline: every exact stage is made of
+ * them, and as calls they cost more than the arithmetic they do. */
+static inline void two_sum(double a, double b, double *hi, double *lo)
+{
+    double sum = a + b;
+    double b_virtual = sum - a;
+    double a_virtual = sum - b_virtual;
+    double b_roundoff = b - b_virtual;
+    double a_roundoff = a - a_virtual;
+    *hi = sum;
+    *lo = a_roundoff + b_roundoff;
+}
+
+static inline void two_diff(double a, double b, double *hi, double *lo)
+{
+    double diff = a - b;
+    double b_virtual = a - diff;
+    double a_virtual = diff + b_virtual;
+    double b_roundoff = b_virtual - b;
+    double a_roundoff = a - a_virtual;
+    *hi = diff;
+    *lo = a_roundoff + b_roundoff;
+}
+
+static inline void two_product(double a, double b, double *hi, double *lo)
+{
+    double product = a * b;
+    *hi = product;
+    /* fma rounds once, and a*b - product is representable, so this is its exact value. */
+    *lo = fma(a, b, -product);
+}
 
 /* h = e + f (lengths en, fn); returns length of h, which must hold en + fn doubles. */
 size_t expansion_sum(size_t en, const double *e, size_t fn, const double *f, double *h);

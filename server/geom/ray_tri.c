@@ -51,6 +51,12 @@ static inline double edge_function(vec3 a, vec3 e, vec3 d, double *err)
     double p3 = a.z * e.x, p4 = a.x * e.z;
     double p5 = a.x * e.y, p6 = a.y * e.x;
     double w = d.x * (p1 - p2) + d.y * (p3 - p4) + d.z * (p5 - p6);
+    if (w == 0.0) {
+        /* Undecided whatever the bound; skipping it keeps its arithmetic out of the
+         * subnormal range (PREDICATES_ZERO_SKIPS_BOUND in predicates.h). */
+        *err = INFINITY;
+        return w;
+    }
     double perm = fabs(d.x) * (fabs(p1) + fabs(p2) + TRIPLE_PAD) +
                   fabs(d.y) * (fabs(p3) + fabs(p4) + TRIPLE_PAD) +
                   fabs(d.z) * (fabs(p5) + fabs(p6) + TRIPLE_PAD);
