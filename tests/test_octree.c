@@ -140,7 +140,13 @@ static void test_children_follow_the_seed_octant_order(void **state)
     octree *t = build_or_fail(&m, 0.25, ACCURACY_EXACT);
     octree_node root = t->nodes[0];
     assert_int_equal(root.count, NODE_INTERIOR);
-    assert_int_equal(root.first, 1); /* appended right after the root */
+    /* Appended after the root, at the first index that starts a cache line: every
+     * children block is one 64-byte line. */
+    assert_int_equal(root.first, 8);
+    assert_true((uintptr_t)t->nodes % 64 == 0);
+    for (size_t i = 0; i < t->node_count; i++)
+        if (t->nodes[i].count == NODE_INTERIOR)
+            assert_int_equal(t->nodes[i].first % 8, 0);
     box3 w = t->world;
     vec3 c = vec3_scale(vec3_add(w.lo, w.hi), 0.5);
     box3 first = box_octant(w, 0), seventh = box_octant(w, 6);

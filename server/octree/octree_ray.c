@@ -27,11 +27,11 @@ typedef struct ray_setup {
     int widen; /* exact mode: widen every interval by its rounding error */
     int near_upper[3]; /* 1 when the ray meets the upper half along the axis first */
     /* Front-to-back visiting order of a node's children for this ray: the j-th child to
-     * visit takes the upper half along axis a when half[a][j], and is seed octant
-     * octant[j]. Along each axis the ray crosses the split plane at most once, so the near
-     * half's segment precedes the far half's: lexicographic order of "far along x, y, z"
-     * is front to back. */
-    unsigned char half[3][8];
+     * visit takes the upper half along axis a when bit a of upper[j] is set, and is seed
+     * octant octant[j]. Along each axis the ray crosses the split plane at most once, so
+     * the near half's segment precedes the far half's: lexicographic order of "far along
+     * x, y, z" is front to back. */
+    unsigned char upper[8];
     unsigned char octant[8];
 } ray_setup;
 
@@ -62,10 +62,8 @@ static void setup_ray(ray_setup *r, const ray_input *in, accuracy_mode mode)
     for (int j = 0; j < 8; j++) {
         int hx = r->near_upper[0] ^ ((j >> 2) & 1), hy = r->near_upper[1] ^ ((j >> 1) & 1),
             hz = r->near_upper[2] ^ (j & 1);
-        r->half[0][j] = (unsigned char)hx;
-        r->half[1][j] = (unsigned char)hy;
-        r->half[2][j] = (unsigned char)hz;
         r->octant[j] = box_octant_of_upper_bits[hx | hy << 1 | hz << 2];
+        r->upper[j] = (unsigned char)(hx | hy << 1 | hz << 2);
     }
 }
 
@@ -81,9 +79,20 @@ static inline void axis_near_far(const ray_setup *r, int a, double lo, double c,
     if (r->kind[a] == 0) {
         double inv = r->inv[a];
         double first = r->near_upper[a] ? hi : lo, last = r->near_upper[a] ? lo : hi;
-        double tc = (c - o) * inv;
-        enter[0] = (first - o) * inv, leave[0] = tc;
-        enter[1] = tc, leave[1] = (last - o) * inv;
+        double t_first = (first - o) * inv, tc = (c - o) * inv, t_last = (last - o) * inv;
+        if (r->widen) {
+            /* Exact mode: each plane's t is off by at most two roundings of its own size
+             * (the subtraction and the product; 1/d was a third), so widening every
+             * entry down and every exit up by 4 eps |t| + TINY bounds the exact values,
+             * and the maxima and minima of bounds taken per child bound its interval.
+             * Nine widenings a node, rather than sixteen on the children's intervals. */
+            double slack_c = fabs(tc) * (4 * EPS) + TINY;
+            enter[0] = t_first - (fabs(t_first) * (4 * EPS) + TINY), leave[0] = tc + slack_c;
+            enter[1] = tc - slack_c, leave[1] = t_last + (fabs(t_last) * (4 * EPS) + TINY);
+        } else {
+            enter[0] = t_first, leave[0] = tc;
+            enter[1] = tc, leave[1] = t_last;
+        }
     } else if (r->kind[a] == 1) {
         /* The ray keeps this coordinate: a half either always holds it or never. Such an
          * axis has near_upper 0, so near is the lower half. */
@@ -247,10 +256,15 @@ static octree_status validate_ray(const ray_input *ray)
     return OCTREE_OK;
 }
 
+/* A node waiting on the traversal stack: 16 bytes, no box. Its box is derived when it is
+ * expanded, from its parent's box and split point, which the walk keeps per level: the
+ * stack is depth first, so when a node of level L is popped the last node expanded at
+ * level L - 1 is its parent (any other node of that level still waits below it). */
 typedef struct ray_entry {
-    uint32_t node;
     double tnear;
-    box3 box;
+    uint32_t node;
+    unsigned char level;
+    unsigned char upper; /* bit a set: the upper half of the parent along axis a */
 } ray_entry;
 
 /* How many rays a batch keeps in flight. Enough walks that the memory one step asks for
@@ -285,6 +299,8 @@ typedef struct ray_walk {
     hit_list all;
     size_t top;
     ray_entry stack[OCTREE_STACK_MAX];
+    box3 level_box[OCTREE_MAX_DEPTH_CAP + 1]; /* the last node expanded at each level */
+    vec3 level_split[OCTREE_MAX_DEPTH_CAP + 1]; /* and its split point */
 } ray_walk;
 
 static octree_status check_query(const ray_input *ray, ray_detail detail, accuracy_mode mode)
@@ -321,7 +337,7 @@ static void walk_begin(ray_walk *w, const octree *tree, const ray_input *ray, ra
     double tn, tf;
     slab(&w->r, tree->world, &tn, &tf);
     if (tn <= tf && tn <= w->r.tmax && tf >= w->r.tmin)
-        w->stack[w->top++] = (ray_entry){0, tn, tree->world};
+        w->stack[w->top++] = (ray_entry){tn, 0, 0, 0};
 }
 
 /* Cache lines a prefetch of one leaf list or one leaf's triangles may ask for: leaves hold
@@ -385,8 +401,20 @@ static void walk_test_leaf(ray_walk *w, const octree *tree, octree_node node)
     }
 }
 
-static inline void walk_expand(ray_walk *w, const octree *tree, const ray_entry *e, octree_node node,
-                               int pipelined)
+/* The box of a popped interior node: the world for the root, else the half of its
+ * parent's box (kept per level by the walk) that its entry names. */
+static inline box3 walk_entry_box(const ray_walk *w, const octree *tree, ray_entry e)
+{
+    if (e.level == 0)
+        return tree->world;
+    box3 p = w->level_box[e.level - 1];
+    vec3 c = w->level_split[e.level - 1];
+    int ux = e.upper & 1, uy = (e.upper >> 1) & 1, uz = (e.upper >> 2) & 1;
+    return (box3){{ux ? c.x : p.lo.x, uy ? c.y : p.lo.y, uz ? c.z : p.lo.z},
+                  {ux ? p.hi.x : c.x, uy ? p.hi.y : c.y, uz ? p.hi.z : c.z}};
+}
+
+static inline void walk_expand(ray_walk *w, const octree *tree, ray_entry e, octree_node node, int pipelined)
 {
     const ray_setup *r = &w->r;
     /* Children the ray meets within [tmin, bound], tested without branches (which
@@ -395,14 +423,15 @@ static inline void walk_expand(ray_walk *w, const octree *tree, const ray_entry 
      * takes the far half along x, y, z when bit 2, 1, 0 of j is set; the loop over j is
      * written out so that every half index is a constant and max/min pairs shared by
      * several children are computed once. */
-    box3 b = e->box;
+    box3 b = walk_entry_box(w, tree, e);
     double c[3] = {box_split(b.lo.x, b.hi.x), box_split(b.lo.y, b.hi.y), box_split(b.lo.z, b.hi.z)};
-    double lo[3] = {b.lo.x, b.lo.y, b.lo.z}, hi[3] = {b.hi.x, b.hi.y, b.hi.z};
+    w->level_box[e.level] = b;
+    w->level_split[e.level] = (vec3){c[0], c[1], c[2]};
     double en[3][2], lv[3][2];
-    for (int a = 0; a < 3; a++)
-        axis_near_far(r, a, lo[a], c[a], hi[a], en[a], lv[a]);
+    axis_near_far(r, 0, b.lo.x, c[0], b.hi.x, en[0], lv[0]);
+    axis_near_far(r, 1, b.lo.y, c[1], b.hi.y, en[1], lv[1]);
+    axis_near_far(r, 2, b.lo.z, c[2], b.hi.z, en[2], lv[2]);
     const octree_node *kids = &tree->nodes[node.first];
-    double widen = r->widen ? 4 * EPS : 0.0, tiny = r->widen ? TINY : 0.0;
     double bound = w->bound, tmin = r->tmin;
     /* A child's entry is the largest of its three axes' entries and its exit the smallest,
      * taken x and y first, then z: the x-y pairs are shared by two children each. Plain
@@ -418,8 +447,6 @@ static inline void walk_expand(ray_walk *w, const octree *tree, const ray_entry 
     do {                                                                                                      \
         double t0 = exy[(j) >> 1] > (ez) ? exy[(j) >> 1] : (ez);                                              \
         double t1 = lxy[(j) >> 1] < (lz) ? lxy[(j) >> 1] : (lz);                                              \
-        t0 = t0 - fabs(t0) * widen - tiny;                                                                    \
-        t1 = t1 + fabs(t1) * widen + tiny;                                                                    \
         tnear[j] = t0;                                                                                        \
         accepted |= (unsigned)((t0 <= t1) & (t0 <= bound) & (t1 >= tmin) & (kids[r->octant[j]].count != 0))   \
                     << (j);                                                                                   \
@@ -434,14 +461,12 @@ static inline void walk_expand(ray_walk *w, const octree *tree, const ray_entry 
     RAY_CHILD(7, ez1, lz1);
 #undef RAY_CHILD
     size_t top = w->top;
+    unsigned char level = (unsigned char)(e.level + 1);
     while (accepted) {
         int j = 31 - __builtin_clz(accepted);
         accepted &= ~(1u << j);
-        int hx = r->half[0][j], hy = r->half[1][j], hz = r->half[2][j];
-        box3 cb = {{hx ? c[0] : lo[0], hy ? c[1] : lo[1], hz ? c[2] : lo[2]},
-                   {hx ? hi[0] : c[0], hy ? hi[1] : c[1], hz ? hi[2] : c[2]}};
         uint32_t child = node.first + r->octant[j];
-        w->stack[top++] = (ray_entry){child, tnear[j], cb};
+        w->stack[top++] = (ray_entry){tnear[j], child, level, r->upper[j]};
         /* What visiting the child will read first: its children's block, or its leaf
          * list. Every child but the nearest waits for the nearer ones' subtrees, so its
          * memory arrives meanwhile instead of stalling the pop that reaches it. A
@@ -512,8 +537,7 @@ static inline int walk_step(ray_walk *w, const octree *tree, int pipelined)
             walk_test_leaf(w, tree, node);
         } else {
             /* The popped entry's slot is overwritten by the first child pushed: copy it. */
-            ray_entry parent = *e;
-            walk_expand(w, tree, &parent, node, pipelined);
+            walk_expand(w, tree, *e, node, pipelined);
         }
     }
     if (w->done)
