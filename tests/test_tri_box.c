@@ -283,7 +283,7 @@ static void test_octants_reached_are_the_children_a_region_meets(void **state)
     int touching = 0;
     for (int n = 0; n < 20000; n++) {
         box3 box = random_box(&r);
-        vec3 c = {box_split(box.lo.x, box.hi.x), box_split(box.lo.y, box.hi.y), box_split(box.lo.z, box.hi.z)};
+        vec3 c = box_split_point(box);
         double lo[3], hi[3];
         for (int a = 0; a < 3; a++) {
             double l = coord(box.lo, a), h = coord(box.hi, a), m = coord(c, a);

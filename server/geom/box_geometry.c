@@ -83,13 +83,5 @@ const unsigned char box_octants_by_half[3][4] = {
 box3 box_octant(box3 box, int k)
 {
     assert(k >= 0 && k < 8);
-    vec3 c = vec3_make(box_split(box.lo.x, box.hi.x), box_split(box.lo.y, box.hi.y),
-                       box_split(box.lo.z, box.hi.z));
-    int upper = box_octant_upper_bits[k];
-    box3 child;
-    child.lo = vec3_make(upper & 1 ? c.x : box.lo.x, upper & 2 ? c.y : box.lo.y,
-                         upper & 4 ? c.z : box.lo.z);
-    child.hi = vec3_make(upper & 1 ? box.hi.x : c.x, upper & 2 ? box.hi.y : c.y,
-                         upper & 4 ? box.hi.z : c.z);
-    return child;
+    return box_child(box, box_split_point(box), box_octant_upper_bits[k]);
 }

@@ -18,6 +18,21 @@ static inline double box_split(double lo, double hi)
     return c;
 }
 
+/* The split point C of a box: box_split on each axis. */
+static inline vec3 box_split_point(box3 box)
+{
+    return (vec3){box_split(box.lo.x, box.hi.x), box_split(box.lo.y, box.hi.y), box_split(box.lo.z, box.hi.z)};
+}
+
+/* The child of a box with split point c that takes the upper half [C, hi] along each axis
+ * whose bit is set in upper (bit 0 x, bit 1 y, bit 2 z) and the lower half [lo, C] along
+ * the others. Builds and queries derive every child box here, from the same C. */
+static inline box3 box_child(box3 box, vec3 c, unsigned upper)
+{
+    return (box3){{upper & 1 ? c.x : box.lo.x, upper & 2 ? c.y : box.lo.y, upper & 4 ? c.z : box.lo.z},
+                  {upper & 1 ? box.hi.x : c.x, upper & 2 ? box.hi.y : c.y, upper & 4 ? box.hi.z : c.z}};
+}
+
 /* Which half the seed's octant k (0..7 for 1..8) takes along each axis: bit 0 for x, bit 1
  * for y, bit 2 for z, set for the upper half [C, hi]. And the inverse: the octant holding
  * a given set of upper halves. */

@@ -143,7 +143,7 @@ static int triangle_in_node(const build_ctx *ctx, const shared_list *parent, uin
 static void compute_reach(const build_ctx *ctx, shared_list *list)
 {
     box3 box = list->box;
-    vec3 c = {box_split(box.lo.x, box.hi.x), box_split(box.lo.y, box.hi.y), box_split(box.lo.z, box.hi.z)};
+    vec3 c = box_split_point(box);
     for (uint32_t i = 0; i < list->count; i++) {
         triangle_bounds b = ctx->bounds[list->items[i]];
         list->reach[i] = (uint8_t)box_octants_reached(vec3_max(b.lo, box.lo), vec3_min(b.hi, box.hi), c);

@@ -407,11 +407,7 @@ static inline box3 walk_entry_box(const ray_walk *w, const octree *tree, ray_ent
 {
     if (e.level == 0)
         return tree->world;
-    box3 p = w->level_box[e.level - 1];
-    vec3 c = w->level_split[e.level - 1];
-    int ux = e.upper & 1, uy = (e.upper >> 1) & 1, uz = (e.upper >> 2) & 1;
-    return (box3){{ux ? c.x : p.lo.x, uy ? c.y : p.lo.y, uz ? c.z : p.lo.z},
-                  {ux ? p.hi.x : c.x, uy ? p.hi.y : c.y, uz ? p.hi.z : c.z}};
+    return box_child(w->level_box[e.level - 1], w->level_split[e.level - 1], e.upper);
 }
 
 static inline void walk_expand(ray_walk *w, const octree *tree, ray_entry e, octree_node node, int pipelined)
@@ -424,13 +420,13 @@ static inline void walk_expand(ray_walk *w, const octree *tree, ray_entry e, oct
      * written out so that every half index is a constant and max/min pairs shared by
      * several children are computed once. */
     box3 b = walk_entry_box(w, tree, e);
-    double c[3] = {box_split(b.lo.x, b.hi.x), box_split(b.lo.y, b.hi.y), box_split(b.lo.z, b.hi.z)};
+    vec3 c = box_split_point(b);
     w->level_box[e.level] = b;
-    w->level_split[e.level] = (vec3){c[0], c[1], c[2]};
+    w->level_split[e.level] = c;
     double en[3][2], lv[3][2];
-    axis_near_far(r, 0, b.lo.x, c[0], b.hi.x, en[0], lv[0]);
-    axis_near_far(r, 1, b.lo.y, c[1], b.hi.y, en[1], lv[1]);
-    axis_near_far(r, 2, b.lo.z, c[2], b.hi.z, en[2], lv[2]);
+    axis_near_far(r, 0, b.lo.x, c.x, b.hi.x, en[0], lv[0]);
+    axis_near_far(r, 1, b.lo.y, c.y, b.hi.y, en[1], lv[1]);
+    axis_near_far(r, 2, b.lo.z, c.z, b.hi.z, en[2], lv[2]);
     const octree_node *kids = &tree->nodes[node.first];
     double bound = w->bound, tmin = r->tmin;
     /* A child's entry is the largest of its three axes' entries and its exit the smallest,

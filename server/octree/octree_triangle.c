@@ -122,7 +122,7 @@ static octree_status triangle_search(const octree *tree, const vec3 q[3], accura
         octree_node node = tree->nodes[e.node];
         if (node.count == NODE_INTERIOR) {
             box3 b = e.box;
-            vec3 c = {box_split(b.lo.x, b.hi.x), box_split(b.lo.y, b.hi.y), box_split(b.lo.z, b.hi.z)};
+            vec3 c = box_split_point(b);
             vec3 lo = vec3_max(qb.lo, b.lo), hi = vec3_min(qb.hi, b.hi);
             unsigned reach = box_octants_reached(lo, hi, c);
             int single = (reach & (reach - 1)) == 0;
@@ -130,9 +130,7 @@ static octree_status triangle_search(const octree *tree, const vec3 q[3], accura
             for (int k = 0; k < 8; k++) {
                 if (!((reach >> k) & 1) || kids[k].count == 0)
                     continue;
-                int u = box_octant_upper_bits[k];
-                box3 cb = {{u & 1 ? c.x : b.lo.x, u & 2 ? c.y : b.lo.y, u & 4 ? c.z : b.lo.z},
-                           {u & 1 ? b.hi.x : c.x, u & 2 ? b.hi.y : c.y, u & 4 ? b.hi.z : c.z}};
+                box3 cb = box_child(b, c, box_octant_upper_bits[k]);
                 stats->nodes_visited++;
                 if ((single && mode == ACCURACY_EXACT) || node_touched(tree, q, qb, cb, mode))
                     stack[top++] = (tri_entry){node.first + (uint32_t)k, cb};
