@@ -1373,6 +1373,40 @@ static void test_compare_t_orders_a_stack_of_hits(void **state)
 /* On rays that clearly hit (all barycentrics >= 1e-3, not grazing, t well inside the
  * range) or clearly miss (a barycentric <= -1e-3), the seed and fast tests agree with the
  * exact one. */
+/* Coordinates near 1e308 with features of 2^1000: every product of coordinate differences
+ * overflows a double, so the range check and the ordering of hits take the exact stage,
+ * which must still answer exactly. Before the exact stage scaled its inputs, a triangle
+ * behind the origin was reported hit at t = 0. */
+static void test_rays_near_the_top_of_the_double_range(void **state)
+{
+    (void)state;
+    const double f = 0x1p1000;
+    vec3 o = {0x1.2p1023, -0x1.2p1023, 0x1.2p1023}, d = {1, 0, 0};
+    vec3 ahead[3], behind[3], further[3];
+    double xs[3] = {o.x + f, o.x - f, o.x + 2 * f};
+    vec3 *tris[3] = {ahead, behind, further};
+    for (int i = 0; i < 3; i++) {
+        tris[i][0] = (vec3){xs[i], o.y - f, o.z - f};
+        tris[i][1] = (vec3){xs[i], o.y + f, o.z - f};
+        tris[i][2] = (vec3){xs[i], o.y, o.z + f};
+    }
+    ray_tri_hit hit;
+    assert_int_equal(ray_tri_exact(o, d, 0, INFINITY, ahead, &hit), 1);
+    assert_true(hit.t == f);
+    assert_true(hit.u >= 0 && hit.v >= 0 && hit.u + hit.v <= 1);
+    assert_int_equal(ray_tri_exact(o, d, 0, INFINITY, further, &hit), 1);
+    assert_true(hit.t == 2 * f);
+    assert_int_equal(ray_tri_exact(o, d, 0, INFINITY, behind, NULL), 0);
+    assert_int_equal(ray_tri_exact(o, d, -INFINITY, INFINITY, behind, &hit), 1);
+    assert_true(hit.t == -f);
+    /* The range ends are exact too: t = f is inside [f, f] and outside (f, 2f]. */
+    assert_int_equal(ray_tri_exact(o, d, f, f, ahead, NULL), 1);
+    assert_int_equal(ray_tri_exact(o, d, nextafter(f, INFINITY), 2 * f, ahead, NULL), 0);
+    assert_int_equal(ray_tri_compare_t(o, d, ahead, further), -1);
+    assert_int_equal(ray_tri_compare_t(o, d, further, ahead), 1);
+    assert_int_equal(ray_tri_compare_t(o, d, ahead, ahead), 0);
+}
+
 static void test_seed_and_fast_agree_on_clear_cases(void **state)
 {
     (void)state;
@@ -1507,6 +1541,7 @@ int main(void)
         cmocka_unit_test(test_compare_t_random_against_reference),
         cmocka_unit_test(test_compare_t_ties_and_near_ties),
         cmocka_unit_test(test_compare_t_orders_a_stack_of_hits),
+        cmocka_unit_test(test_rays_near_the_top_of_the_double_range),
         cmocka_unit_test(test_seed_and_fast_agree_on_clear_cases),
         cmocka_unit_test(test_seed_and_fast_reject_parallel_and_degenerate),
         cmocka_unit_test(test_filter_decides_generic_cases),

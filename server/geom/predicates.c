@@ -108,7 +108,7 @@ uint64_t predicates_fallback_count(void) { return fallback_count; }
 void predicates_note_fallback(void) { fallback_count++; }
 
 /* Power of two putting v[0..n) into the exact range; 0 when already inside. */
-static int exact_scale_exponent(const double *v, size_t n, int max_exp, int min_lsb)
+int predicates_exact_scale_exponent(const double *v, size_t n, int max_exp, int min_lsb)
 {
     int top = INT_MIN, lowest_bit = INT_MAX;
     for (size_t i = 0; i < n; i++) {
@@ -132,7 +132,7 @@ static int exact_scale_exponent(const double *v, size_t n, int max_exp, int min_
 
 static void scale_into_exact_range(double *v, size_t n, int max_exp, int min_lsb)
 {
-    int k = exact_scale_exponent(v, n, max_exp, min_lsb);
+    int k = predicates_exact_scale_exponent(v, n, max_exp, min_lsb);
     if (k == 0)
         return;
     for (size_t i = 0; i < n; i++)

@@ -202,4 +202,10 @@ uint64_t predicates_fallback_count(void);
 /* Called by exact fallbacks outside predicates.c so the count stays complete. */
 void predicates_note_fallback(void);
 
+/* The power of two that brings every nonzero v[i] below 2^(max_exp + 1) while keeping its
+ * lowest set bit at or above 2^min_lsb (0 when they already are), as the exact stage scales
+ * a homogeneous group of inputs; when the values span too wide for both, the largest
+ * shift that cannot overflow. For exact fallbacks outside predicates.c. */
+int predicates_exact_scale_exponent(const double *v, size_t n, int max_exp, int min_lsb);
+
 #endif

@@ -185,8 +185,37 @@ typedef struct plane_exact {
     double den[PLANE_DEN_CAP];
 } plane_exact;
 
-static void plane_exact_of(vec3 o, vec3 d, const vec3 tri[3], plane_exact *pe)
+/* Scaling the ray's origin, its direction and the triangles' vertices by one power of two
+ * scales num and den alike (both are of degree 3 in them), so t and every sign stay the
+ * same while the expansions stay clear of overflow and underflow: differences of
+ * coordinates near 1e308 would otherwise overflow their products, and an overflowed
+ * expansion has no sign. The exponent suits products of `degree` such factors (3 for one
+ * triangle's num and den, 6 for comparing two triangles' t), with the margins the
+ * predicates' exact stage uses. */
+static int plane_exact_scale(vec3 o, vec3 d, const vec3 *vertices, size_t vertex_count, int degree)
 {
+    double v[6 + 3 * 6];
+    size_t n = 0;
+    vec3 fixed[2] = {o, d};
+    for (size_t i = 0; i < 2 + vertex_count; i++) {
+        vec3 p = i < 2 ? fixed[i] : vertices[i - 2];
+        v[n++] = p.x, v[n++] = p.y, v[n++] = p.z;
+    }
+    int max_exp = degree == 3 ? 330 : 160, min_lsb = degree == 3 ? -355 : -175;
+    return predicates_exact_scale_exponent(v, n, max_exp, min_lsb);
+}
+
+static vec3 vec3_scalbn(vec3 p, int k)
+{
+    return k == 0 ? p : (vec3){scalbn(p.x, k), scalbn(p.y, k), scalbn(p.z, k)};
+}
+
+/* The exact num and den of plane_param_of for the inputs scaled by 2^shift (the same t). */
+static void plane_exact_of_scaled(vec3 o, vec3 d, const vec3 tri_in[3], int shift, plane_exact *pe)
+{
+    vec3 tri[3] = {vec3_scalbn(tri_in[0], shift), vec3_scalbn(tri_in[1], shift), vec3_scalbn(tri_in[2], shift)};
+    o = vec3_scalbn(o, shift);
+    d = vec3_scalbn(d, shift);
     double e1[3][DIFF_CAP], e2[3][DIFF_CAP], a[3][DIFF_CAP];
     size_t e1n[3], e2n[3], an[3];
     for (int k = 0; k < 3; k++) {
@@ -214,6 +243,15 @@ static void plane_exact_of(vec3 o, vec3 d, const vec3 tri[3], plane_exact *pe)
     pe->den_len = nonempty(expansion_sum(d01, den01, den_n[2], den_terms[2], pe->den), pe->den);
     pe->num_len = compress_expansion(pe->num_len, pe->num);
     pe->den_len = compress_expansion(pe->den_len, pe->den);
+}
+
+/* Out of line: the exact stage is rare, and inlined its frame costs every candidate. */
+#if defined(__GNUC__)
+__attribute__((cold, noinline))
+#endif
+static void plane_exact_of(vec3 o, vec3 d, const vec3 tri[3], plane_exact *pe)
+{
+    plane_exact_of_scaled(o, d, tri, plane_exact_scale(o, d, tri, 3, 3), pe);
 }
 
 /* Exact sign of num - tau * den (den != 0) for a finite tau. */
@@ -416,10 +454,13 @@ int ray_tri_exact(vec3 o, vec3 d, double tmin, double tmax, const vec3 tri[3], r
 
     if (hit) {
         double t;
-        if (pp.num_err <= T_FLOAT_REL_ERR * fabs(pp.num) &&
+        /* An overflowed num or den has an infinite bound, which "bound <= 2^-49 |value|"
+         * would accept when the value is infinite too: such a t goes to the exact stage. */
+        int in_range = isfinite(pp.num_err) && isfinite(pp.den_err);
+        if (in_range && pp.num_err <= T_FLOAT_REL_ERR * fabs(pp.num) &&
             pp.den_err <= T_FLOAT_REL_ERR * fabs(pp.den)) {
             t = pp.num / pp.den;
-        } else if (pp.num_err <= T_ACCURATE_REL_ERR * fabs(pp.num) &&
+        } else if (in_range && pp.num_err <= T_ACCURATE_REL_ERR * fabs(pp.num) &&
                    pp.den_err <= T_ACCURATE_REL_ERR * fabs(pp.den)) {
             t = hit_parameter_accurate(o, d, tri);
         } else {
@@ -468,8 +509,10 @@ static int compare_t_exact(vec3 o, vec3 d, const vec3 a[3], const vec3 b[3])
 {
     predicates_note_fallback();
     plane_exact pa, pb;
-    plane_exact_of(o, d, a, &pa);
-    plane_exact_of(o, d, b, &pb);
+    vec3 both[6] = {a[0], a[1], a[2], b[0], b[1], b[2]};
+    int k = plane_exact_scale(o, d, both, 6, 6);
+    plane_exact_of_scaled(o, d, a, k, &pa);
+    plane_exact_of_scaled(o, d, b, k, &pb);
     int sa = expansion_sign(pa.den_len, pa.den), sb = expansion_sign(pb.den_len, pb.den);
     if (sa == 0 || sb == 0)
         return 0;
