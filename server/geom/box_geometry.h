@@ -9,10 +9,17 @@
 /* The midpoint as the seed writes it, (lo + hi) / 2. Halving is exact, and rounding the sum
  * is monotone, so the result never leaves [lo, hi]; only a sum that overflows needs the
  * halves added instead. Every split of a node, at build and in every query, goes through
- * this one function, so two neighbours' shared face is the same double everywhere. */
+ * this one function, so two neighbours' shared face is the same double everywhere.
+ * box_split_in_range is the same value for boxes whose lo + hi cannot overflow (every box
+ * of a world whose coordinates are within DBL_MAX / 2), without the check. */
+static inline double box_split_in_range(double lo, double hi)
+{
+    return 0.5 * (lo + hi);
+}
+
 static inline double box_split(double lo, double hi)
 {
-    double c = 0.5 * (lo + hi);
+    double c = box_split_in_range(lo, hi);
     if (isinf(c) && isfinite(lo) && isfinite(hi))
         c = 0.5 * lo + 0.5 * hi;
     return c;

@@ -501,6 +501,9 @@ octree *octree_build(const mesh_view *mesh, const octree_def *def_in, octree_err
     double size = ldexp(d, levels);
     /* Rounding lo + size is monotone, so the cube still encloses every vertex. */
     tree->world = (box3){lo, vec3_make(lo.x + size, lo.y + size, lo.z + size)};
+    tree->splits_in_range = fabs(tree->world.lo.x) <= DBL_MAX / 2 && fabs(tree->world.lo.y) <= DBL_MAX / 2 &&
+                            fabs(tree->world.lo.z) <= DBL_MAX / 2 && fabs(tree->world.hi.x) <= DBL_MAX / 2 &&
+                            fabs(tree->world.hi.y) <= DBL_MAX / 2 && fabs(tree->world.hi.z) <= DBL_MAX / 2;
 
     /* Only triangle and mesh queries read the boxes; a world that asks for neither does
      * not pay for them. */

@@ -50,6 +50,9 @@ struct octree {
     size_t leaf_item_count;
 
     box3 world; /* the cube [lo, lo + D] */
+    /* Every coordinate of the world within DBL_MAX / 2: no node's lo + hi overflows, so a
+     * split is box_split_in_range. */
+    int splits_in_range;
     double seed_epsilon;
     octree_info info;
 };

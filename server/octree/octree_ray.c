@@ -67,41 +67,33 @@ static void setup_ray(ray_setup *r, const ray_input *in, accuracy_mode mode)
     }
 }
 
-/* The parameter intervals of the near half (index 0) and the far half (index 1) of a node
- * along one axis: three planes serve all eight children. Near and far are the ray's order
- * (setup_ray's near_upper), so that a child's index bits pick its halves directly and the
- * per-child loop needs no table. The values are the same products as the lower/upper form
- * gives, only filed by the ray's order. */
-static inline void axis_near_far(const ray_setup *r, int a, double lo, double c, double hi, double enter[2],
-                                 double leave[2])
+/* Where the ray crosses a node's split plane along one axis, as the two bounds a child's
+ * interval takes from it: the far half is entered no earlier than *far_enter and the near
+ * half left no later than *near_exit. Everything else a child's interval needs is the
+ * node's own interval, which its stack entry carries, so a node costs three planes, not
+ * nine. Exact mode widens the crossing by its rounding error: (c - o) and the product each
+ * round once and 1/d was a third rounding, so 4 eps |t| + TINY bounds the exact crossing
+ * (|t| clamped to DBL_MAX so that an overflowed crossing widens to itself, not to NaN). */
+static inline void axis_split_crossing(const ray_setup *r, int a, double c, double *far_enter, double *near_exit)
 {
     double o = a == 0 ? r->o.x : a == 1 ? r->o.y : r->o.z;
     if (r->kind[a] == 0) {
-        double inv = r->inv[a];
-        double first = r->near_upper[a] ? hi : lo, last = r->near_upper[a] ? lo : hi;
-        double t_first = (first - o) * inv, tc = (c - o) * inv, t_last = (last - o) * inv;
+        double tc = (c - o) * r->inv[a];
+        double slack = 0.0;
         if (r->widen) {
-            /* Exact mode: each plane's t is off by at most two roundings of its own size
-             * (the subtraction and the product; 1/d was a third), so widening every
-             * entry down and every exit up by 4 eps |t| + TINY bounds the exact values,
-             * and the maxima and minima of bounds taken per child bound its interval.
-             * Nine widenings a node, rather than sixteen on the children's intervals. */
-            double slack_c = fabs(tc) * (4 * EPS) + TINY;
-            enter[0] = t_first - (fabs(t_first) * (4 * EPS) + TINY), leave[0] = tc + slack_c;
-            enter[1] = tc - slack_c, leave[1] = t_last + (fabs(t_last) * (4 * EPS) + TINY);
-        } else {
-            enter[0] = t_first, leave[0] = tc;
-            enter[1] = tc, leave[1] = t_last;
+            double size = fabs(tc) < DBL_MAX ? fabs(tc) : DBL_MAX;
+            slack = size * (4 * EPS) + TINY;
         }
+        *far_enter = tc - slack;
+        *near_exit = tc + slack;
     } else if (r->kind[a] == 1) {
         /* The ray keeps this coordinate: a half either always holds it or never. Such an
          * axis has near_upper 0, so near is the lower half. */
-        int in_lower = o >= lo && o <= c, in_upper = o >= c && o <= hi;
-        enter[0] = in_lower ? -INFINITY : INFINITY, leave[0] = in_lower ? INFINITY : -INFINITY;
-        enter[1] = in_upper ? -INFINITY : INFINITY, leave[1] = in_upper ? INFINITY : -INFINITY;
+        *near_exit = o <= c ? INFINITY : -INFINITY;
+        *far_enter = o >= c ? -INFINITY : INFINITY;
     } else {
-        enter[0] = enter[1] = -INFINITY;
-        leave[0] = leave[1] = INFINITY;
+        *far_enter = -INFINITY;
+        *near_exit = INFINITY;
     }
 }
 
@@ -256,12 +248,13 @@ static octree_status validate_ray(const ray_input *ray)
     return OCTREE_OK;
 }
 
-/* A node waiting on the traversal stack: 16 bytes, no box. Its box is derived when it is
- * expanded, from its parent's box and split point, which the walk keeps per level: the
+/* A node waiting on the traversal stack: 24 bytes, no box. Its faces and split planes are
+ * derived when it is expanded, from its parent's, which the walk keeps per level: the
  * stack is depth first, so when a node of level L is popped the last node expanded at
- * level L - 1 is its parent (any other node of that level still waits below it). */
+ * level L - 1 is its parent (any other node of that level still waits below it). The
+ * entry carries the node's conservative parameter interval, which bounds its children's. */
 typedef struct ray_entry {
-    double tnear;
+    double tnear, tfar;
     uint32_t node;
     unsigned char level;
     unsigned char upper; /* bit a set: the upper half of the parent along axis a */
@@ -299,8 +292,11 @@ typedef struct ray_walk {
     hit_list all;
     size_t top;
     ray_entry stack[OCTREE_STACK_MAX];
-    box3 level_box[OCTREE_MAX_DEPTH_CAP + 1]; /* the last node expanded at each level */
-    vec3 level_split[OCTREE_MAX_DEPTH_CAP + 1]; /* and its split point */
+    /* The last node expanded at each level: per axis its lower face, split plane and upper
+     * face, so that a child's faces are two adjacent entries picked by its half bit
+     * (indexed loads: which half a child takes is unpredictable, and a branch on it
+     * mispredicted half the time). */
+    double level_planes[OCTREE_MAX_DEPTH_CAP + 1][3][3];
 } ray_walk;
 
 static octree_status check_query(const ray_input *ray, ray_detail detail, accuracy_mode mode)
@@ -337,7 +333,7 @@ static void walk_begin(ray_walk *w, const octree *tree, const ray_input *ray, ra
     double tn, tf;
     slab(&w->r, tree->world, &tn, &tf);
     if (tn <= tf && tn <= w->r.tmax && tf >= w->r.tmin)
-        w->stack[w->top++] = (ray_entry){tn, 0, 0, 0};
+        w->stack[w->top++] = (ray_entry){tn, tf, 0, 0, 0};
 }
 
 /* Cache lines a prefetch of one leaf list or one leaf's triangles may ask for: leaves hold
@@ -401,68 +397,86 @@ static void walk_test_leaf(ray_walk *w, const octree *tree, octree_node node)
     }
 }
 
-/* The box of a popped interior node: the world for the root, else the half of its
- * parent's box (kept per level by the walk) that its entry names. */
-static inline box3 walk_entry_box(const ray_walk *w, const octree *tree, ray_entry e)
+/* The faces and split planes of a popped interior node: the world's for the root, else
+ * the half of its parent's (kept per level by the walk) that its entry names, split as
+ * every query and the build split it. */
+static inline void walk_entry_planes(ray_walk *w, const octree *tree, ray_entry e)
 {
-    if (e.level == 0)
-        return tree->world;
-    return box_child(w->level_box[e.level - 1], w->level_split[e.level - 1], e.upper);
+    double(*p)[3] = w->level_planes[e.level];
+    if (e.level == 0) {
+        const box3 *world = &tree->world;
+        p[0][0] = world->lo.x, p[0][2] = world->hi.x;
+        p[1][0] = world->lo.y, p[1][2] = world->hi.y;
+        p[2][0] = world->lo.z, p[2][2] = world->hi.z;
+    } else {
+        const double(*q)[3] = w->level_planes[e.level - 1];
+        for (int a = 0; a < 3; a++) {
+            unsigned h = (e.upper >> a) & 1;
+            p[a][0] = q[a][h];
+            p[a][2] = q[a][h + 1];
+        }
+    }
+    if (tree->splits_in_range) {
+        for (int a = 0; a < 3; a++)
+            p[a][1] = box_split_in_range(p[a][0], p[a][2]);
+    } else {
+        for (int a = 0; a < 3; a++)
+            p[a][1] = box_split(p[a][0], p[a][2]);
+    }
 }
 
 static inline void walk_expand(ray_walk *w, const octree *tree, ray_entry e, octree_node node, int pipelined)
 {
     const ray_setup *r = &w->r;
-    /* Children the ray meets within [tmin, bound], tested without branches (which
-     * child the ray meets is unpredictable), then pushed far to near so the nearest
-     * is popped first. Empty leaves never enter the stack. Child j (in visiting order)
-     * takes the far half along x, y, z when bit 2, 1, 0 of j is set; the loop over j is
-     * written out so that every half index is a constant and max/min pairs shared by
-     * several children are computed once. */
-    box3 b = walk_entry_box(w, tree, e);
-    vec3 c = box_split_point(b);
-    w->level_box[e.level] = b;
-    w->level_split[e.level] = c;
-    double en[3][2], lv[3][2];
-    axis_near_far(r, 0, b.lo.x, c.x, b.hi.x, en[0], lv[0]);
-    axis_near_far(r, 1, b.lo.y, c.y, b.hi.y, en[1], lv[1]);
-    axis_near_far(r, 2, b.lo.z, c.z, b.hi.z, en[2], lv[2]);
+    walk_entry_planes(w, tree, e);
+    const double(*planes)[3] = w->level_planes[e.level];
+    /* A child's interval is the node's, clipped to [tmin, bound], narrowed along each axis
+     * by the split plane: the near half ends where the ray crosses it, the far half begins
+     * there. The bounds stay conservative (every one is at or outside the exact value), so
+     * a child the exact ray touches is never dropped; the exact per-axis entries of the
+     * node itself are implied by its interval. */
+    double lo = e.tnear > r->tmin ? e.tnear : r->tmin;
+    double hi = e.tfar < w->bound ? e.tfar : w->bound;
+    double fx, nx, fy, ny, fz, nz;
+    axis_split_crossing(r, 0, planes[0][1], &fx, &nx);
+    axis_split_crossing(r, 1, planes[1][1], &fy, &ny);
+    axis_split_crossing(r, 2, planes[2][1], &fz, &nz);
+    /* Child j (in visiting order) takes the far half along x, y, z when bit 2, 1, 0 of j is
+     * set. Its entry is the largest of lo and its far axes' crossings, its exit the
+     * smallest of hi and its near axes' crossings; the x-y parts are shared by two
+     * children each. Plain comparisons, not fmax/fmin: no operand is NaN. */
+    double fx1 = lo > fx ? lo : fx, nx0 = hi < nx ? hi : nx;
+    double fxy[4] = {lo, lo > fy ? lo : fy, fx1, fx1 > fy ? fx1 : fy};
+    double nxy[4] = {nx0 < ny ? nx0 : ny, nx0, hi < ny ? hi : ny, hi};
     const octree_node *kids = &tree->nodes[node.first];
-    double bound = w->bound, tmin = r->tmin;
-    /* A child's entry is the largest of its three axes' entries and its exit the smallest,
-     * taken x and y first, then z: the x-y pairs are shared by two children each. Plain
-     * comparisons, not fmax/fmin (library calls that also order NaNs, which cannot occur:
-     * every operand is a product of finite numbers or an infinity). */
-    double ex0 = en[0][0], ex1 = en[0][1], ey0 = en[1][0], ey1 = en[1][1], ez0 = en[2][0], ez1 = en[2][1];
-    double lx0 = lv[0][0], lx1 = lv[0][1], ly0 = lv[1][0], ly1 = lv[1][1], lz0 = lv[2][0], lz1 = lv[2][1];
-    double exy[4] = {ex0 > ey0 ? ex0 : ey0, ex0 > ey1 ? ex0 : ey1, ex1 > ey0 ? ex1 : ey0, ex1 > ey1 ? ex1 : ey1};
-    double lxy[4] = {lx0 < ly0 ? lx0 : ly0, lx0 < ly1 ? lx0 : ly1, lx1 < ly0 ? lx1 : ly0, lx1 < ly1 ? lx1 : ly1};
-    double tnear[8];
+    double tnear[8], tfar[8];
     unsigned accepted = 0;
-#define RAY_CHILD(j, ez, lz)                                                                                  \
+    /* Tested without branches: which children the ray meets is unpredictable. */
+#define RAY_CHILD(j)                                                                                          \
     do {                                                                                                      \
-        double t0 = exy[(j) >> 1] > (ez) ? exy[(j) >> 1] : (ez);                                              \
-        double t1 = lxy[(j) >> 1] < (lz) ? lxy[(j) >> 1] : (lz);                                              \
+        double t0 = (j) & 1 ? (fxy[(j) >> 1] > fz ? fxy[(j) >> 1] : fz) : fxy[(j) >> 1];                      \
+        double t1 = (j) & 1 ? nxy[(j) >> 1] : (nxy[(j) >> 1] < nz ? nxy[(j) >> 1] : nz);                      \
         tnear[j] = t0;                                                                                        \
-        accepted |= (unsigned)((t0 <= t1) & (t0 <= bound) & (t1 >= tmin) & (kids[r->octant[j]].count != 0))   \
-                    << (j);                                                                                   \
+        tfar[j] = t1;                                                                                         \
+        accepted |= (unsigned)((t0 <= t1) & (kids[r->octant[j]].count != 0)) << (j);                          \
     } while (0)
-    RAY_CHILD(0, ez0, lz0);
-    RAY_CHILD(1, ez1, lz1);
-    RAY_CHILD(2, ez0, lz0);
-    RAY_CHILD(3, ez1, lz1);
-    RAY_CHILD(4, ez0, lz0);
-    RAY_CHILD(5, ez1, lz1);
-    RAY_CHILD(6, ez0, lz0);
-    RAY_CHILD(7, ez1, lz1);
+    RAY_CHILD(0);
+    RAY_CHILD(1);
+    RAY_CHILD(2);
+    RAY_CHILD(3);
+    RAY_CHILD(4);
+    RAY_CHILD(5);
+    RAY_CHILD(6);
+    RAY_CHILD(7);
 #undef RAY_CHILD
+    /* Pushed far to near, so the nearest is popped first. Empty leaves never enter. */
     size_t top = w->top;
     unsigned char level = (unsigned char)(e.level + 1);
     while (accepted) {
         int j = 31 - __builtin_clz(accepted);
         accepted &= ~(1u << j);
         uint32_t child = node.first + r->octant[j];
-        w->stack[top++] = (ray_entry){tnear[j], child, level, r->upper[j]};
+        w->stack[top++] = (ray_entry){tnear[j], tfar[j], child, level, r->upper[j]};
         /* What visiting the child will read first: its children's block, or its leaf
          * list. Every child but the nearest waits for the nearer ones' subtrees, so its
          * memory arrives meanwhile instead of stalling the pop that reaches it. A
