@@ -42,9 +42,11 @@ typedef struct ray_tri_hit {
  *    functions: finite, in [0, 1], with u + v <= 1 (up to rounding).
  *  - A floating-point filter decides almost every call; exact expansion arithmetic decides
  *    the rest and is counted through predicates_note_fallback (and the predicates' own
- *    counters). The exact stage is exact while no product of inputs underflows or
- *    overflows: nonzero coordinates, direction components and finite limits between about
- *    2^-120 and 2^160 in magnitude (1e9 offsets with 1e-9 features are well inside). */
+ *    counters). The exact stage first scales origin, direction and vertices by one power
+ *    of two (t unchanged), so it is exact at any magnitude while the binary exponents of
+ *    their nonzero components span at most about 685 (the range test; 335 for ordering
+ *    two hits): 1e9 offsets with 1e-9 features, or coordinates near 1e308 with features
+ *    of 2^1000, are inside. Finite limits are exact between about 2^-120 and 2^160. */
 int ray_tri_exact(vec3 o, vec3 d, double tmin, double tmax, const vec3 tri[3], ray_tri_hit *hit);
 
 /* Compare the exact t of two exact hits of the same ray: -1, 0, +1 for t_a <, =, > t_b.
