@@ -88,13 +88,8 @@
  * (say 1e-300 beside 1e10 in one orient3d) is scaled to avoid overflow, the smallest
  * values lose low bits, and the sign is then that of a nearby input, not guaranteed.
  * ------------------------------------------------------------------------------------- */
-enum {
-    DEGREE2_MAX_EXP = 500,
-    DEGREE2_MIN_LSB = -530,
-    DEGREE3_MAX_EXP = 330,
-    DEGREE3_MIN_LSB = -355,
-};
-
+/* The constants are PREDICATES_DEGREE*_MAX_EXP / _MIN_LSB in predicates.h, which the
+ * ray-triangle exact stage scales by too. */
 #if defined(__GNUC__)
 #define PREDICATES_COLD __attribute__((cold, noinline))
 #else
@@ -278,8 +273,8 @@ PREDICATES_COLD int sign_diff_products_undecided(double a, double b, double c, d
         }
     }
     double first[4] = {a, b, e, f}, second[4] = {c, d, g, h};
-    scale_into_exact_range(first, 4, DEGREE2_MAX_EXP, DEGREE2_MIN_LSB);
-    scale_into_exact_range(second, 4, DEGREE2_MAX_EXP, DEGREE2_MIN_LSB);
+    scale_into_exact_range(first, 4, PREDICATES_DEGREE2_MAX_EXP, PREDICATES_DEGREE2_MIN_LSB);
+    scale_into_exact_range(second, 4, PREDICATES_DEGREE2_MAX_EXP, PREDICATES_DEGREE2_MIN_LSB);
     exact_diff ab = exact_difference(first[0], first[1]);
     exact_diff ef = exact_difference(first[2], first[3]);
     exact_diff cd = exact_difference(second[0], second[1]);
@@ -317,7 +312,7 @@ PREDICATES_COLD int orient3d_undecided(vec3 a, vec3 b, vec3 c, vec3 d)
             return triple_product_sign_exact(cols, cols + 3, cols + 6);
     }
     double v[12] = {a.x, a.y, a.z, b.x, b.y, b.z, c.x, c.y, c.z, d.x, d.y, d.z};
-    scale_into_exact_range(v, 12, DEGREE3_MAX_EXP, DEGREE3_MIN_LSB);
+    scale_into_exact_range(v, 12, PREDICATES_DEGREE3_MAX_EXP, PREDICATES_DEGREE3_MIN_LSB);
     exact_diff ax = exact_difference(v[9], v[0]), ay = exact_difference(v[10], v[1]),
                az = exact_difference(v[11], v[2]);
     exact_diff bx = exact_difference(v[9], v[3]), by = exact_difference(v[10], v[4]),
@@ -367,8 +362,8 @@ PREDICATES_COLD int ray_edge_sign_undecided(vec3 p, vec3 q, vec3 o, vec3 dir)
     }
     double points[9] = {p.x, p.y, p.z, q.x, q.y, q.z, o.x, o.y, o.z};
     double direction[3] = {dir.x, dir.y, dir.z};
-    scale_into_exact_range(points, 9, DEGREE3_MAX_EXP, DEGREE3_MIN_LSB);
-    scale_into_exact_range(direction, 3, DEGREE3_MAX_EXP, DEGREE3_MIN_LSB);
+    scale_into_exact_range(points, 9, PREDICATES_DEGREE3_MAX_EXP, PREDICATES_DEGREE3_MIN_LSB);
+    scale_into_exact_range(direction, 3, PREDICATES_DEGREE3_MAX_EXP, PREDICATES_DEGREE3_MIN_LSB);
     exact_diff px = exact_difference(points[0], points[6]),
                py = exact_difference(points[1], points[7]),
                pz = exact_difference(points[2], points[8]);

@@ -202,6 +202,16 @@ uint64_t predicates_fallback_count(void);
 /* Called by exact fallbacks outside predicates.c so the count stays complete. */
 void predicates_note_fallback(void);
 
+/* The exact stage's range for products of two and of three scaled factors: every nonzero
+ * input below 2^(MAX_EXP + 1), its lowest set bit at or above 2^MIN_LSB (derivation in
+ * predicates.c, "Exact stage"). */
+enum {
+    PREDICATES_DEGREE2_MAX_EXP = 500,
+    PREDICATES_DEGREE2_MIN_LSB = -530,
+    PREDICATES_DEGREE3_MAX_EXP = 330,
+    PREDICATES_DEGREE3_MIN_LSB = -355,
+};
+
 /* The power of two that brings every nonzero v[i] below 2^(max_exp + 1) while keeping its
  * lowest set bit at or above 2^min_lsb (0 when they already are), as the exact stage scales
  * a homogeneous group of inputs; when the values span too wide for both, the largest

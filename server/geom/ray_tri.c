@@ -189,19 +189,20 @@ typedef struct plane_exact {
  * scales num and den alike (both are of degree 3 in them), so t and every sign stay the
  * same while the expansions stay clear of overflow and underflow: differences of
  * coordinates near 1e308 would otherwise overflow their products, and an overflowed
- * expansion has no sign. The exponent suits products of `degree` such factors (3 for one
- * triangle's num and den, 6 for comparing two triangles' t), with the margins the
- * predicates' exact stage uses. */
-static int plane_exact_scale(vec3 o, vec3 d, const vec3 *vertices, size_t vertex_count, int degree)
+ * expansion has no sign. One triangle's num and den are degree-3 products and take the
+ * predicates' degree-3 range; comparing two triangles' t multiplies one's num by the
+ * other's den, degree 6: factors below 2^161 keep such products below 2^966 and lowest
+ * bits at 2^-175 keep their low parts at 2^-1050 or above. */
+enum { DEGREE6_MAX_EXP = 160, DEGREE6_MIN_LSB = -175 };
+
+static int plane_exact_scale(vec3 o, vec3 d, const vec3 *vertices, size_t vertex_count, int max_exp, int min_lsb)
 {
-    double v[6 + 3 * 6];
+    double v[3 * (2 + 6)];
     size_t n = 0;
-    vec3 fixed[2] = {o, d};
-    for (size_t i = 0; i < 2 + vertex_count; i++) {
-        vec3 p = i < 2 ? fixed[i] : vertices[i - 2];
-        v[n++] = p.x, v[n++] = p.y, v[n++] = p.z;
-    }
-    int max_exp = degree == 3 ? 330 : 160, min_lsb = degree == 3 ? -355 : -175;
+    v[n++] = o.x, v[n++] = o.y, v[n++] = o.z;
+    v[n++] = d.x, v[n++] = d.y, v[n++] = d.z;
+    for (size_t i = 0; i < vertex_count; i++)
+        v[n++] = vertices[i].x, v[n++] = vertices[i].y, v[n++] = vertices[i].z;
     return predicates_exact_scale_exponent(v, n, max_exp, min_lsb);
 }
 
@@ -251,7 +252,7 @@ __attribute__((cold, noinline))
 #endif
 static void plane_exact_of(vec3 o, vec3 d, const vec3 tri[3], plane_exact *pe)
 {
-    plane_exact_of_scaled(o, d, tri, plane_exact_scale(o, d, tri, 3, 3), pe);
+    plane_exact_of_scaled(o, d, tri, plane_exact_scale(o, d, tri, 3, PREDICATES_DEGREE3_MAX_EXP, PREDICATES_DEGREE3_MIN_LSB), pe);
 }
 
 /* Exact sign of num - tau * den (den != 0) for a finite tau. */
@@ -510,7 +511,7 @@ static int compare_t_exact(vec3 o, vec3 d, const vec3 a[3], const vec3 b[3])
     predicates_note_fallback();
     plane_exact pa, pb;
     vec3 both[6] = {a[0], a[1], a[2], b[0], b[1], b[2]};
-    int k = plane_exact_scale(o, d, both, 6, 6);
+    int k = plane_exact_scale(o, d, both, 6, DEGREE6_MAX_EXP, DEGREE6_MIN_LSB);
     plane_exact_of_scaled(o, d, a, k, &pa);
     plane_exact_of_scaled(o, d, b, k, &pb);
     int sa = expansion_sign(pa.den_len, pa.den), sb = expansion_sign(pb.den_len, pb.den);

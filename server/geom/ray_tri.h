@@ -44,9 +44,11 @@ typedef struct ray_tri_hit {
  *    the rest and is counted through predicates_note_fallback (and the predicates' own
  *    counters). The exact stage first scales origin, direction and vertices by one power
  *    of two (t unchanged), so it is exact at any magnitude while the binary exponents of
- *    their nonzero components span at most about 685 (the range test; 335 for ordering
- *    two hits): 1e9 offsets with 1e-9 features, or coordinates near 1e308 with features
- *    of 2^1000, are inside. Finite limits are exact between about 2^-120 and 2^160. */
+ *    their nonzero components span at most 633 (the range test; 283 for ordering two
+ *    hits): 1e9 offsets with 1e-9 features are inside. The span is sufficient, not
+ *    necessary: the tests also get exact answers from coordinates near 1e308 with
+ *    features of 2^1000 and a unit direction. Finite limits are exact between about
+ *    2^-120 and 2^160. */
 int ray_tri_exact(vec3 o, vec3 d, double tmin, double tmax, const vec3 tri[3], ray_tri_hit *hit);
 
 /* Compare the exact t of two exact hits of the same ray: -1, 0, +1 for t_a <, =, > t_b.
