@@ -33,6 +33,7 @@
 #include <lcm/eventlog.h>
 
 #include "service/daemon.h"
+#include "support/scratch.h"
 #include "service/dispatch.h"
 #include "service/log.h"
 #include "service/options.h"
@@ -58,44 +59,6 @@
 
 /* ---------- scratch directory ---------- */
 
-typedef struct scratch {
-    char dir[64];
-} scratch;
-
-static void scratch_path(const scratch *s, const char *name, char *out, size_t len)
-{
-    snprintf(out, len, "%s/%s", s->dir, name);
-}
-
-static void scratch_write(const scratch *s, const char *name, const char *text)
-{
-    char path[256];
-    scratch_path(s, name, path, sizeof path);
-    FILE *f = fopen(path, "w");
-    assert_non_null(f);
-    fputs(text, f);
-    assert_int_equal(fclose(f), 0);
-}
-
-/* TRIOCT_KEEP_SCRATCH=1 keeps each test's directory (scene, logs, daemon log) to look at. */
-static void scratch_remove(const scratch *s)
-{
-    const char *keep = getenv("TRIOCT_KEEP_SCRATCH");
-    if (keep != NULL && keep[0] == '1') {
-        fprintf(stderr, "kept %s\n", s->dir);
-        return;
-    }
-    /* Only the names the tests write. */
-    const char *names[] = {"scene.ini", "scene.tmp", "box.obj", "big.obj", "in.log", "out.log",
-                           "daemon.log"};
-    for (size_t i = 0; i < sizeof names / sizeof names[0]; i++) {
-        char path[256];
-        scratch_path(s, names[i], path, sizeof path);
-        unlink(path);
-    }
-    rmdir(s->dir);
-}
-
 /* The unit cube [0,1]^3, two triangles a face, outward normals. */
 static const char box_obj[] = "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\n"
                               "v 0 0 1\nv 1 0 1\nv 1 1 1\nv 0 1 1\n"
@@ -103,21 +66,19 @@ static const char box_obj[] = "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\n"
                               "f 1 2 6\nf 1 6 5\nf 4 8 7\nf 4 7 3\n"
                               "f 1 5 8\nf 1 8 4\nf 2 3 7\nf 2 7 6\n";
 
-static void scratch_init(scratch *s)
+/* A scratch directory holding the unit cube. */
+static void scratch_setup(scratch *s)
 {
-    snprintf(s->dir, sizeof s->dir, "/tmp/trioct_daemon_log_XXXXXX");
-    assert_non_null(mkdtemp(s->dir));
+    scratch_init(s, "daemon_log");
     scratch_write(s, "box.obj", box_obj);
 }
 
-/* Replaces the scene in one rename, so the daemon never reads half a file. */
-static void write_scene(const scratch *s, const char *text)
+/* Only the names the tests write are removed. */
+static void scratch_teardown(const scratch *s)
 {
-    char tmp[256], path[256];
-    scratch_write(s, "scene.tmp", text);
-    scratch_path(s, "scene.tmp", tmp, sizeof tmp);
-    scratch_path(s, "scene.ini", path, sizeof path);
-    assert_int_equal(rename(tmp, path), 0);
+    static const char *const names[] = {"scene.ini", "scene.tmp", "box.obj", "big.obj", "in.log", "out.log",
+                                        "daemon.log", NULL};
+    scratch_remove(s, names);
 }
 
 /* ---------- the request log ---------- */
@@ -574,8 +535,8 @@ static void test_replay_answers_every_request(void **state)
 {
     (void)state;
     scratch s;
-    scratch_init(&s);
-    write_scene(&s, "[daemon]\n"
+    scratch_setup(&s);
+    scratch_write_scene(&s, "[daemon]\n"
                     "prefix = " PREFIX "\n"
                     "name = " DAEMON_NAME "\n"
                     "status_interval = 50\n"
@@ -808,7 +769,7 @@ static void test_replay_answers_every_request(void **state)
 
     free_out(out);
     free(out);
-    scratch_remove(&s);
+    scratch_teardown(&s);
 }
 
 /* ---------- backpressure ---------- */
@@ -822,8 +783,8 @@ static void test_replay_busy(void **state)
     enum { N = 100, DEPTH = 2 };
     _Static_assert(N < DAEMON_PUMP_BUDGET, "the test needs every request read in one wake-up");
     scratch s;
-    scratch_init(&s);
-    write_scene(&s, "[daemon]\nprefix = " PREFIX "\nname = " DAEMON_NAME "\n\n[box]\nmesh = box.obj\n");
+    scratch_setup(&s);
+    scratch_write_scene(&s, "[daemon]\nprefix = " PREFIX "\nname = " DAEMON_NAME "\n\n[box]\nmesh = box.obj\n");
     request_log rl;
     log_open(&rl, &s);
     for (int i = 0; i < N; i++)
@@ -868,7 +829,7 @@ static void test_replay_busy(void **state)
     assert_int_equal(last->malformed, 0);
     free_out(out);
     free(out);
-    scratch_remove(&s);
+    scratch_teardown(&s);
 }
 
 /* ---------- SIGHUP ---------- */
@@ -907,8 +868,8 @@ static void test_reload_on_sighup(void **state)
      * milliseconds; three seconds leave room for a loaded machine. */
     const int64_t LATER_US = 3000000;
     scratch s;
-    scratch_init(&s);
-    write_scene(&s, scene_v1);
+    scratch_setup(&s);
+    scratch_write_scene(&s, scene_v1);
 
     request_log rl;
     log_open(&rl, &s);
@@ -933,11 +894,11 @@ static void test_reload_on_sighup(void **state)
     wait_for_log(&r, "ready:", 1);
     wait_for_log(&r, "on " PREFIX "_LOAD_" DAEMON_NAME " answered OK", 2);
 
-    write_scene(&s, scene_v2);
+    scratch_write_scene(&s, scene_v2);
     kill(r.pid, SIGHUP);
     wait_for_log(&r, "reload done", 1);
     /* A scene that does not parse changes nothing. */
-    write_scene(&s, "[daemon\nprefix = " PREFIX "\n");
+    scratch_write_scene(&s, "[daemon\nprefix = " PREFIX "\n");
     kill(r.pid, SIGHUP);
     wait_for_log(&r, "the running scene stays", 1);
     daemon_expect_exit(&r, 0);
@@ -998,7 +959,7 @@ static void test_reload_on_sighup(void **state)
     assert_int_equal(count_in_file(r.log_path, "reload done: 2 built, 1 failed, 1 unloaded, 0 unchanged"), 1);
     free_out(out);
     free(out);
-    scratch_remove(&s);
+    scratch_teardown(&s);
 }
 
 /* ---------- SIGTERM ---------- */
@@ -1026,9 +987,9 @@ static void test_sigterm_finishes_work_in_hand(void **state)
 {
     (void)state;
     scratch s;
-    scratch_init(&s);
+    scratch_setup(&s);
     write_grid(&s, "big.obj", 300);
-    write_scene(&s, "[daemon]\nprefix = " PREFIX "\nname = " DAEMON_NAME "\n\n[box]\nmesh = box.obj\n");
+    scratch_write_scene(&s, "[daemon]\nprefix = " PREFIX "\nname = " DAEMON_NAME "\n\n[box]\nmesh = box.obj\n");
 
     /* A LOAD that takes a while, then a ray 20 ms later, while the LOAD still runs; the
      * log stays open-ended (no --exit-at-eof): only the signal stops the daemon. */
@@ -1068,7 +1029,7 @@ static void test_sigterm_finishes_work_in_hand(void **state)
     assert_int_equal(count_in_file(r.log_path, "stopped:"), 1);
     free_out(out);
     free(out);
-    scratch_remove(&s);
+    scratch_teardown(&s);
 }
 
 static void test_missing_input_log_fails_cleanly(void **state)
@@ -1076,14 +1037,14 @@ static void test_missing_input_log_fails_cleanly(void **state)
     (void)state;
     /* LCM cannot open a log that does not exist: the daemon says so and exits 1. */
     scratch s;
-    scratch_init(&s);
-    write_scene(&s, "[daemon]\nprefix = " PREFIX "\nname = " DAEMON_NAME "\n\n[box]\nmesh = box.obj\n");
+    scratch_setup(&s);
+    scratch_write_scene(&s, "[daemon]\nprefix = " PREFIX "\nname = " DAEMON_NAME "\n\n[box]\nmesh = box.obj\n");
     run r;
     const char *extra[] = {"--exit-at-eof", NULL};
     daemon_start(&r, &s, "", extra);
     daemon_expect_exit(&r, 1);
     assert_int_equal(count_in_file(r.log_path, "cannot open LCM on file://"), 1);
-    scratch_remove(&s);
+    scratch_teardown(&s);
 }
 
 int main(void)

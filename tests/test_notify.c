@@ -37,6 +37,7 @@
 #include <lcm/eventlog.h>
 
 #include "service/daemon.h"
+#include "support/scratch.h"
 #include "service/log.h"
 #include "service/notify.h"
 #include "service/options.h"
@@ -64,47 +65,17 @@ static int64_t wall_us(void)
 
 /* ---------- scratch directory ---------- */
 
-typedef struct scratch {
-    char dir[64];
-} scratch;
-
-static void scratch_path(const scratch *s, const char *name, char *out, size_t len)
+static void scratch_setup(scratch *s)
 {
-    snprintf(out, len, "%s/%s", s->dir, name);
+    scratch_init(s, "notify");
 }
 
-static void scratch_write(const scratch *s, const char *name, const char *text)
+/* Only the names the tests write are removed. */
+static void scratch_teardown(const scratch *s)
 {
-    char path[256];
-    scratch_path(s, name, path, sizeof path);
-    FILE *f = fopen(path, "w");
-    assert_non_null(f);
-    fputs(text, f);
-    assert_int_equal(fclose(f), 0);
-}
-
-static void scratch_init(scratch *s)
-{
-    snprintf(s->dir, sizeof s->dir, "/tmp/trioct_notify_XXXXXX");
-    assert_non_null(mkdtemp(s->dir));
-}
-
-/* TRIOCT_KEEP_SCRATCH=1 keeps the directory (scene, logs, the daemon's log) to look at. */
-static void scratch_remove(const scratch *s)
-{
-    const char *keep = getenv("TRIOCT_KEEP_SCRATCH");
-    if (keep != NULL && keep[0] == '1') {
-        fprintf(stderr, "kept %s\n", s->dir);
-        return;
-    }
-    const char *names[] = {"notify.sock", "scene.ini", "scene.tmp", "box.obj", "grid.obj",
-                           "tri.obj", "in.log", "out.log", "daemon.log"};
-    for (size_t i = 0; i < sizeof names / sizeof names[0]; i++) {
-        char path[256];
-        scratch_path(s, names[i], path, sizeof path);
-        unlink(path);
-    }
-    rmdir(s->dir);
+    static const char *const names[] = {"notify.sock", "scene.ini", "scene.tmp", "box.obj", "grid.obj",
+                                        "tri.obj", "in.log", "out.log", "daemon.log", NULL};
+    scratch_remove(s, names);
 }
 
 /* ---------- the fake NOTIFY_SOCKET ---------- */
@@ -297,12 +268,12 @@ static void test_path_socket_gets_exact_messages(void **state)
 {
     (void)state;
     scratch s;
-    scratch_init(&s);
+    scratch_setup(&s);
     listener l;
     listener_open(&l, &s);
     check_exact_messages(&l);
     listener_close(&l);
-    scratch_remove(&s);
+    scratch_teardown(&s);
 }
 
 static void test_abstract_socket_gets_exact_messages(void **state)
@@ -644,16 +615,6 @@ static const char box_obj[] = "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\n"
                               "f 1 2 6\nf 1 6 5\nf 4 8 7\nf 4 7 3\n"
                               "f 1 5 8\nf 1 8 4\nf 2 3 7\nf 2 7 6\n";
 
-/* Replaces the scene in one rename, so the daemon never reads half a file. */
-static void write_scene(const scratch *s, const char *text)
-{
-    char tmp[256], path[256];
-    scratch_write(s, "scene.tmp", text);
-    scratch_path(s, "scene.tmp", tmp, sizeof tmp);
-    scratch_path(s, "scene.ini", path, sizeof path);
-    assert_int_equal(rename(tmp, path), 0);
-}
-
 /* n CLOSEST rays up into the box, as the input log of a file:// daemon. */
 static void write_ray_log(const scratch *s, int n)
 {
@@ -699,11 +660,11 @@ static void test_daemon_tells_systemd_every_state(void **state)
 {
     (void)state;
     scratch s;
-    scratch_init(&s);
+    scratch_setup(&s);
     scratch_write(&s, "box.obj", box_obj);
     scratch_write(&s, "tri.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n");
     write_grid(&s, "grid.obj", 200);
-    write_scene(&s, SCENE_HEAD "[box]\nmesh = box.obj\n\n[grid]\nmesh = grid.obj\n");
+    scratch_write_scene(&s, SCENE_HEAD "[box]\nmesh = box.obj\n\n[grid]\nmesh = grid.obj\n");
     write_ray_log(&s, 3);
     listener l;
     listener_open(&l, &s);
@@ -746,7 +707,7 @@ static void test_daemon_tells_systemd_every_state(void **state)
 
     /* SIGHUP with a third world: RELOADING=1 stamped with CLOCK_MONOTONIC, then READY=1
      * once the new world is in. */
-    write_scene(&s, SCENE_HEAD "[box]\nmesh = box.obj\n\n[grid]\nmesh = grid.obj\n\n"
+    scratch_write_scene(&s, SCENE_HEAD "[box]\nmesh = box.obj\n\n[grid]\nmesh = grid.obj\n\n"
                                "[tri]\nmesh = tri.obj\n");
     int64_t before = mono_us();
     assert_int_equal(kill(r.pid, SIGHUP), 0);
@@ -771,16 +732,16 @@ static void test_daemon_tells_systemd_every_state(void **state)
             fail_msg("'%s' after STOPPING=1", late);
     }
     listener_close(&l);
-    scratch_remove(&s);
+    scratch_teardown(&s);
 }
 
 /* On the bus url: READY=1 once the self-test heard its token through the daemon's loop. */
 static void check_ready_after_self_test(const char *url)
 {
     scratch s;
-    scratch_init(&s);
+    scratch_setup(&s);
     scratch_write(&s, "box.obj", box_obj);
-    write_scene(&s, SCENE_HEAD "[box]\nmesh = box.obj\n");
+    scratch_write_scene(&s, SCENE_HEAD "[box]\nmesh = box.obj\n");
     listener l;
     listener_open(&l, NULL); /* abstract, as some managers hand out */
     /* The watchdog is meant for another process (the test): this daemon must not ping. */
@@ -804,7 +765,7 @@ static void check_ready_after_self_test(const char *url)
         assert_string_not_equal(l.msgs[i].text, "WATCHDOG=1");
     assert_int_equal(count_in_file(r.log_path, "watchdog: WATCHDOG=1 every"), 0);
     listener_close(&l);
-    scratch_remove(&s);
+    scratch_teardown(&s);
 }
 
 static void test_daemon_on_a_bus_is_ready_after_the_self_test(void **state)
