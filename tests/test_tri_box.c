@@ -308,6 +308,40 @@ static void test_octants_reached_are_the_children_a_region_meets(void **state)
     assert_true(touching > 1000);
 }
 
+/* box_octants_holding names exactly the children whose closed boxes hold one of the
+ * points: points on split planes, faces and corners, inside and outside the box. */
+static void test_octants_holding_are_the_children_holding_a_point(void **state)
+{
+    rng r = test_rng(state, 10);
+    int on_split = 0, outside = 0;
+    for (int n = 0; n < 20000; n++) {
+        box3 box = random_box(&r);
+        vec3 c = box_split_point(box);
+        vec3 p[3] = {{0, 0, 0}, {0, 0, 0}, {0, 0, 0}};
+        for (int t = 0; t < 3; t++)
+            for (int a = 0; a < 3; a++) {
+                double l = coord(box.lo, a), h = coord(box.hi, a), m = coord(c, a), w = h - l;
+                double pick[7] = {l, m, h, l + (m - l) * 0.5, m + (h - m) * 0.5, l - 0.25 * w, h + 0.25 * w};
+                double x = pick[rng_int(&r, 0, 6)];
+                p[t] = vec3_with(p[t], a, x);
+                on_split += x == m;
+                outside += x < l || x > h;
+            }
+        unsigned want = 0;
+        for (int k = 0; k < 8; k++) {
+            box3 child = box_octant(box, k);
+            for (int t = 0; t < 3; t++) {
+                int in = 1;
+                for (int a = 0; a < 3; a++)
+                    in &= coord(p[t], a) >= coord(child.lo, a) && coord(p[t], a) <= coord(child.hi, a);
+                want |= (unsigned)in << k;
+            }
+        }
+        assert_int_equal(box_octants_holding(p, box, c), want);
+    }
+    assert_true(on_split > 1000 && outside > 1000);
+}
+
 static void test_box_octants_equal_seed_table_and_share_faces(void **state)
 {
     rng r = test_rng(state, 2);
@@ -754,6 +788,42 @@ static void test_exact_equals_reference_on_uniform_cases(void **state)
     assert_true(overlaps > cases / 5 && overlaps < cases * 4 / 5);
 }
 
+/* One preparation serves every box a triangle meets on its way down a tree: the node
+ * itself, its eight children (which share the split planes, where touching is decided by
+ * an exact zero) and a box the triangle never reaches. Each answer must equal the
+ * reference, so nothing the preparation computes may depend on the box tested first. */
+static void test_prepared_triangle_against_a_node_and_its_children(void **state)
+{
+    rng r = test_rng(state, 5);
+    int cases = 10000, answers = 0, overlaps = 0, mismatches = 0;
+    for (int n = 0; n < cases; n++) {
+        vec3 tri[3];
+        box3 box;
+        near_degenerate_case(&r, tri, &box);
+        tri_box_triangle prepared;
+        tri_box_prepare(&prepared, tri);
+        box3 boxes[10];
+        boxes[0] = box;
+        for (int k = 0; k < 8; k++)
+            boxes[1 + k] = box_octant(box, k);
+        vec3 far = v3(4 * fabs(box.hi.x) + 1e3, 0, 0);
+        boxes[9] = (box3){vec3_add(box.lo, far), vec3_add(box.hi, far)};
+        for (int b = 0; b < 10; b++) {
+            int expected = reference_tri_box(tri, boxes[b]);
+            int got = tri_box_overlap_prepared(&prepared, boxes[b]);
+            answers++;
+            overlaps += expected;
+            if (got != expected && mismatches++ < 5) {
+                printf("box %d: prepared %d, reference %d: ", b, got, expected);
+                print_case("mismatch", tri, boxes[b]);
+            }
+        }
+    }
+    printf("prepared: %d answers, %d overlapping, %d mismatches\n", answers, overlaps, mismatches);
+    assert_int_equal(mismatches, 0);
+    assert_true(overlaps > answers / 5 && overlaps < answers * 4 / 5);
+}
+
 static box3 grow_box(box3 box, double margin)
 {
     return (box3){vec3_sub(box.lo, v3(margin, margin, margin)),
@@ -888,6 +958,7 @@ int main(void)
         cmocka_unit_test(test_box_face_geometry_equals_seed_formulas),
         cmocka_unit_test(test_box_octants_equal_seed_table_and_share_faces),
         cmocka_unit_test(test_octants_reached_are_the_children_a_region_meets),
+        cmocka_unit_test(test_octants_holding_are_the_children_holding_a_point),
         cmocka_unit_test(test_exact_triangle_inside_box),
         cmocka_unit_test(test_exact_large_triangle_cutting_through_box),
         cmocka_unit_test(test_exact_touching_face_edge_corner_from_outside),
@@ -899,6 +970,7 @@ int main(void)
         cmocka_unit_test(test_exact_tiny_triangles),
         cmocka_unit_test(test_exact_equals_reference_on_near_degenerate_cases),
         cmocka_unit_test(test_exact_equals_reference_on_uniform_cases),
+        cmocka_unit_test(test_prepared_triangle_against_a_node_and_its_children),
         cmocka_unit_test(test_seed_and_fast_agree_with_reference_on_clear_cases),
         cmocka_unit_test(test_seed_mode_zero_area_triangles),
         cmocka_unit_test(test_seed_mode_follows_its_epsilon),

@@ -60,6 +60,20 @@ static inline unsigned box_octants_reached(vec3 lo, vec3 hi, vec3 c)
            box_octants_by_half[2][(lo.z <= c.z) | (hi.z >= c.z) << 1];
 }
 
+/* The children of a box with split point c whose closed boxes hold one of the three
+ * points (a point on a split plane is in the children on both sides). A triangle with a
+ * vertex in a child touches it: this settles most children a straddling triangle reaches
+ * with comparisons only. */
+static inline unsigned box_octants_holding(const vec3 p[3], box3 box, vec3 c)
+{
+    unsigned held = 0;
+    for (int n = 0; n < 3; n++)
+        if (p[n].x >= box.lo.x && p[n].x <= box.hi.x && p[n].y >= box.lo.y && p[n].y <= box.hi.y &&
+            p[n].z >= box.lo.z && p[n].z <= box.hi.z)
+            held |= box_octants_reached(p[n], p[n], c);
+    return held;
+}
+
 /* V_ij: vertex j (0..3) of face i (0..5), in the seed's anti-clockwise order. */
 vec3 box_face_vertex(box3 box, int face, int j);
 /* E_ij = V_i(j+1) - V_ij. */

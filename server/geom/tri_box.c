@@ -26,132 +26,174 @@
  * the box axes alone, which the bounding-box rejection and the vertex-inside acceptance
  * cover. So the same code is exact for triangles, segments and points. */
 
-/* Coordinates as arrays so the axis tests can be written once for all three axes. */
-typedef struct exact_input {
-    double v[3][3]; /* triangle vertices */
-    double lo[3], hi[3];
-} exact_input;
-
-static int cmp_sign(double a, double b) { return (a > b) - (a < b); }
-
-/* The separating test along u_k x (q - p), with the values projected relative to p:
- * f(x) = ((x - p) x (q - p))_k, which is 0 at p and q and w = f(r) at the third vertex, so
- * the triangle covers [min(0, w), max(0, w)]. f depends only on the two coordinates i, j
- * other than k, so the box covers [f(m), f(M)] with m, M the corners of its projected
- * rectangle picked by the signs of (q - p)_i and (q - p)_j. Every comparison is the sign
- * of an expression (a - b)(c - d) - (e - f)(g - h), decided exactly. */
-static int edge_axis_separates(const exact_input *in, int p_index, int q_index, int r_index, int k)
+/* The separating test along u_k x (q - p) for edge p -> q (third vertex r), with the
+ * values projected relative to p: f(x) = ((x - p) x (q - p))_k, which is 0 at p and q and
+ * w = f(r) at the third vertex, so the triangle covers [min(0, w), max(0, w)]. w is minus
+ * component k of the triangle's normal, so its sign is known exactly from the
+ * preparation, and each side of the interval is one comparison. f depends only on the two
+ * coordinates i, j other than k, so the box covers [f(m), f(M)] with m, M the corners of
+ * its projected rectangle picked by the signs of (q - p)_i and (q - p)_j.
+ * Every comparison is the sign of an expression (a - b)(c - d) - (e - f)(g - h): f(x)
+ * itself, or f(x) - w = ((x - r) x (q - p))_k. The filter evaluates sign_diff_products'
+ * expression and bound with the box-independent factors c - d and g - h taken from the
+ * preparation (the same roundings, done once); an undecided sign goes to the same exact
+ * stage with the original operands. */
+static inline int prepared_sign(double a, double b, double c_minus_d, double e, double f, double g_minus_h,
+                                double c, double d, double g, double h)
 {
-    const double *p = in->v[p_index], *q = in->v[q_index], *r = in->v[r_index];
+    double left = (a - b) * c_minus_d;
+    double right = (e - f) * g_minus_h;
+    double det = left - right;
+    if (det != 0.0) {
+        double bound = PREDICATES_ERRBOUND_DIFF_PRODUCTS * (fabs(left) + fabs(right)) + PREDICATES_UNDERFLOW_ABSOLUTE;
+        if (fabs(det) > bound)
+            return (det > 0.0) - (det < 0.0);
+    }
+    return sign_diff_products_undecided(a, b, c, d, e, f, g, h);
+}
+
+static int edge_axis_separates(const tri_box_triangle *t, int edge, int k, const double lo[3], const double hi[3])
+{
     int i = k == 2 ? 0 : k + 1;
     int j = k == 0 ? 2 : k - 1;
-    int ei = cmp_sign(q[i], p[i]);
-    int ej = cmp_sign(q[j], p[j]);
-    if (ei == 0 && ej == 0)
+    /* A rounded difference has the exact difference's sign, so these decide exactly. */
+    double dj = t->edge_delta[edge][j], di = t->edge_delta[edge][i];
+    if (di == 0.0 && dj == 0.0)
         return 0; /* the edge is parallel to axis k or has zero length: no axis */
+    const double *p = t->v[edge], *q = t->v[edge == 2 ? 0 : edge + 1], *r = t->v[edge == 0 ? 2 : edge - 1];
+    int w_sign = -t->normal_sign[k];
 
     /* f grows with x_i when (q - p)_j > 0 and falls with x_j when (q - p)_i > 0. */
-    double m_i = ej > 0 ? in->lo[i] : in->hi[i];
-    double m_j = ei > 0 ? in->hi[j] : in->lo[j];
-    double big_i = ej > 0 ? in->hi[i] : in->lo[i];
-    double big_j = ei > 0 ? in->lo[j] : in->hi[j];
+    double m_i = dj > 0 ? lo[i] : hi[i];
+    double m_j = di > 0 ? hi[j] : lo[j];
+    double big_i = dj > 0 ? hi[i] : lo[i];
+    double big_j = di > 0 ? lo[j] : hi[j];
 
-    /* Box wholly above the triangle: f(m) > 0 and f(m) > f(r). */
-    if (sign_diff_products(m_i, p[i], q[j], p[j], m_j, p[j], q[i], p[i]) > 0 &&
-        sign_diff_products(m_i, r[i], q[j], p[j], m_j, r[j], q[i], p[i]) > 0)
+    /* Box wholly above the triangle: f(m) > max(0, w). */
+    const double *top = w_sign > 0 ? r : p;
+    if (prepared_sign(m_i, top[i], dj, m_j, top[j], di, q[j], p[j], q[i], p[i]) > 0)
         return 1;
-    /* Box wholly below: f(M) < 0 and f(M) < f(r). */
-    if (sign_diff_products(big_i, p[i], q[j], p[j], big_j, p[j], q[i], p[i]) < 0 &&
-        sign_diff_products(big_i, r[i], q[j], p[j], big_j, r[j], q[i], p[i]) < 0)
-        return 1;
-    return 0;
+    /* Box wholly below: f(M) < min(0, w). */
+    const double *bottom = w_sign < 0 ? r : p;
+    return prepared_sign(big_i, bottom[i], dj, big_j, bottom[j], di, q[j], p[j], q[i], p[i]) < 0;
 }
 
 /* The plane of the triangle separates iff the box corner lowest along the normal is
  * strictly above it or the highest is strictly below; the exact sign of each normal
  * component picks those corners, orient3d places them. */
-static int normal_axis_separates(const vec3 tri[3], box3 box)
+static int normal_axis_separates(const tri_box_triangle *t, const double lo[3], const double hi[3])
 {
-    int nx = orient2d_axis(tri[1], tri[2], tri[0], 0);
-    int ny = orient2d_axis(tri[1], tri[2], tri[0], 1);
-    int nz = orient2d_axis(tri[1], tri[2], tri[0], 2);
-    if (nx == 0 && ny == 0 && nz == 0)
+    const int *n = t->normal_sign;
+    if (n[0] == 0 && n[1] == 0 && n[2] == 0)
         return 0; /* zero area: no plane */
-    vec3 lowest = vec3_make(nx > 0 ? box.lo.x : box.hi.x, ny > 0 ? box.lo.y : box.hi.y,
-                            nz > 0 ? box.lo.z : box.hi.z);
-    if (orient3d(tri[0], tri[1], tri[2], lowest) > 0)
+    vec3 lowest = vec3_make(n[0] > 0 ? lo[0] : hi[0], n[1] > 0 ? lo[1] : hi[1], n[2] > 0 ? lo[2] : hi[2]);
+    int below = orient3d_plane_filter(&t->plane, lowest);
+    if (below == PREDICATES_UNDECIDED)
+        below = orient3d_plane_exact(&t->plane, lowest);
+    if (below > 0)
         return 1;
-    vec3 highest = vec3_make(nx > 0 ? box.hi.x : box.lo.x, ny > 0 ? box.hi.y : box.lo.y,
-                             nz > 0 ? box.hi.z : box.lo.z);
-    return orient3d(tri[0], tri[1], tri[2], highest) < 0;
+    vec3 highest = vec3_make(n[0] > 0 ? hi[0] : lo[0], n[1] > 0 ? hi[1] : lo[1], n[2] > 0 ? hi[2] : lo[2]);
+    int above = orient3d_plane_filter(&t->plane, highest);
+    if (above == PREDICATES_UNDECIDED)
+        above = orient3d_plane_exact(&t->plane, highest);
+    return above < 0;
 }
 
-/* 1 when a point of the triangle is certainly inside the box: an edge midpoint or the
- * centroid, computed in double, lying inside by more than its rounding error, so the exact
- * point lies inside too. Most triangles straddling a node's split plane do touch the child
- * tested, and this settles them without the thirteen axis tests. */
-static int interior_point_inside(const vec3 tri[3], box3 box)
+/* 0.5 * (a + b) is off by at most one rounding of the sum, (a + b + c) / 3 by three;
+ * 4 u (|a| + |b| + |c|) bounds both with room to spare. */
+#define SAMPLE_ROUNDING (4 * 0x1p-53)
+
+void tri_box_prepare(tri_box_triangle *t, const vec3 tri[3])
 {
-    /* 0.5 * (a + b) is off by at most one rounding of the sum, (a + b + c) / 3 by three;
-     * 4 u (|a| + |b| + |c|) bounds both with room to spare. */
-    const double u4 = 4 * 0x1p-53;
-    double lo[3] = {box.lo.x, box.lo.y, box.lo.z}, hi[3] = {box.hi.x, box.hi.y, box.hi.z};
-    double v[3][3] = {{tri[0].x, tri[0].y, tri[0].z}, {tri[1].x, tri[1].y, tri[1].z}, {tri[2].x, tri[2].y, tri[2].z}};
-    for (int p = 0; p < 4; p++) {
-        int inside = 1;
-        for (int k = 0; k < 3 && inside; k++) {
-            double a = v[0][k], b = v[1][k], c = v[2][k], x, tol;
-            if (p < 3) {
-                double e0 = v[p][k], e1 = v[(p + 1) % 3][k];
+    for (int n = 0; n < 3; n++) {
+        t->v[n][0] = tri[n].x;
+        t->v[n][1] = tri[n].y;
+        t->v[n][2] = tri[n].z;
+    }
+    for (int k = 0; k < 3; k++) {
+        double a = t->v[0][k], b = t->v[1][k], c = t->v[2][k];
+        t->lo[k] = a < b ? (a < c ? a : c) : (b < c ? b : c);
+        t->hi[k] = a > b ? (a > c ? a : c) : (b > c ? b : c);
+    }
+    t->ready = 0;
+}
+
+/* Samples 0-2: the edge midpoints; 3: the centroid. */
+static void prepare_samples(tri_box_triangle *t)
+{
+    for (int s = 0; s < 4; s++)
+        for (int k = 0; k < 3; k++) {
+            double a = t->v[0][k], b = t->v[1][k], c = t->v[2][k], x, tol;
+            if (s < 3) {
+                double e0 = t->v[s][k], e1 = t->v[s == 2 ? 0 : s + 1][k];
                 x = 0.5 * (e0 + e1);
-                tol = u4 * (fabs(e0) + fabs(e1)) + 0x1p-1070;
+                tol = SAMPLE_ROUNDING * (fabs(e0) + fabs(e1)) + 0x1p-1070;
             } else {
                 x = (a + b + c) / 3.0;
-                tol = u4 * (fabs(a) + fabs(b) + fabs(c)) + 0x1p-1070;
+                tol = SAMPLE_ROUNDING * (fabs(a) + fabs(b) + fabs(c)) + 0x1p-1070;
             }
-            inside = x - tol > lo[k] && x + tol < hi[k];
+            t->sample_lo[s][k] = x - tol;
+            t->sample_hi[s][k] = x + tol;
         }
-        if (inside)
+    t->ready |= TRI_BOX_SAMPLES;
+}
+
+static void prepare_axes(tri_box_triangle *t)
+{
+    vec3 tri[3];
+    for (int n = 0; n < 3; n++)
+        tri[n] = vec3_make(t->v[n][0], t->v[n][1], t->v[n][2]);
+    for (int k = 0; k < 3; k++)
+        t->normal_sign[k] = orient2d_axis(tri[1], tri[2], tri[0], k);
+    t->plane = orient3d_plane_make(tri[0], tri[1], tri[2]);
+    for (int e = 0; e < 3; e++) {
+        const double *p = t->v[e], *q = t->v[e == 2 ? 0 : e + 1];
+        for (int k = 0; k < 3; k++)
+            t->edge_delta[e][k] = q[k] - p[k];
+    }
+    t->ready |= TRI_BOX_AXES;
+}
+
+int tri_box_overlap_prepared(tri_box_triangle *t, box3 box)
+{
+    const double lo[3] = {box.lo.x, box.lo.y, box.lo.z}, hi[3] = {box.hi.x, box.hi.y, box.hi.z};
+
+    /* The box axes: plain comparisons are exact. */
+    for (int k = 0; k < 3; k++)
+        if (t->lo[k] > hi[k] || t->hi[k] < lo[k])
+            return 0;
+    for (int n = 0; n < 3; n++) {
+        const double *v = t->v[n];
+        if (v[0] >= lo[0] && v[0] <= hi[0] && v[1] >= lo[1] && v[1] <= hi[1] && v[2] >= lo[2] && v[2] <= hi[2])
             return 1;
     }
-    return 0;
+    /* A point of the triangle certainly inside the box: an edge midpoint or the centroid,
+     * computed in double, inside by more than its rounding error, so the exact point is
+     * inside too. Most triangles straddling a node's split plane do touch the child
+     * tested, and this settles them without the thirteen axis tests. */
+    if (!(t->ready & TRI_BOX_SAMPLES))
+        prepare_samples(t);
+    for (int s = 0; s < 4; s++) {
+        const double *a = t->sample_lo[s], *b = t->sample_hi[s];
+        if (a[0] > lo[0] && b[0] < hi[0] && a[1] > lo[1] && b[1] < hi[1] && a[2] > lo[2] && b[2] < hi[2])
+            return 1;
+    }
+    if (!(t->ready & TRI_BOX_AXES))
+        prepare_axes(t);
+    if (normal_axis_separates(t, lo, hi))
+        return 0;
+    for (int k = 0; k < 3; k++)
+        for (int e = 0; e < 3; e++)
+            if (edge_axis_separates(t, e, k, lo, hi))
+                return 0;
+    return 1;
 }
 
 int tri_box_overlap_exact(const vec3 tri[3], box3 box)
 {
-    exact_input in;
-    for (int t = 0; t < 3; t++) {
-        in.v[t][0] = tri[t].x;
-        in.v[t][1] = tri[t].y;
-        in.v[t][2] = tri[t].z;
-    }
-    in.lo[0] = box.lo.x, in.lo[1] = box.lo.y, in.lo[2] = box.lo.z;
-    in.hi[0] = box.hi.x, in.hi[1] = box.hi.y, in.hi[2] = box.hi.z;
-
-    /* The box axes: plain comparisons are exact. */
-    for (int k = 0; k < 3; k++) {
-        double a = in.v[0][k], b = in.v[1][k], c = in.v[2][k];
-        double tri_min = a < b ? (a < c ? a : c) : (b < c ? b : c);
-        double tri_max = a > b ? (a > c ? a : c) : (b > c ? b : c);
-        if (tri_min > in.hi[k] || tri_max < in.lo[k])
-            return 0;
-    }
-    for (int t = 0; t < 3; t++) {
-        if (in.v[t][0] >= in.lo[0] && in.v[t][0] <= in.hi[0] && in.v[t][1] >= in.lo[1] &&
-            in.v[t][1] <= in.hi[1] && in.v[t][2] >= in.lo[2] && in.v[t][2] <= in.hi[2])
-            return 1;
-    }
-
-    if (interior_point_inside(tri, box))
-        return 1;
-    if (normal_axis_separates(tri, box))
-        return 0;
-    for (int k = 0; k < 3; k++) {
-        if (edge_axis_separates(&in, 0, 1, 2, k) || edge_axis_separates(&in, 1, 2, 0, k) ||
-            edge_axis_separates(&in, 2, 0, 1, k))
-            return 0;
-    }
-    return 1;
+    tri_box_triangle t;
+    tri_box_prepare(&t, tri);
+    return tri_box_overlap_prepared(&t, box);
 }
 
 /* ---------- seed ---------- */

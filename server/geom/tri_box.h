@@ -3,11 +3,34 @@
 #ifndef TRIOCT_GEOM_TRI_BOX_H
 #define TRIOCT_GEOM_TRI_BOX_H
 
+#include "predicates.h"
 #include "vec3.h"
 
 /* 1 when the closed triangle touches the closed box, decided exactly on the double inputs
  * (separating-axis test whose every comparison is an exact predicate). */
 int tri_box_overlap_exact(const vec3 tri[3], box3 box);
+
+/* The exact test split in two, for a triangle tested against many boxes (a query triangle
+ * against every node it descends into; a triangle straddling a node's split planes against
+ * the children it reaches): the triangle's part is computed once, and each box costs only
+ * its own part. tri_box_overlap_exact is one preparation and one prepared test, so the
+ * answers are the same. Parts are computed on first need (most boxes are settled by a
+ * vertex inside them), so the test writes to the struct: a prepared triangle is never
+ * shared between threads. */
+enum { TRI_BOX_SAMPLES = 1, TRI_BOX_AXES = 2 };
+
+typedef struct tri_box_triangle {
+    double v[3][3];            /* vertices, by coordinate */
+    double lo[3], hi[3];       /* exact bounds */
+    double edge_delta[3][3];   /* fl(q - p) for edge e = v[e] -> v[e + 1], per coordinate */
+    int normal_sign[3];        /* exact signs of the normal's components (all 0: zero area) */
+    double sample_lo[3 + 1][3], sample_hi[3 + 1][3]; /* edge midpoints and centroid, widened by their rounding */
+    orient3d_plane plane;
+    unsigned ready;            /* TRI_BOX_SAMPLES: the samples are set; TRI_BOX_AXES: the rest */
+} tri_box_triangle;
+
+void tri_box_prepare(tri_box_triangle *t, const vec3 tri[3]);
+int tri_box_overlap_prepared(tri_box_triangle *t, box3 box);
 
 /* The seed document's three-step test with its epsilon, as written: vertex in box; box
  * edges (faces 0-3 x edges 0-2) against the triangle; triangle edges against the six

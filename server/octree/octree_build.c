@@ -90,9 +90,10 @@ typedef struct shared_list {
     uint32_t count;
     int pending_children;
     box3 box; /* the box of the node that owns the list: every listed triangle touches it */
-    /* Exact mode: per item, bit k set when the item's bounds, clipped to `box`, reach the
-     * seed's octant k. Computed once by the owner so that each of its eight children reads
-     * one byte per item instead of the item's bounds. NULL for the root's list. */
+    /* Exact mode: per item, bit k set when the item touches the seed's octant k of `box`.
+     * Computed once by the owner so that each of its eight children reads one byte per
+     * item, and a straddling item's test is prepared once for all its children. NULL for
+     * the root's list. */
     uint8_t *reach;
 } shared_list;
 
@@ -116,37 +117,47 @@ typedef struct build_ctx {
 } build_ctx;
 
 /* Membership of the parent list's item i in a node's closed box, in the tree's mode. In
- * exact mode the cheap tests come first and are exact comparisons: a triangle whose bounds
- * miss the box misses it, and a triangle known to touch the parent whose bounds, clipped
- * to the parent, reach only this child touches this child (the touching point lies in
- * that clipped region). Only triangles straddling a split plane reach the full test. */
+ * exact mode the parent has decided it already for all eight children (see shared_list). */
 static int triangle_in_node(const build_ctx *ctx, const shared_list *parent, uint32_t i, const build_entry *e)
 {
-    const vec3 *tri = octree_triangle_at(ctx->tree, parent->items[i]);
     if (ctx->def->mode != ACCURACY_EXACT) {
+        const vec3 *tri = octree_triangle_at(ctx->tree, parent->items[i]);
         return ctx->def->mode == ACCURACY_SEED ? tri_box_overlap_seed(tri, e->box, ctx->def->seed_epsilon)
                                                : tri_box_overlap_fast(tri, e->box);
     }
-    if (parent->reach) {
-        unsigned reach = parent->reach[i];
-        if (!(reach & (1u << e->octant)))
-            return 0;
-        if ((reach & (reach - 1)) == 0)
-            return 1;
-        return tri_box_overlap_exact(tri, e->box);
-    }
     /* The root: every triangle lies inside the world cube. */
-    return 1;
+    return parent->reach ? (parent->reach[i] >> e->octant) & 1 : 1;
 }
 
-/* The reach bytes of a new interior node's list (see shared_list). */
+/* The children a new interior node's items touch (see shared_list), exactly. The cheap
+ * tests come first and are exact comparisons: a child the item's bounds, clipped to the
+ * node, do not reach is not touched; when they reach one child only, the item touches it
+ * (it touches the node, and the touching point lies in the clipped bounds). An item
+ * straddling a split plane touches the children holding one of its vertices; only the
+ * other children it reaches take the full test, prepared once for all of them. The child boxes are box_octant's (the same split, the same box_child), the ones
+ * the children are built with. */
 static void compute_reach(const build_ctx *ctx, shared_list *list)
 {
     box3 box = list->box;
     vec3 c = box_split_point(box);
+    box3 child[8];
+    for (int k = 0; k < 8; k++)
+        child[k] = box_child(box, c, box_octant_upper_bits[k]);
     for (uint32_t i = 0; i < list->count; i++) {
         triangle_bounds b = ctx->bounds[list->items[i]];
-        list->reach[i] = (uint8_t)box_octants_reached(vec3_max(b.lo, box.lo), vec3_min(b.hi, box.hi), c);
+        unsigned reach = box_octants_reached(vec3_max(b.lo, box.lo), vec3_min(b.hi, box.hi), c);
+        if (reach & (reach - 1)) {
+            const vec3 *tri = octree_triangle_at(ctx->tree, list->items[i]);
+            unsigned open = reach & ~box_octants_holding(tri, box, c);
+            if (open) {
+                tri_box_triangle t;
+                tri_box_prepare(&t, tri);
+                for (int k = 0; k < 8; k++)
+                    if ((open >> k) & 1 && !tri_box_overlap_prepared(&t, child[k]))
+                        reach &= ~(1u << k);
+            }
+        }
+        list->reach[i] = (uint8_t)reach;
     }
 }
 
@@ -228,9 +239,22 @@ static octree_status build_nodes(build_ctx *ctx, int max_level)
             release_list(e.parent);
             goto unwind;
         }
-        for (uint32_t i = 0; i < e.parent->count; i++)
-            if (triangle_in_node(ctx, e.parent, i, &e))
-                scratch.items[scratch.count++] = e.parent->items[i];
+        if (e.parent->reach) {
+            /* Exact mode below the root: the parent's bytes decide. Appended without a
+             * branch: which items a child takes follows no pattern a predictor learns. */
+            const uint8_t *reach = e.parent->reach;
+            const uint32_t *items = e.parent->items;
+            size_t n = 0;
+            for (uint32_t i = 0; i < e.parent->count; i++) {
+                scratch.items[n] = items[i];
+                n += (reach[i] >> e.octant) & 1;
+            }
+            scratch.count = n;
+        } else {
+            for (uint32_t i = 0; i < e.parent->count; i++)
+                if (triangle_in_node(ctx, e.parent, i, &e))
+                    scratch.items[scratch.count++] = e.parent->items[i];
+        }
         release_list(e.parent);
 
         if (scratch.count == 0 || e.level >= max_level) {
@@ -280,9 +304,11 @@ static octree_status build_nodes(build_ctx *ctx, int max_level)
             goto unwind;
         }
         uint32_t first = tree->nodes[e.node].first;
+        vec3 c = box_split_point(e.box);
         /* Octants pushed 1..8, so the stack pops them 8..1, as the seed's loop does. */
         for (int k = 0; k < 8; k++)
-            stack[top++] = (build_entry){first + (uint32_t)k, e.level + 1, k, box_octant(e.box, k), list};
+            stack[top++] = (build_entry){first + (uint32_t)k, e.level + 1, k,
+                                         box_child(e.box, c, box_octant_upper_bits[k]), list};
     }
 
     free(scratch.items);

@@ -16,7 +16,9 @@ typedef struct tri_entry {
     box3 box;
 } tri_entry;
 
-static int node_touched(const octree *tree, const vec3 q[3], box3 qb, box3 box, accuracy_mode mode)
+/* prepared: q made ready once per query for the exact test (exact mode only). */
+static int node_touched(const octree *tree, const vec3 q[3], tri_box_triangle *prepared, box3 box,
+                        accuracy_mode mode)
 {
     switch (mode) {
     case ACCURACY_SEED:
@@ -26,10 +28,7 @@ static int node_touched(const octree *tree, const vec3 q[3], box3 qb, box3 box, 
     case ACCURACY_EXACT:
         break;
     }
-    if (qb.lo.x > box.hi.x || qb.lo.y > box.hi.y || qb.lo.z > box.hi.z || qb.hi.x < box.lo.x ||
-        qb.hi.y < box.lo.y || qb.hi.z < box.lo.z)
-        return 0;
-    return tri_box_overlap_exact(q, box);
+    return tri_box_overlap_prepared(prepared, box);
 }
 
 /* prepared: q made ready once per query for the exact test (exact mode only). */
@@ -85,8 +84,9 @@ static int id_list_push(id_list *l, uint32_t id)
  * Every node on the stack is touched by q (exact mode: exactly; other modes: by their own
  * test). A touched interior node classifies q's bounds, clipped to its box, against its
  * split planes once: children those bounds miss are not touched; when they reach a single
- * child, q touches that child (the touching point lies in the clipped bounds); only when
- * they reach several does a child need the full triangle-box test.
+ * child, q touches that child (the touching point lies in the clipped bounds); when they
+ * reach several, q touches those holding one of its vertices, and only the others need
+ * the full triangle-box test.
  *
  * With triangle boxes, exact mode skips a candidate whose outward box is strictly apart
  * from q's: two closed triangles whose boxes do not meet share no point, so the exact test
@@ -105,8 +105,11 @@ static octree_status triangle_search(const octree *tree, const vec3 q[3], accura
     /* The query's side of the exact test (its bounds, plane and projection) depends on q
      * alone: computed here once instead of once per candidate. */
     tri_tri_query prepared;
-    if (mode == ACCURACY_EXACT)
+    tri_box_triangle prepared_box;
+    if (mode == ACCURACY_EXACT) {
         tri_tri_query_prepare(&prepared, q);
+        tri_box_prepare(&prepared_box, q);
+    }
     id_set tested;
     id_set_init(&tested);
     octree_status st = OCTREE_OK;
@@ -115,7 +118,7 @@ static octree_status triangle_search(const octree *tree, const vec3 q[3], accura
     tri_entry stack[OCTREE_STACK_MAX];
     size_t top = 0;
     stats->nodes_visited++;
-    if (node_touched(tree, q, qb, tree->world, mode))
+    if (node_touched(tree, q, &prepared_box, tree->world, mode))
         stack[top++] = (tri_entry){0, tree->world};
     while (top > 0) {
         tri_entry e = stack[--top];
@@ -125,14 +128,17 @@ static octree_status triangle_search(const octree *tree, const vec3 q[3], accura
             vec3 c = box_split_point(b);
             vec3 lo = vec3_max(qb.lo, b.lo), hi = vec3_min(qb.hi, b.hi);
             unsigned reach = box_octants_reached(lo, hi, c);
-            int single = (reach & (reach - 1)) == 0;
+            /* Exact mode: children known touched without the full test. */
+            unsigned known = 0;
+            if (mode == ACCURACY_EXACT)
+                known = (reach & (reach - 1)) == 0 ? reach : box_octants_holding(q, b, c);
             const octree_node *kids = &tree->nodes[node.first];
             for (int k = 0; k < 8; k++) {
                 if (!((reach >> k) & 1) || kids[k].count == 0)
                     continue;
                 box3 cb = box_child(b, c, box_octant_upper_bits[k]);
                 stats->nodes_visited++;
-                if ((single && mode == ACCURACY_EXACT) || node_touched(tree, q, qb, cb, mode))
+                if (((known >> k) & 1) || node_touched(tree, q, &prepared_box, cb, mode))
                     stack[top++] = (tri_entry){node.first + (uint32_t)k, cb};
             }
             continue;
