@@ -14,6 +14,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "geom/predicates.h"
 #include "geom/tri_tri.h"
 
 /* ------------------------------------------------------------------------------------
@@ -714,6 +715,46 @@ static void test_ulp_nudged_pairs_match_reference(void **state)
     assert_true(tally.hits > tally.cases / 20 && tally.hits < tally.cases * 19 / 20);
 }
 
+/* Pairs on a lattice of 3 or 5 points a side: vertices on the other plane, edges through
+ * edges and vertices, shared vertices, and one triangle's edge lying in the other's plane
+ * are common there. Pairs in distinct planes, each meeting the other's plane, take the
+ * two-orientation test for crossing planes; those with a vertex exactly on the other
+ * plane (the canonical form's zero cases) must be many for the comparison to prove much. */
+static void test_lattice_pairs_match_reference(void **state)
+{
+    (void)state;
+    rng r = rng_for_test("lattice pairs", 5);
+    agreement tally = {0, 0};
+    long crossing = 0, crossing_with_zero = 0;
+    for (long n = 0; n < 20000; n++) {
+        int side = n % 2 ? 1 : 2;
+        vec3 a[3], b[3];
+        for (int i = 0; i < 3; i++) {
+            a[i] = random_grid_point(&r, -side, side);
+            b[i] = random_grid_point(&r, -side, side);
+        }
+        int sa[3], sb[3], zero = 0;
+        for (int i = 0; i < 3; i++) {
+            sa[i] = orient3d(b[0], b[1], b[2], a[i]);
+            sb[i] = orient3d(a[0], a[1], a[2], b[i]);
+            zero |= sa[i] == 0 || sb[i] == 0;
+        }
+        /* Each meets the other's plane, and neither lies in it. */
+        int a_meets = !(sa[0] != 0 && sa[0] == sa[1] && sa[1] == sa[2]) && (sa[0] | sa[1] | sa[2]) != 0;
+        int b_meets = !(sb[0] != 0 && sb[0] == sb[1] && sb[1] == sb[2]) && (sb[0] | sb[1] | sb[2]) != 0;
+        if (a_meets && b_meets) {
+            crossing++;
+            crossing_with_zero += zero;
+        }
+        expect_exact_equals_reference(a, b, &tally, "lattice pair", n);
+    }
+    printf("[ info     ] lattice pairs: %ld cases, %ld touching, %ld in crossing planes (%ld with a vertex on the "
+           "other plane)\n",
+           tally.cases, tally.hits, crossing, crossing_with_zero);
+    assert_true(tally.hits > tally.cases / 10 && tally.hits < tally.cases * 9 / 10);
+    assert_true(crossing > tally.cases / 5 && crossing_with_zero > crossing / 5);
+}
+
 static void test_degenerate_triangles_match_reference(void **state)
 {
     (void)state;
@@ -1125,6 +1166,7 @@ int main(void)
         cmocka_unit_test(test_snapped_pairs_match_reference),
         cmocka_unit_test(test_ulp_nudged_pairs_match_reference),
         cmocka_unit_test(test_degenerate_triangles_match_reference),
+        cmocka_unit_test(test_lattice_pairs_match_reference),
         cmocka_unit_test(test_contact_segment_hand_cases),
         cmocka_unit_test(test_contact_segment_on_random_crossings),
         cmocka_unit_test(test_contact_segment_finite_on_any_input),

@@ -184,6 +184,54 @@ static int seg_seg_3d(vec3 p, vec3 q, vec3 r, vec3 s)
     return fmax(fmin(p0, p1), fmin(r0, r1)) <= fmin(fmax(p0, p1), fmax(r0, r1));
 }
 
+/* The vertex of a triangle alone on its closed side of the other triangle's plane, from
+ * the exact signs s of its vertices there (neither all zero nor all one nonzero sign): the
+ * one nonzero sign; the zero between two equal signs; the odd one out of three nonzero
+ * signs; the positive one of +, -, 0. *others_positive is set when the other two lie on
+ * the positive closed side (for two zeros: when the apex is negative). */
+static int apex_of(const int s[3], int *others_positive)
+{
+    int pos = (s[0] > 0) + (s[1] > 0) + (s[2] > 0), neg = (s[0] < 0) + (s[1] < 0) + (s[2] < 0);
+    int want = pos + neg == 1 ? (pos ? 1 : -1) : (pos == 0 || neg == 0) ? 0 : pos == 1 ? 1 : -1;
+    int i = s[0] == want ? 0 : s[1] == want ? 1 : 2;
+    int j = i == 2 ? 0 : i + 1, k = j == 2 ? 0 : j + 1;
+    int other = s[j] != 0 ? s[j] : s[k] != 0 ? s[k] : -want;
+    *others_positive = other > 0;
+    return i;
+}
+
+/* Two non-degenerate triangles in distinct planes, each meeting the other's plane (sa, sb:
+ * exact signs of a's vertices against b's plane and of b's against a's, each with a
+ * nonzero and not all one sign). Each triangle cuts a segment from the planes' common line,
+ * bounded by its two edges from its apex, and the triangles meet iff the segments overlap.
+ * Guigue and Devillers (2003) put both in a canonical form: apex first, and the order of
+ * the other triangle's last two vertices chosen so that each apex is on the non-negative
+ * side of the other plane and its two companions on the non-positive side. Then each
+ * segment end's order along the line is one orient3d of an edge from one apex against an
+ * edge from the other, and the segments overlap iff orient3d(a0, a1, b0, b1) <= 0 and
+ * orient3d(a0, a2, b2, b0) <= 0. Two exact predicates on input points replace up to six
+ * edge-triangle tests; vertices and edges on the other plane are the zero signs the
+ * canonical form was built to take. */
+static int crossing_planes_meet(const vec3 a[3], const vec3 b[3], const int sa[3], const int sb[3])
+{
+    int a_others_positive, b_others_positive;
+    int ia = apex_of(sa, &a_others_positive), ib = apex_of(sb, &b_others_positive);
+    vec3 ca[3] = {a[ia], a[ia == 2 ? 0 : ia + 1], a[ia == 0 ? 2 : ia - 1]};
+    vec3 cb[3] = {b[ib], b[ib == 2 ? 0 : ib + 1], b[ib == 0 ? 2 : ib - 1]};
+    /* Swapping two vertices of a triangle negates the signs against its plane. */
+    if (a_others_positive) {
+        vec3 t = cb[1];
+        cb[1] = cb[2];
+        cb[2] = t;
+    }
+    if (b_others_positive) {
+        vec3 t = ca[1];
+        ca[1] = ca[2];
+        ca[2] = t;
+    }
+    return orient3d(ca[0], ca[1], cb[0], cb[1]) <= 0 && orient3d(ca[0], ca[2], cb[2], cb[0]) <= 0;
+}
+
 /* Triangle t against the segment or point d; sd are orient3d(t, d_i). */
 static int tri_meets_degenerate(const vec3 t[3], tri_shape kt, const vec3 d[3], tri_shape kd,
                                 const int sd[3])
@@ -271,22 +319,15 @@ int tri_tri_overlap_exact(const vec3 a[3], const vec3 b[3])
  * holds for crossing, coplanar and degenerate pairs alike.
  *
  * The tests run cheapest first, so the common candidate that does not touch leaves early:
- * exact bounds, shared vertices, plane sides from the float filters alone, a 2D
- * separation proof for nearly coplanar pairs, and only then exact arithmetic for the
- * signs the filters left open. Each rejection is a proof, so the answer is the same as
+ * exact bounds, plane sides from the float filters alone, then, for the pairs those leave
+ * open, shared vertices, a 2D separation proof for nearly coplanar pairs, and only then
+ * exact arithmetic for the signs the filters left open. Each rejection is a proof, so the answer is the same as
  * deciding every sign exactly first. */
 int tri_tri_overlap_exact_query(const tri_tri_query *q, const vec3 b[3])
 {
     const vec3 *a = q->v;
     if (bounds_apart(q, b))
         return 0;
-    /* A vertex common to both (equal doubles) is a common point. Neighbours in a mesh share
-     * vertices, and without this they would take the full edge tests, often through the
-     * exact stage, to find what nine comparisons say. */
-    for (int i = 0; i < 3; i++)
-        for (int j = 0; j < 3; j++)
-            if (vec3_equal(a[i], b[j]))
-                return 1;
     /* A nonzero orient3d proves the plane's triangle is non-degenerate, so these
      * rejections are sound without classifying first. */
     int sb[3], sa[3];
@@ -300,6 +341,15 @@ int tri_tri_overlap_exact_query(const tri_tri_query *q, const vec3 b[3])
     if (all_same_decided(sa))
         return 0;
     if (any_undecided(sb) || any_undecided(sa)) {
+        /* A vertex common to both (equal doubles) is a common point. Neighbours in a mesh
+         * share vertices, and without this they would take the full edge tests, often
+         * through the exact stage, to find what nine comparisons say. A shared vertex lies
+         * exactly on both planes, which the filters never decide, so the check waits
+         * until a sign is left open; a pair the filters reject shares none. */
+        for (int i = 0; i < 3; i++)
+            for (int j = 0; j < 3; j++)
+                if (vec3_equal(a[i], b[j]))
+                    return 1;
         if (separated_in_projection(q, b))
             return 0;
         for (int i = 0; i < 3; i++)
@@ -314,6 +364,10 @@ int tri_tri_overlap_exact_query(const tri_tri_query *q, const vec3 b[3])
             return 0;
     }
 
+    /* A nonzero sign against a plane proves that plane's triangle non-degenerate; nonzero
+     * signs on both sides also rule out a common plane. */
+    if ((sa[0] | sa[1] | sa[2]) != 0 && (sb[0] | sb[1] | sb[2]) != 0)
+        return crossing_planes_meet(a, b, sa, sb);
     tri_shape ka = classify_triangle(a), kb = classify_triangle(b);
     if (ka.kind == SHAPE_TRIANGLE && kb.kind == SHAPE_TRIANGLE) {
         for (int i = 0; i < 3; i++) {
