@@ -161,6 +161,35 @@ static void compute_reach(const build_ctx *ctx, shared_list *list)
     }
 }
 
+/* Exact mode below the root: the parent's bytes decide which of its items a child takes.
+ * Items follow a Morton order, so a child's items come in runs and most groups of eight
+ * bytes hold none of its bits: those are skipped with one test (of the whole group, so
+ * the byte order does not matter). Within a group the items are appended without a
+ * branch. Returns how many were written to out. */
+static size_t take_children_items(const shared_list *parent, int octant, uint32_t *out)
+{
+    const uint8_t *reach = parent->reach;
+    const uint32_t *items = parent->items;
+    uint32_t count = parent->count, i = 0;
+    size_t n = 0;
+    for (; i + 8 <= count; i += 8) {
+        uint64_t group;
+        memcpy(&group, reach + i, sizeof group);
+        group = (group >> octant) & 0x0101010101010101u;
+        if (group == 0)
+            continue;
+        for (uint32_t j = i; j < i + 8; j++) {
+            out[n] = items[j];
+            n += (reach[j] >> octant) & 1;
+        }
+    }
+    for (; i < count; i++) {
+        out[n] = items[i];
+        n += (reach[i] >> octant) & 1;
+    }
+    return n;
+}
+
 /* Children blocks start at node indices that are multiples of 8, in an array aligned to
  * 64 bytes: each block of eight 8-byte nodes is then exactly one cache line, and a query
  * expanding a node misses once instead of twice. The root is alone at index 0, so the
@@ -240,16 +269,7 @@ static octree_status build_nodes(build_ctx *ctx, int max_level)
             goto unwind;
         }
         if (e.parent->reach) {
-            /* Exact mode below the root: the parent's bytes decide. Appended without a
-             * branch: which items a child takes follows no pattern a predictor learns. */
-            const uint8_t *reach = e.parent->reach;
-            const uint32_t *items = e.parent->items;
-            size_t n = 0;
-            for (uint32_t i = 0; i < e.parent->count; i++) {
-                scratch.items[n] = items[i];
-                n += (reach[i] >> e.octant) & 1;
-            }
-            scratch.count = n;
+            scratch.count = take_children_items(e.parent, e.octant, scratch.items);
         } else {
             for (uint32_t i = 0; i < e.parent->count; i++)
                 if (triangle_in_node(ctx, e.parent, i, &e))
