@@ -276,23 +276,31 @@ static void assert_octants_tile(box3 parent, const box3 child[8])
 
 /* The octree's descent and build classify a region against a box's split planes with
  * box_octants_reached; it must name exactly the children whose closed boxes the closed
- * region meets, including regions that only touch a split plane. */
+ * region meets, including regions that only touch a split plane and regions reaching
+ * past the box (callers pass a triangle's bounds unclipped). */
 static void test_octants_reached_are_the_children_a_region_meets(void **state)
 {
     rng r = test_rng(state, 9);
-    int touching = 0;
+    int touching = 0, beyond = 0;
     for (int n = 0; n < 20000; n++) {
         box3 box = random_box(&r);
         vec3 c = box_split_point(box);
         double lo[3], hi[3];
         for (int a = 0; a < 3; a++) {
             double l = coord(box.lo, a), h = coord(box.hi, a), m = coord(c, a);
-            /* Endpoints drawn from the box's corners, its split and points between. */
-            double pick[5] = {l, m, h, l + (m - l) * 0.5, m + (h - m) * 0.5};
-            double x = pick[rng_int(&r, 0, 4)], y = pick[rng_int(&r, 0, 4)];
+            /* Endpoints drawn from the box's corners, its split, points between and points
+             * beyond; a region is kept meeting the box. */
+            double w = h - l;
+            double pick[7] = {l, m, h, l + (m - l) * 0.5, m + (h - m) * 0.5, l - 0.25 * w, h + 0.25 * w};
+            double x = pick[rng_int(&r, 0, 6)], y = pick[rng_int(&r, 0, 6)];
             lo[a] = x < y ? x : y;
             hi[a] = x < y ? y : x;
+            if (hi[a] < l)
+                hi[a] = l;
+            if (lo[a] > h)
+                lo[a] = h;
             touching += lo[a] == m || hi[a] == m;
+            beyond += lo[a] < l || hi[a] > h;
         }
         vec3 rlo = {lo[0], lo[1], lo[2]}, rhi = {hi[0], hi[1], hi[2]};
         unsigned want = 0;
@@ -305,7 +313,7 @@ static void test_octants_reached_are_the_children_a_region_meets(void **state)
         }
         assert_int_equal(box_octants_reached(rlo, rhi, c), want);
     }
-    assert_true(touching > 1000);
+    assert_true(touching > 1000 && beyond > 1000);
 }
 
 /* box_octants_holding names exactly the children whose closed boxes hold one of the

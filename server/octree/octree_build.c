@@ -145,7 +145,7 @@ static void compute_reach(const build_ctx *ctx, shared_list *list)
         child[k] = box_child(box, c, box_octant_upper_bits[k]);
     for (uint32_t i = 0; i < list->count; i++) {
         triangle_bounds b = ctx->bounds[list->items[i]];
-        unsigned reach = box_octants_reached(vec3_max(b.lo, box.lo), vec3_min(b.hi, box.hi), c);
+        unsigned reach = box_octants_reached(b.lo, b.hi, c);
         if (reach & (reach - 1)) {
             const vec3 *tri = octree_triangle_at(ctx->tree, list->items[i]);
             unsigned open = reach & ~box_octants_holding(tri, box, c);

@@ -126,8 +126,7 @@ static octree_status triangle_search(const octree *tree, const vec3 q[3], accura
         if (node.count == NODE_INTERIOR) {
             box3 b = e.box;
             vec3 c = box_split_point(b);
-            vec3 lo = vec3_max(qb.lo, b.lo), hi = vec3_min(qb.hi, b.hi);
-            unsigned reach = box_octants_reached(lo, hi, c);
+            unsigned reach = box_octants_reached(qb.lo, qb.hi, c);
             /* Exact mode: children known touched without the full test. */
             unsigned known = 0;
             if (mode == ACCURACY_EXACT)
