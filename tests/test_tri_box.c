@@ -7,6 +7,7 @@
 #include <cmocka.h>
 
 #include <gmp.h>
+#include <float.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -832,6 +833,58 @@ static void test_prepared_triangle_against_a_node_and_its_children(void **state)
     assert_true(overlaps > answers / 5 && overlaps < answers * 4 / 5);
 }
 
+/* Each child tri_box_children_at_crossings names must be touched, on near-degenerate
+ * cases (edges crossing split planes at lattice points, ulp nudges), uniform ones, and
+ * ones scaled near the top of the double range, where the crossing arithmetic overflows
+ * and must prove nothing. It must also name many: it exists to spare the full test. */
+static void test_children_at_crossings_are_touched(void **state)
+{
+    rng r = test_rng(state, 6);
+    int named = 0, touched_open = 0, wrong = 0;
+    for (int n = 0; n < 30000; n++) {
+        vec3 tri[3];
+        box3 box;
+        if (n % 3 == 0)
+            near_degenerate_case(&r, tri, &box);
+        else
+            uniform_case(&r, tri, &box);
+        if (n % 10 == 9) { /* exact power-of-two scaling: the same configuration near 1e300 */
+            for (int t = 0; t < 3; t++)
+                tri[t] = vec3_scale(tri[t], 0x1p950);
+            box = (box3){vec3_scale(box.lo, 0x1p950), vec3_scale(box.hi, 0x1p950)};
+        }
+        vec3 c = box_split_point(box);
+        unsigned crossing = tri_box_children_at_crossings(tri, box, c);
+        for (int k = 0; k < 8; k++) {
+            int touched = reference_tri_box(tri, box_octant(box, k));
+            int claimed = (crossing >> k) & 1;
+            named += claimed;
+            touched_open += touched;
+            if (claimed && !touched && wrong++ < 5) {
+                printf("child %d claimed but not touched: ", k);
+                print_case("crossing", tri, box_octant(box, k));
+            }
+        }
+    }
+    /* An edge whose x difference overflows: a naive t = (c - p) / (q - p) is 0 and puts the
+     * crossing of x = 0 at p's y, -2^1022, in the lower y half; the true crossing is at
+     * y = 2^1020. The triangle does not reach x >= 0 with y <= 0, so the children there
+     * must not be named. */
+    const double big = 0x1.8p1023;
+    vec3 wide[3] = {{-big, -0x1p1022, 0.5}, {big, 0x1.8p1022, 0.5}, {big, 0x1.8p1022 + 0x1p1000, 0.5}};
+    box3 whole = {{-DBL_MAX, -DBL_MAX, -1}, {DBL_MAX, DBL_MAX, 1}};
+    unsigned wide_crossing = tri_box_children_at_crossings(wide, whole, box_split_point(whole));
+    for (int k = 0; k < 8; k++)
+        if ((wide_crossing >> k) & 1) {
+            named++;
+            if (!tri_box_overlap_exact(wide, box_octant(whole, k)) && wrong++ < 5)
+                printf("child %d of the overflowing case claimed but not touched\n", k);
+        }
+    printf("crossings: %d children named of %d touched, %d wrongly\n", named, touched_open, wrong);
+    assert_int_equal(wrong, 0);
+    assert_true(named > touched_open / 10);
+}
+
 static box3 grow_box(box3 box, double margin)
 {
     return (box3){vec3_sub(box.lo, v3(margin, margin, margin)),
@@ -979,6 +1032,7 @@ int main(void)
         cmocka_unit_test(test_exact_equals_reference_on_near_degenerate_cases),
         cmocka_unit_test(test_exact_equals_reference_on_uniform_cases),
         cmocka_unit_test(test_prepared_triangle_against_a_node_and_its_children),
+        cmocka_unit_test(test_children_at_crossings_are_touched),
         cmocka_unit_test(test_seed_and_fast_agree_with_reference_on_clear_cases),
         cmocka_unit_test(test_seed_mode_zero_area_triangles),
         cmocka_unit_test(test_seed_mode_follows_its_epsilon),

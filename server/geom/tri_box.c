@@ -189,6 +189,60 @@ int tri_box_overlap_prepared(tri_box_triangle *t, box3 box)
     return 1;
 }
 
+/* Where edge p -> q crosses the split plane x_k = c_k strictly between its ends, the
+ * crossing point X has X_k = c_k exactly and X_i = p_i + t (q_i - p_i), t = (c_k - p_k) /
+ * (q_k - p_k), off by at most about 6u |t (q_i - p_i)| + u |p_i| in double (three
+ * roundings in t, |t| < 1, two more in the product and one in the sum); the tolerance
+ * 8u (|p_i| + |product|) covers that and the rounding of X_i -/+ tolerance itself, plus an
+ * absolute term for subnormal results. An overflowed q_k - p_k is skipped; any other
+ * overflow gives an inf or NaN that fails every comparison, and the point proves nothing. */
+#define CROSSING_ROUNDING (8 * 0x1p-53)
+
+unsigned tri_box_children_at_crossings(const vec3 tri[3], box3 box, vec3 c)
+{
+    const double v[3][3] = {{tri[0].x, tri[0].y, tri[0].z}, {tri[1].x, tri[1].y, tri[1].z},
+                            {tri[2].x, tri[2].y, tri[2].z}};
+    const double lo[3] = {box.lo.x, box.lo.y, box.lo.z}, hi[3] = {box.hi.x, box.hi.y, box.hi.z};
+    const double split[3] = {c.x, c.y, c.z};
+    unsigned touched = 0;
+    for (int e = 0; e < 3; e++) {
+        const double *p = v[e], *q = v[e == 2 ? 0 : e + 1];
+        for (int k = 0; k < 3; k++) {
+            if (!((p[k] < split[k] && split[k] < q[k]) || (q[k] < split[k] && split[k] < p[k])))
+                continue;
+            /* An overflowed q_k - p_k would give t = 0, a wrong finite point; the
+             * numerator is no larger, so a finite denominator keeps t right. */
+            double den = q[k] - p[k];
+            if (!isfinite(den))
+                continue;
+            double t = (split[k] - p[k]) / den;
+            /* Along k the point is on the split plane: both halves. The other two axes
+             * name one half each, when the point is certainly inside the box there and
+             * certainly off the split plane. */
+            unsigned halves[3] = {3, 3, 3};
+            int certain = 1;
+            for (int i = 0; i < 3 && certain; i++) {
+                if (i == k)
+                    continue;
+                double product = t * (q[i] - p[i]);
+                double x = p[i] + product;
+                double tol = CROSSING_ROUNDING * (fabs(p[i]) + fabs(product)) + 0x1p-1070;
+                double below = x - tol, above = x + tol;
+                if (below >= lo[i] && above <= split[i])
+                    halves[i] = 1;
+                else if (below >= split[i] && above <= hi[i])
+                    halves[i] = 2;
+                else
+                    certain = 0;
+            }
+            if (certain)
+                touched |= box_octants_by_half[0][halves[0]] & box_octants_by_half[1][halves[1]] &
+                           box_octants_by_half[2][halves[2]];
+        }
+    }
+    return touched;
+}
+
 int tri_box_overlap_exact(const vec3 tri[3], box3 box)
 {
     tri_box_triangle t;

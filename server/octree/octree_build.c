@@ -133,9 +133,11 @@ static int triangle_in_node(const build_ctx *ctx, const shared_list *parent, uin
  * tests come first and are exact comparisons: a child the item's bounds, clipped to the
  * node, do not reach is not touched; when they reach one child only, the item touches it
  * (it touches the node, and the touching point lies in the clipped bounds). An item
- * straddling a split plane touches the children holding one of its vertices; only the
- * other children it reaches take the full test, prepared once for all of them. The child boxes are box_octant's (the same split, the same box_child), the ones
- * the children are built with. */
+ * straddling a split plane touches the children holding one of its vertices, and those
+ * holding a point where one of its edges crosses a split plane; only the other children
+ * it reaches take the full test, prepared once for all of them. The child boxes are
+ * box_octant's (the same split, the same box_child), the ones the children are built
+ * with. */
 static void compute_reach(const build_ctx *ctx, shared_list *list)
 {
     box3 box = list->box;
@@ -149,6 +151,8 @@ static void compute_reach(const build_ctx *ctx, shared_list *list)
         if (reach & (reach - 1)) {
             const vec3 *tri = octree_triangle_at(ctx->tree, list->items[i]);
             unsigned open = reach & ~box_octants_holding(tri, box, c);
+            if (open)
+                open &= ~tri_box_children_at_crossings(tri, box, c);
             if (open) {
                 tri_box_triangle t;
                 tri_box_prepare(&t, tri);

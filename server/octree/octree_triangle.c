@@ -129,8 +129,13 @@ static octree_status triangle_search(const octree *tree, const vec3 q[3], accura
             unsigned reach = box_octants_reached(qb.lo, qb.hi, c);
             /* Exact mode: children known touched without the full test. */
             unsigned known = 0;
-            if (mode == ACCURACY_EXACT)
-                known = (reach & (reach - 1)) == 0 ? reach : box_octants_holding(q, b, c);
+            if (mode == ACCURACY_EXACT && (reach & (reach - 1)) == 0) {
+                known = reach;
+            } else if (mode == ACCURACY_EXACT) {
+                known = box_octants_holding(q, b, c);
+                if (reach & ~known)
+                    known |= tri_box_children_at_crossings(q, b, c);
+            }
             const octree_node *kids = &tree->nodes[node.first];
             for (int k = 0; k < 8; k++) {
                 if (!((reach >> k) & 1) || kids[k].count == 0)
