@@ -854,7 +854,7 @@ static void test_children_at_crossings_are_touched(void **state)
             box = (box3){vec3_scale(box.lo, 0x1p950), vec3_scale(box.hi, 0x1p950)};
         }
         vec3 c = box_split_point(box);
-        unsigned crossing = tri_box_children_at_crossings(tri, box, c);
+        unsigned crossing = tri_box_children_at_crossings(tri, box, c, 0xff);
         for (int k = 0; k < 8; k++) {
             int touched = reference_tri_box(tri, box_octant(box, k));
             int claimed = (crossing >> k) & 1;
@@ -873,7 +873,7 @@ static void test_children_at_crossings_are_touched(void **state)
     const double big = 0x1.8p1023;
     vec3 wide[3] = {{-big, -0x1p1022, 0.5}, {big, 0x1.8p1022, 0.5}, {big, 0x1.8p1022 + 0x1p1000, 0.5}};
     box3 whole = {{-DBL_MAX, -DBL_MAX, -1}, {DBL_MAX, DBL_MAX, 1}};
-    unsigned wide_crossing = tri_box_children_at_crossings(wide, whole, box_split_point(whole));
+    unsigned wide_crossing = tri_box_children_at_crossings(wide, whole, box_split_point(whole), 0xff);
     for (int k = 0; k < 8; k++)
         if ((wide_crossing >> k) & 1) {
             named++;

@@ -198,7 +198,7 @@ int tri_box_overlap_prepared(tri_box_triangle *t, box3 box)
  * overflow gives an inf or NaN that fails every comparison, and the point proves nothing. */
 #define CROSSING_ROUNDING (8 * 0x1p-53)
 
-unsigned tri_box_children_at_crossings(const vec3 tri[3], box3 box, vec3 c)
+unsigned tri_box_children_at_crossings(const vec3 tri[3], box3 box, vec3 c, unsigned wanted)
 {
     const double v[3][3] = {{tri[0].x, tri[0].y, tri[0].z}, {tri[1].x, tri[1].y, tri[1].z},
                             {tri[2].x, tri[2].y, tri[2].z}};
@@ -235,9 +235,12 @@ unsigned tri_box_children_at_crossings(const vec3 tri[3], box3 box, vec3 c)
                 else
                     certain = 0;
             }
-            if (certain)
+            if (certain) {
                 touched |= box_octants_by_half[0][halves[0]] & box_octants_by_half[1][halves[1]] &
                            box_octants_by_half[2][halves[2]];
+                if ((wanted & ~touched) == 0)
+                    return touched;
+            }
         }
     }
     return touched;

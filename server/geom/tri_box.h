@@ -35,8 +35,9 @@ int tri_box_overlap_prepared(tri_box_triangle *t, box3 box);
 /* The children of a box with split point c that the triangle certainly touches at a
  * point where one of its edges crosses a split plane strictly between the edge's ends: the
  * point, computed in double, lies inside the box and off the other split planes by more
- * than its rounding error. A proof only: a child not named may still be touched. */
-unsigned tri_box_children_at_crossings(const vec3 tri[3], box3 box, vec3 c);
+ * than its rounding error. A proof only: a child not named may still be touched. The
+ * search stops once every child in the mask `wanted` is named. */
+unsigned tri_box_children_at_crossings(const vec3 tri[3], box3 box, vec3 c, unsigned wanted);
 
 /* The seed document's three-step test with its epsilon, as written: vertex in box; box
  * edges (faces 0-3 x edges 0-2) against the triangle; triangle edges against the six

@@ -152,7 +152,7 @@ static void compute_reach(const build_ctx *ctx, shared_list *list)
             const vec3 *tri = octree_triangle_at(ctx->tree, list->items[i]);
             unsigned open = reach & ~box_octants_holding(tri, box, c);
             if (open)
-                open &= ~tri_box_children_at_crossings(tri, box, c);
+                open &= ~tri_box_children_at_crossings(tri, box, c, open);
             if (open) {
                 tri_box_triangle t;
                 tri_box_prepare(&t, tri);

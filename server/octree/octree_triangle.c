@@ -134,7 +134,7 @@ static octree_status triangle_search(const octree *tree, const vec3 q[3], accura
             } else if (mode == ACCURACY_EXACT) {
                 known = box_octants_holding(q, b, c);
                 if (reach & ~known)
-                    known |= tri_box_children_at_crossings(q, b, c);
+                    known |= tri_box_children_at_crossings(q, b, c, reach & ~known);
             }
             const octree_node *kids = &tree->nodes[node.first];
             for (int k = 0; k < 8; k++) {
