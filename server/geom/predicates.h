@@ -32,19 +32,40 @@ int sign_diff_products_undecided(double a, double b, double c, double d, double 
 int orient3d_undecided(vec3 a, vec3 b, vec3 c, vec3 d);
 int ray_edge_sign_undecided(vec3 p, vec3 q, vec3 o, vec3 dir);
 
+/* Filter-only forms return the sign when the float filter decides it and
+ * PREDICATES_UNDECIDED when it cannot (the caller then either proves its answer another
+ * way or asks the exact stage through the full predicate). They let a test try a cheap
+ * proof before paying for exact arithmetic on nearly degenerate inputs. */
+#define PREDICATES_UNDECIDED 2
+
+/* The filter of sign(left - right) for left = fl((a - b)(c - d)) and right =
+ * fl((e - f)(g - h)), however the factors were obtained, provided each is the rounded
+ * difference of two doubles (a caller may compute a factor once for many evaluations: the
+ * rounding is the same). */
+static inline int products_difference_filter(double left, double right)
+{
+    double det = left - right;
+    if (det == 0.0) /* see PREDICATES_ZERO_SKIPS_BOUND */
+        return PREDICATES_UNDECIDED;
+    double bound = PREDICATES_ERRBOUND_DIFF_PRODUCTS * (fabs(left) + fabs(right)) + PREDICATES_UNDERFLOW_ABSOLUTE;
+    if (fabs(det) > bound)
+        return (det > 0.0) - (det < 0.0);
+    return PREDICATES_UNDECIDED;
+}
+
+/* sign_diff_products' filter alone. */
+static inline int sign_diff_products_filter(double a, double b, double c, double d, double e, double f, double g,
+                                            double h)
+{
+    return products_difference_filter((a - b) * (c - d), (e - f) * (g - h));
+}
+
 /* sign of (a - b)(c - d) - (e - f)(g - h): the shape of every 2D separating-axis test. */
 static inline int sign_diff_products(double a, double b, double c, double d, double e, double f, double g,
                                      double h)
 {
-    double left = (a - b) * (c - d);
-    double right = (e - f) * (g - h);
-    double det = left - right;
-    if (det == 0.0) /* see PREDICATES_ZERO_SKIPS_BOUND */
-        return sign_diff_products_undecided(a, b, c, d, e, f, g, h);
-    double bound = PREDICATES_ERRBOUND_DIFF_PRODUCTS * (fabs(left) + fabs(right)) + PREDICATES_UNDERFLOW_ABSOLUTE;
-    if (fabs(det) > bound)
-        return (det > 0.0) - (det < 0.0);
-    return sign_diff_products_undecided(a, b, c, d, e, f, g, h);
+    int sign = sign_diff_products_filter(a, b, c, d, e, f, g, h);
+    return sign != PREDICATES_UNDECIDED ? sign : sign_diff_products_undecided(a, b, c, d, e, f, g, h);
 }
 
 /* sign of (a - c) x (b - c) = (ax-cx)(by-cy) - (ay-cy)(bx-cx): +1 when a, b, c turn
@@ -54,17 +75,22 @@ static inline int orient2d(double ax, double ay, double bx, double by, double cx
     return sign_diff_products(ax, cx, by, cy, ay, cy, bx, cx);
 }
 
-/* The orient2d of a, b, c projected onto the plane normal to `axis` (0 = x, 1 = y, 2 = z),
- * with the projected coordinates taken in cyclic order (y,z), (z,x), (x,y), which keeps
- * each projection's orientation equal to the sign of component `axis` of (a - c) x (b - c). */
+/* The coordinates of p in the plane normal to `axis` (0 = x, 1 = y, 2 = z), in cyclic
+ * order (y,z), (z,x), (x,y), which keeps each projection's orientation equal to the sign
+ * of component `axis` of (a - c) x (b - c). */
+static inline void predicates_project(vec3 p, int axis, double *u, double *v)
+{
+    *u = axis == 0 ? p.y : axis == 1 ? p.z : p.x;
+    *v = axis == 0 ? p.z : axis == 1 ? p.x : p.y;
+}
+
+/* The orient2d of a, b, c projected onto the plane normal to `axis`. */
 static inline int orient2d_axis(vec3 a, vec3 b, vec3 c, int axis)
 {
-    double au = axis == 0 ? a.y : axis == 1 ? a.z : a.x;
-    double av = axis == 0 ? a.z : axis == 1 ? a.x : a.y;
-    double bu = axis == 0 ? b.y : axis == 1 ? b.z : b.x;
-    double bv = axis == 0 ? b.z : axis == 1 ? b.x : b.y;
-    double cu = axis == 0 ? c.y : axis == 1 ? c.z : c.x;
-    double cv = axis == 0 ? c.z : axis == 1 ? c.x : c.y;
+    double au, av, bu, bv, cu, cv;
+    predicates_project(a, axis, &au, &av);
+    predicates_project(b, axis, &bu, &bv);
+    predicates_project(c, axis, &cu, &cv);
     return sign_diff_products(au, cu, bv, cv, av, cv, bu, cu);
 }
 
@@ -109,36 +135,13 @@ static inline int ray_edge_sign(vec3 p, vec3 q, vec3 o, vec3 dir)
     return ray_edge_sign_undecided(p, q, o, dir);
 }
 
-/* Filter-only forms: the sign when the float filter decides it, PREDICATES_UNDECIDED when
- * it cannot (the caller then either proves its answer another way or asks the exact stage
- * through the full predicate). They let a test try a cheap proof before paying for exact
- * arithmetic on nearly degenerate inputs. */
-#define PREDICATES_UNDECIDED 2
-
-/* sign_diff_products' filter alone: the same expression and bound. */
-static inline int sign_diff_products_filter(double a, double b, double c, double d, double e, double f, double g,
-                                            double h)
-{
-    double left = (a - b) * (c - d);
-    double right = (e - f) * (g - h);
-    double det = left - right;
-    if (det == 0.0)
-        return PREDICATES_UNDECIDED;
-    double bound = PREDICATES_ERRBOUND_DIFF_PRODUCTS * (fabs(left) + fabs(right)) + PREDICATES_UNDERFLOW_ABSOLUTE;
-    if (fabs(det) > bound)
-        return (det > 0.0) - (det < 0.0);
-    return PREDICATES_UNDECIDED;
-}
-
 /* orient2d_axis' filter alone. */
 static inline int orient2d_axis_filter(vec3 a, vec3 b, vec3 c, int axis)
 {
-    double au = axis == 0 ? a.y : axis == 1 ? a.z : a.x;
-    double av = axis == 0 ? a.z : axis == 1 ? a.x : a.y;
-    double bu = axis == 0 ? b.y : axis == 1 ? b.z : b.x;
-    double bv = axis == 0 ? b.z : axis == 1 ? b.x : b.y;
-    double cu = axis == 0 ? c.y : axis == 1 ? c.z : c.x;
-    double cv = axis == 0 ? c.z : axis == 1 ? c.x : c.y;
+    double au, av, bu, bv, cu, cv;
+    predicates_project(a, axis, &au, &av);
+    predicates_project(b, axis, &bu, &bv);
+    predicates_project(c, axis, &cu, &cv);
     return sign_diff_products_filter(au, cu, bv, cv, av, cv, bu, cu);
 }
 

@@ -34,22 +34,14 @@
  * coordinates i, j other than k, so the box covers [f(m), f(M)] with m, M the corners of
  * its projected rectangle picked by the signs of (q - p)_i and (q - p)_j.
  * Every comparison is the sign of an expression (a - b)(c - d) - (e - f)(g - h): f(x)
- * itself, or f(x) - w = ((x - r) x (q - p))_k. The filter evaluates sign_diff_products'
- * expression and bound with the box-independent factors c - d and g - h taken from the
- * preparation (the same roundings, done once); an undecided sign goes to the same exact
- * stage with the original operands. */
+ * itself, or f(x) - w = ((x - r) x (q - p))_k. The filter is sign_diff_products' with the
+ * box-independent factors c - d and g - h taken from the preparation (the same roundings,
+ * done once); an undecided sign goes to the same exact stage with the original operands. */
 static inline int prepared_sign(double a, double b, double c_minus_d, double e, double f, double g_minus_h,
                                 double c, double d, double g, double h)
 {
-    double left = (a - b) * c_minus_d;
-    double right = (e - f) * g_minus_h;
-    double det = left - right;
-    if (det != 0.0) {
-        double bound = PREDICATES_ERRBOUND_DIFF_PRODUCTS * (fabs(left) + fabs(right)) + PREDICATES_UNDERFLOW_ABSOLUTE;
-        if (fabs(det) > bound)
-            return (det > 0.0) - (det < 0.0);
-    }
-    return sign_diff_products_undecided(a, b, c, d, e, f, g, h);
+    int sign = products_difference_filter((a - b) * c_minus_d, (e - f) * g_minus_h);
+    return sign != PREDICATES_UNDECIDED ? sign : sign_diff_products_undecided(a, b, c, d, e, f, g, h);
 }
 
 static int edge_axis_separates(const tri_box_triangle *t, int edge, int k, const double lo[3], const double hi[3])
