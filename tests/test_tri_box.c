@@ -275,6 +275,15 @@ static void assert_octants_tile(box3 parent, const box3 child[8])
     }
 }
 
+/* A coordinate along one axis of a box [l, h] split at m: a face, the split, a point
+ * between, or a point beyond the box. */
+static double box_landmark(rng *r, double l, double m, double h)
+{
+    double w = h - l;
+    double pick[7] = {l, m, h, l + (m - l) * 0.5, m + (h - m) * 0.5, l - 0.25 * w, h + 0.25 * w};
+    return pick[rng_int(r, 0, 6)];
+}
+
 /* The octree's descent and build classify a region against a box's split planes with
  * box_octants_reached; it must name exactly the children whose closed boxes the closed
  * region meets, including regions that only touch a split plane and regions reaching
@@ -289,11 +298,8 @@ static void test_octants_reached_are_the_children_a_region_meets(void **state)
         double lo[3], hi[3];
         for (int a = 0; a < 3; a++) {
             double l = coord(box.lo, a), h = coord(box.hi, a), m = coord(c, a);
-            /* Endpoints drawn from the box's corners, its split, points between and points
-             * beyond; a region is kept meeting the box. */
-            double w = h - l;
-            double pick[7] = {l, m, h, l + (m - l) * 0.5, m + (h - m) * 0.5, l - 0.25 * w, h + 0.25 * w};
-            double x = pick[rng_int(&r, 0, 6)], y = pick[rng_int(&r, 0, 6)];
+            /* A region is kept meeting the box. */
+            double x = box_landmark(&r, l, m, h), y = box_landmark(&r, l, m, h);
             lo[a] = x < y ? x : y;
             hi[a] = x < y ? y : x;
             if (hi[a] < l)
@@ -329,9 +335,8 @@ static void test_octants_holding_are_the_children_holding_a_point(void **state)
         vec3 p[3] = {{0, 0, 0}, {0, 0, 0}, {0, 0, 0}};
         for (int t = 0; t < 3; t++)
             for (int a = 0; a < 3; a++) {
-                double l = coord(box.lo, a), h = coord(box.hi, a), m = coord(c, a), w = h - l;
-                double pick[7] = {l, m, h, l + (m - l) * 0.5, m + (h - m) * 0.5, l - 0.25 * w, h + 0.25 * w};
-                double x = pick[rng_int(&r, 0, 6)];
+                double l = coord(box.lo, a), h = coord(box.hi, a), m = coord(c, a);
+                double x = box_landmark(&r, l, m, h);
                 p[t] = vec3_with(p[t], a, x);
                 on_split += x == m;
                 outside += x < l || x > h;
