@@ -52,9 +52,9 @@ extern const unsigned char box_octant_of_upper_bits[8];
 extern const unsigned char box_octants_by_half[3][4];
 
 /* Which children of a box with split point c the closed region [lo, hi], meeting the
- * box, reaches (meets once clipped to the box). The clipping changes nothing (the box's lo <= c <= its hi on every axis,
- * so max(lo, box lo) <= c iff lo <= c, and likewise above), so callers pass the region's
- * own bounds. */
+ * box, reaches (meets once clipped to the box). The clipping changes nothing (the box's
+ * lo <= c <= its hi on every axis, so max(lo, box lo) <= c iff lo <= c, and likewise
+ * above), so callers pass the region's own bounds. */
 static inline unsigned box_octants_reached(vec3 lo, vec3 hi, vec3 c)
 {
     return box_octants_by_half[0][(lo.x <= c.x) | (hi.x >= c.x) << 1] &

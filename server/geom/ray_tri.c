@@ -252,7 +252,8 @@ __attribute__((cold, noinline))
 #endif
 static void plane_exact_of(vec3 o, vec3 d, const vec3 tri[3], plane_exact *pe)
 {
-    plane_exact_of_scaled(o, d, tri, plane_exact_scale(o, d, tri, 3, PREDICATES_DEGREE3_MAX_EXP, PREDICATES_DEGREE3_MIN_LSB), pe);
+    int shift = plane_exact_scale(o, d, tri, 3, PREDICATES_DEGREE3_MAX_EXP, PREDICATES_DEGREE3_MIN_LSB);
+    plane_exact_of_scaled(o, d, tri, shift, pe);
 }
 
 /* Exact sign of num - tau * den (den != 0) for a finite tau. */

@@ -368,6 +368,7 @@ int tri_tri_overlap_exact_query(const tri_tri_query *q, const vec3 b[3])
      * signs on both sides also rule out a common plane. */
     if ((sa[0] | sa[1] | sa[2]) != 0 && (sb[0] | sb[1] | sb[2]) != 0)
         return crossing_planes_meet(a, b, sa, sb);
+    /* Left: a degenerate triangle, or two triangles in one plane (every sign zero). */
     tri_shape ka = classify_triangle(a), kb = classify_triangle(b);
     if (ka.kind == SHAPE_TRIANGLE && kb.kind == SHAPE_TRIANGLE) {
         for (int i = 0; i < 3; i++) {
