@@ -3,6 +3,7 @@
 #ifndef TRIOCT_GEOM_TRI_BOX_H
 #define TRIOCT_GEOM_TRI_BOX_H
 
+#include "box_geometry.h"
 #include "predicates.h"
 #include "vec3.h"
 
@@ -38,6 +39,23 @@ int tri_box_overlap_prepared(tri_box_triangle *t, box3 box);
  * than its rounding error. A proof only: a child not named may still be touched. The
  * search stops once every child in the mask `wanted` is named. */
 unsigned tri_box_children_at_crossings(const vec3 tri[3], box3 box, vec3 c, unsigned wanted);
+
+/* Of the children `reach` of a box with split point c, those a triangle touching the box
+ * certainly touches, shown without the full test: reach must be box_octants_reached of the
+ * triangle's bounds. One child reached is touched (the touching point lies in the bounds,
+ * clipped to the box); of several, those holding a vertex (box_octants_holding) or an edge's
+ * crossing of a split plane (tri_box_children_at_crossings). The build and the triangle
+ * descent both decide children this way, then test the rest in full. Inline: both call
+ * it once per node and item, and most calls end at the first test. */
+static inline unsigned tri_box_children_proven(const vec3 tri[3], box3 box, vec3 c, unsigned reach)
+{
+    if ((reach & (reach - 1)) == 0)
+        return reach;
+    unsigned proven = reach & box_octants_holding(tri, box, c);
+    if (reach & ~proven)
+        proven |= reach & tri_box_children_at_crossings(tri, box, c, reach & ~proven);
+    return proven;
+}
 
 /* The seed document's three-step test with its epsilon, as written: vertex in box; box
  * edges (faces 0-3 x edges 0-2) against the triangle; triangle edges against the six

@@ -129,15 +129,11 @@ static int triangle_in_node(const build_ctx *ctx, const shared_list *parent, uin
     return parent->reach ? (parent->reach[i] >> e->octant) & 1 : 1;
 }
 
-/* The children a new interior node's items touch (see shared_list), exactly. The cheap
- * tests come first and are exact comparisons: a child the item's bounds, clipped to the
- * node, do not reach is not touched; when they reach one child only, the item touches it
- * (it touches the node, and the touching point lies in the clipped bounds). An item
- * straddling a split plane touches the children holding one of its vertices, and those
- * holding a point where one of its edges crosses a split plane; only the other children
- * it reaches take the full test, prepared once for all of them. The child boxes are
- * box_octant's (the same split, the same box_child), the ones the children are built
- * with. */
+/* The children a new interior node's items touch (see shared_list), exactly. A child the
+ * item's bounds do not reach is not touched; tri_box_children_proven settles most of the
+ * rest with comparisons; only the other children it reaches take the full test, prepared
+ * once for all of them. The child boxes are box_octant's (the same split, the same
+ * box_child), the ones the children are built with. */
 static void compute_reach(const build_ctx *ctx, shared_list *list)
 {
     box3 box = list->box;
@@ -150,9 +146,7 @@ static void compute_reach(const build_ctx *ctx, shared_list *list)
         unsigned reach = box_octants_reached(b.lo, b.hi, c);
         if (reach & (reach - 1)) {
             const vec3 *tri = octree_triangle_at(ctx->tree, list->items[i]);
-            unsigned open = reach & ~box_octants_holding(tri, box, c);
-            if (open)
-                open &= ~tri_box_children_at_crossings(tri, box, c, open);
+            unsigned open = reach & ~tri_box_children_proven(tri, box, c, reach);
             if (open) {
                 tri_box_triangle t;
                 tri_box_prepare(&t, tri);

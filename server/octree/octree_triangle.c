@@ -85,8 +85,8 @@ static int id_list_push(id_list *l, uint32_t id)
  * test). A touched interior node classifies q's bounds, clipped to its box, against its
  * split planes once: children those bounds miss are not touched; when they reach a single
  * child, q touches that child (the touching point lies in the clipped bounds); when they
- * reach several, q touches those holding one of its vertices, and only the others need
- * the full triangle-box test.
+ * reach several, tri_box_children_proven settles most, and only the others need the full
+ * triangle-box test.
  *
  * With triangle boxes, exact mode skips a candidate whose outward box is strictly apart
  * from q's: two closed triangles whose boxes do not meet share no point, so the exact test
@@ -128,14 +128,7 @@ static octree_status triangle_search(const octree *tree, const vec3 q[3], accura
             vec3 c = box_split_point(b);
             unsigned reach = box_octants_reached(qb.lo, qb.hi, c);
             /* Exact mode: children known touched without the full test. */
-            unsigned known = 0;
-            if (mode == ACCURACY_EXACT && (reach & (reach - 1)) == 0) {
-                known = reach;
-            } else if (mode == ACCURACY_EXACT) {
-                known = box_octants_holding(q, b, c);
-                if (reach & ~known)
-                    known |= tri_box_children_at_crossings(q, b, c, reach & ~known);
-            }
+            unsigned known = mode == ACCURACY_EXACT ? tri_box_children_proven(q, b, c, reach) : 0;
             const octree_node *kids = &tree->nodes[node.first];
             for (int k = 0; k < 8; k++) {
                 if (!((reach >> k) & 1) || kids[k].count == 0)
