@@ -12,6 +12,7 @@
 #include "engine.h"
 #include "support/brute_force.h"
 #include "support/meshgen.h"
+#include "support/query_shapes.h"
 #include "world/mesh_load.h"
 
 static double now(void)
@@ -52,14 +53,8 @@ static workload make_workload(const mesh_data *m, double leaf, size_t rays, size
         vec3 o = rng_point_in_box(&r, around);
         w.rays[i] = (ray_input){o, vec3_sub(target, o), 0, INFINITY};
     }
-    for (size_t i = 0; i < tris; i++) {
-        size_t t = rng_next(&r) % m->triangle_count;
-        vec3 p = m->vertices[m->indices[3 * t]];
-        vec3 q0 = vec3_add(p, vec3_scale(rng_unit_vector(&r), 0.5 * leaf * rng_uniform(&r, 0, 1)));
-        w.tris[i][0] = q0;
-        w.tris[i][1] = vec3_add(q0, vec3_scale(rng_unit_vector(&r), leaf));
-        w.tris[i][2] = vec3_add(q0, vec3_scale(rng_unit_vector(&r), leaf));
-    }
+    for (size_t i = 0; i < tris; i++)
+        query_triangle_sample(m, &r, leaf, QUERY_TRI_NEAR, w.tris[i]);
     return w;
 }
 

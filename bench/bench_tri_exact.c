@@ -16,40 +16,20 @@
 
 #include "engine.h"
 #include "support/meshgen.h"
+#include "support/query_shapes.h"
 #include "world/mesh_load.h"
 
-enum { CAT_NEAR, CAT_AT_VERTEX, CAT_SAME, CAT_COUNT };
+/* The accuracy report's triangle categories (query_shapes.h), in its order. */
+enum { CAT_COUNT = QUERY_TRI_SAME + 1 };
 static const char *cat_names[CAT_COUNT] = {"about d, near the surface", "one corner on a mesh vertex",
                                            "identical to a mesh triangle"};
 enum { RUN_FAST, RUN_EXACT, RUN_EXACT_BOXES, RUN_COUNT };
-static const char *run_names[RUN_COUNT] = {"fast", "exact", "exact+boxes"};
 
 static double now(void)
 {
     struct timespec ts;
     clock_gettime(CLOCK_MONOTONIC, &ts);
     return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
-}
-
-static vec3 vertex_of(const mesh_data *m, size_t t, int k) { return m->vertices[m->indices[3 * t + (size_t)k]]; }
-
-/* The accuracy report's triangle categories, drawn the same way. */
-static void make_query(const mesh_data *m, rng *r, double leaf, int cat, vec3 out[3])
-{
-    size_t t = rng_next(r) % m->triangle_count;
-    vec3 a = vertex_of(m, t, 0);
-    if (cat == CAT_SAME) {
-        out[0] = a;
-        out[1] = vertex_of(m, t, 1);
-        out[2] = vertex_of(m, t, 2);
-        return;
-    }
-    vec3 q0 = a;
-    if (cat == CAT_NEAR)
-        q0 = vec3_add(a, vec3_scale(rng_unit_vector(r), 0.5 * leaf * rng_uniform(r, 0, 1)));
-    out[0] = q0;
-    out[1] = vec3_add(q0, vec3_scale(rng_unit_vector(r), leaf));
-    out[2] = vec3_add(q0, vec3_scale(rng_unit_vector(r), leaf));
 }
 
 /* Seconds for the queries of one category, and an order-sensitive hash of the answers. */
@@ -118,7 +98,7 @@ int main(int argc, char **argv)
         vec3(*by_cat)[3] = malloc(per_cat * sizeof *by_cat);
         for (size_t i = 0; i < per_cat; i++)
             for (int c = 0; c < CAT_COUNT; c++)
-                make_query(&m, &r, info.resolution, c, q[i][c]);
+                query_triangle_sample(&m, &r, info.resolution, (query_triangle_kind)c, q[i][c]);
         printf("%s: %zu triangles, d = %g\n", names[s], m.triangle_count, info.resolution);
         double best[CAT_COUNT][RUN_COUNT];
         uint64_t hash[CAT_COUNT][RUN_COUNT], fb[CAT_COUNT][RUN_COUNT];
@@ -156,7 +136,6 @@ int main(int argc, char **argv)
         printf("  %-30s %9.3f %9.3f %9.3f %6.2fx %6.2fx\n", "all categories (mean)", sum[RUN_FAST] / CAT_COUNT,
                sum[RUN_EXACT] / CAT_COUNT, sum[RUN_EXACT_BOXES] / CAT_COUNT, sum[RUN_EXACT] / sum[RUN_FAST],
                sum[RUN_EXACT_BOXES] / sum[RUN_FAST]);
-        (void)run_names;
         free(q);
         free(by_cat);
         for (int k = 0; k < RUN_COUNT; k++)

@@ -11,6 +11,7 @@
 #include "engine.h"
 #include "support/hard_cases.h"
 #include "support/meshgen.h"
+#include "support/query_shapes.h"
 #include "world/mesh_load.h"
 
 /* ---------- the sweep ---------- */
@@ -196,44 +197,28 @@ static void make_ray(const scene *s, rng *r, box3 around, int cat, ray_input *ou
 static void make_tri(const scene *s, rng *r, double leaf, int cat, vec3 out[3])
 {
     const mesh_data *m = &s->mesh;
+    /* The first three categories are the benchmarks' query shapes (query_shapes.h), in
+     * the same order. */
+    if (cat != TC_IN_FACE) {
+        query_triangle_sample(m, r, leaf, (query_triangle_kind)cat, out);
+        return;
+    }
+    /* Corners on the half-cell grid of the face's plane, reaching into the neighbouring
+     * faces: coplanar area contacts, every coordinate exact. */
     size_t t = rng_next(r) % m->triangle_count;
     vec3 a = tri_vertex(m, t, 0), b = tri_vertex(m, t, 1), c = tri_vertex(m, t, 2);
-    switch (cat) {
-    case TC_NEAR: {
-        vec3 q0 = vec3_add(a, vec3_scale(rng_unit_vector(r), 0.5 * leaf * rng_uniform(r, 0, 1)));
-        out[0] = q0;
-        out[1] = vec3_add(q0, vec3_scale(rng_unit_vector(r), leaf));
-        out[2] = vec3_add(q0, vec3_scale(rng_unit_vector(r), leaf));
+    int n = flat_axis(a, b, c);
+    if (n < 0) {
+        out[0] = a, out[1] = b, out[2] = c;
         return;
     }
-    case TC_AT_VERTEX:
-        out[0] = a;
-        out[1] = vec3_add(a, vec3_scale(rng_unit_vector(r), leaf));
-        out[2] = vec3_add(a, vec3_scale(rng_unit_vector(r), leaf));
-        return;
-    case TC_SAME:
-        out[0] = a;
-        out[1] = b;
-        out[2] = c;
-        return;
-    default: {
-        /* Corners on the half-cell grid of the face's plane, reaching into the neighbouring
-         * faces: coplanar area contacts, every coordinate exact. */
-        int n = flat_axis(a, b, c);
-        if (n < 0) {
-            out[0] = a, out[1] = b, out[2] = c;
-            return;
-        }
-        int u = (n + 1) % 3, w = (n + 2) % 3;
-        double half = 0.5 * s->cad_cell, cell = s->cad_cell;
-        double su = (rng_next(r) & 1) ? half : -half, sw = (rng_next(r) & 1) ? half : -half;
-        vec3 p0 = vec3_with(vec3_with(a, u, vec3_get(a, u) + su), w, vec3_get(a, w) + sw);
-        out[0] = p0;
-        out[1] = vec3_with(p0, u, vec3_get(p0, u) + ((rng_next(r) & 1) ? cell : -cell));
-        out[2] = vec3_with(p0, w, vec3_get(p0, w) + ((rng_next(r) & 1) ? cell : -cell));
-        return;
-    }
-    }
+    int u = (n + 1) % 3, w = (n + 2) % 3;
+    double half = 0.5 * s->cad_cell, cell = s->cad_cell;
+    double su = (rng_next(r) & 1) ? half : -half, sw = (rng_next(r) & 1) ? half : -half;
+    vec3 p0 = vec3_with(vec3_with(a, u, vec3_get(a, u) + su), w, vec3_get(a, w) + sw);
+    out[0] = p0;
+    out[1] = vec3_with(p0, u, vec3_get(p0, u) + ((rng_next(r) & 1) ? cell : -cell));
+    out[2] = vec3_with(p0, w, vec3_get(p0, w) + ((rng_next(r) & 1) ? cell : -cell));
 }
 
 /* The fixed workload of a scene: every category gets an equal share. */
