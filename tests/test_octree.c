@@ -741,11 +741,22 @@ static void test_ray_batch_equals_single_rays_bit_for_bit(void **state)
         for (size_t m = 0; m < 2; m++)
             for (int detail = RAY_ANY; detail <= RAY_ALL; detail++)
                 compare_batch_with_single(t, rays, RAYS, (ray_detail)detail, modes[m], &tally);
-        /* A sensor's sweep: every ray from one origin takes the batch's other path. */
+        /* Rays from one origin take the batch's other path, walking the tree in groups that
+         * share a visiting order: scattered directions (groups of every size, broken by
+         * changes of order and by invalid rays), then a camera's grid from a corner, whose
+         * neighbours fill whole groups. */
         vec3 eye = vec3_add(b.hi, vec3_make(0.5, 0.75, 1.0));
         for (size_t i = 0; i < RAYS; i++)
             rays[i] = i % 41 == 40 ? (ray_input){eye, {0, 0, 0}, 0, INFINITY}
                                    : (ray_input){eye, vec3_sub(random_point_near(&r, b), eye), 0, INFINITY};
+        for (size_t m = 0; m < 2; m++)
+            for (int detail = RAY_ANY; detail <= RAY_ALL; detail++)
+                compare_batch_with_single(t, rays, RAYS, (ray_detail)detail, modes[m], &tally);
+        for (size_t i = 0; i < RAYS; i++) {
+            double u = (double)(i % 50) / 49.0, v = (double)(i / 50) / 49.0;
+            vec3 target = vec3_make(b.lo.x + u * (b.hi.x - b.lo.x), b.lo.y + v * (b.hi.y - b.lo.y), b.lo.z);
+            rays[i] = (ray_input){eye, vec3_sub(target, eye), 0, INFINITY};
+        }
         for (int detail = RAY_ANY; detail <= RAY_ALL; detail++)
             compare_batch_with_single(t, rays, RAYS, (ray_detail)detail, ACCURACY_EXACT, &tally);
         octree_free(t);

@@ -158,6 +158,12 @@ octree_status octree_ray_stream(const struct octree *tree, const ray_input *rays
                                 accuracy_mode mode, ray_output *outs, octree_status *statuses,
                                 query_stats *stats);
 
+/* Answers a batch of rays from one origin as octree_ray answers each, walking the tree in
+ * groups of rays that share a visiting order. */
+octree_status octree_ray_packets(const struct octree *tree, const ray_input *rays, size_t count, ray_detail detail,
+                                 accuracy_mode mode, ray_output *outs, octree_status *statuses,
+                                 query_stats *stats);
+
 /* Deepest traversal stack a query needs: 7 siblings waiting per level plus the node. */
 #define OCTREE_STACK_MAX (8 * (OCTREE_MAX_DEPTH_CAP + 1) + 1)
 

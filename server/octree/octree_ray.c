@@ -1,7 +1,8 @@
 /* Ray queries: front-to-back traversal with conservative slab tests, so no node that the
  * exact ray touches is ever skipped, and a closest-hit query stops at the first node that
  * cannot hold a nearer hit. Each traversal is a walk taken a step at a time: a lone ray runs
- * its walk to the end, a batch interleaves several walks to overlap their memory waits. */
+ * its walk to the end, a batch of scattered rays interleaves several walks to overlap their
+ * memory waits, and a batch from one origin walks groups of rays through the tree together. */
 #include <float.h>
 #include <math.h>
 #include <stdlib.h>
@@ -399,19 +400,20 @@ static void walk_test_leaf(ray_walk *w, const octree *tree, octree_node node)
 
 /* The faces and split planes of a popped interior node: the world's for the root, else
  * the half of its parent's (kept per level by the walk) that its entry names, split as
- * every query and the build split it. */
-static inline void walk_entry_planes(ray_walk *w, const octree *tree, ray_entry e)
+ * every query and the build split it. levels[L] holds, per axis, the lower face, split
+ * plane and upper face of the last node expanded at level L. */
+static inline void entry_planes(double (*levels)[3][3], const octree *tree, unsigned level, unsigned upper)
 {
-    double(*p)[3] = w->level_planes[e.level];
-    if (e.level == 0) {
+    double(*p)[3] = levels[level];
+    if (level == 0) {
         const box3 *world = &tree->world;
         p[0][0] = world->lo.x, p[0][2] = world->hi.x;
         p[1][0] = world->lo.y, p[1][2] = world->hi.y;
         p[2][0] = world->lo.z, p[2][2] = world->hi.z;
     } else {
-        const double(*q)[3] = w->level_planes[e.level - 1];
+        const double(*q)[3] = levels[level - 1];
         for (int a = 0; a < 3; a++) {
-            unsigned h = (e.upper >> a) & 1;
+            unsigned h = (upper >> a) & 1;
             p[a][0] = q[a][h];
             p[a][2] = q[a][h + 1];
         }
@@ -425,18 +427,16 @@ static inline void walk_entry_planes(ray_walk *w, const octree *tree, ray_entry 
     }
 }
 
-static inline void walk_expand(ray_walk *w, const octree *tree, ray_entry e, octree_node node, int pipelined)
+/* The children of a node (faces and split planes `planes`) that the ray meets within
+ * [lo, hi], the node's interval clipped to [tmin, bound], as a mask in the ray's visiting
+ * order, with each child's interval in tnear[j], tfar[j]. A child's interval is the
+ * node's narrowed along each axis by the split plane: the near half ends where the ray
+ * crosses it, the far half begins there. The bounds stay conservative (every one is at or
+ * outside the exact value), so a child the exact ray touches is never dropped; the exact
+ * per-axis entries of the node itself are implied by its interval. */
+static inline unsigned children_met(const ray_setup *r, double lo, double hi, const double (*planes)[3],
+                                    double tnear[8], double tfar[8])
 {
-    const ray_setup *r = &w->r;
-    walk_entry_planes(w, tree, e);
-    const double(*planes)[3] = w->level_planes[e.level];
-    /* A child's interval is the node's, clipped to [tmin, bound], narrowed along each axis
-     * by the split plane: the near half ends where the ray crosses it, the far half begins
-     * there. The bounds stay conservative (every one is at or outside the exact value), so
-     * a child the exact ray touches is never dropped; the exact per-axis entries of the
-     * node itself are implied by its interval. */
-    double lo = e.tnear > r->tmin ? e.tnear : r->tmin;
-    double hi = e.tfar < w->bound ? e.tfar : w->bound;
     double fx, nx, fy, ny, fz, nz;
     axis_split_crossing(r, 0, planes[0][1], &fx, &nx);
     axis_split_crossing(r, 1, planes[1][1], &fy, &ny);
@@ -448,9 +448,7 @@ static inline void walk_expand(ray_walk *w, const octree *tree, ray_entry e, oct
     double fx1 = lo > fx ? lo : fx, nx0 = hi < nx ? hi : nx;
     double fxy[4] = {lo, lo > fy ? lo : fy, fx1, fx1 > fy ? fx1 : fy};
     double nxy[4] = {nx0 < ny ? nx0 : ny, nx0, hi < ny ? hi : ny, hi};
-    const octree_node *kids = &tree->nodes[node.first];
-    double tnear[8], tfar[8];
-    unsigned accepted = 0;
+    unsigned met = 0;
     /* Tested without branches: which children the ray meets is unpredictable. */
 #define RAY_CHILD(j)                                                                                          \
     do {                                                                                                      \
@@ -458,7 +456,7 @@ static inline void walk_expand(ray_walk *w, const octree *tree, ray_entry e, oct
         double t1 = (j) & 1 ? nxy[(j) >> 1] : (nxy[(j) >> 1] < nz ? nxy[(j) >> 1] : nz);                      \
         tnear[j] = t0;                                                                                        \
         tfar[j] = t1;                                                                                         \
-        accepted |= (unsigned)((t0 <= t1) & (kids[r->octant[j]].count != 0)) << (j);                          \
+        met |= (unsigned)(t0 <= t1) << (j);                                                                   \
     } while (0)
     RAY_CHILD(0);
     RAY_CHILD(1);
@@ -469,7 +467,40 @@ static inline void walk_expand(ray_walk *w, const octree *tree, ray_entry e, oct
     RAY_CHILD(6);
     RAY_CHILD(7);
 #undef RAY_CHILD
-    /* Pushed far to near, so the nearest is popped first. Empty leaves never enter. */
+    return met;
+}
+
+/* A node's children that hold triangles, in the visiting order `octant` (empty leaves are
+ * never pushed). */
+static inline unsigned children_nonempty(const octree *tree, octree_node node, const unsigned char octant[8])
+{
+    const octree_node *kids = &tree->nodes[node.first];
+#define NONEMPTY(j) ((unsigned)(kids[octant[j]].count != 0) << (j))
+    return NONEMPTY(0) | NONEMPTY(1) | NONEMPTY(2) | NONEMPTY(3) | NONEMPTY(4) | NONEMPTY(5) | NONEMPTY(6) |
+           NONEMPTY(7);
+#undef NONEMPTY
+}
+
+/* What visiting a pushed child will read first: its children's block, or its leaf list.
+ * Every child but the nearest waits for the nearer ones' subtrees, so its memory arrives
+ * meanwhile instead of stalling the pop that reaches it. */
+PREFETCH_HELPER void prefetch_child(const octree *tree, uint32_t child)
+{
+    octree_node kid = tree->nodes[child];
+    __builtin_prefetch(kid.count == NODE_INTERIOR ? (const void *)&tree->nodes[kid.first]
+                                                  : (const void *)&tree->leaf_items[kid.first]);
+}
+
+static inline void walk_expand(ray_walk *w, const octree *tree, ray_entry e, octree_node node, int pipelined)
+{
+    const ray_setup *r = &w->r;
+    entry_planes(w->level_planes, tree, e.level, e.upper);
+    double lo = e.tnear > r->tmin ? e.tnear : r->tmin;
+    double hi = e.tfar < w->bound ? e.tfar : w->bound;
+    double tnear[8], tfar[8];
+    unsigned accepted = children_met(r, lo, hi, (const double(*)[3])w->level_planes[e.level], tnear, tfar) &
+                        children_nonempty(tree, node, r->octant);
+    /* Pushed far to near, so the nearest is popped first. */
     size_t top = w->top;
     unsigned char level = (unsigned char)(e.level + 1);
     while (accepted) {
@@ -477,17 +508,11 @@ static inline void walk_expand(ray_walk *w, const octree *tree, ray_entry e, oct
         accepted &= ~(1u << j);
         uint32_t child = node.first + r->octant[j];
         w->stack[top++] = (ray_entry){tnear[j], tfar[j], child, level, r->upper[j]};
-        /* What visiting the child will read first: its children's block, or its leaf
-         * list. Every child but the nearest waits for the nearer ones' subtrees, so its
-         * memory arrives meanwhile instead of stalling the pop that reaches it. A
-         * pipelined walk asks for exactly the next node's memory instead (see
-         * walk_prefetch_next); these extra requests gave it nothing measurable
-         * (0.85-1.13x on random batches, this machine's noise). */
-        if (!pipelined) {
-            octree_node kid = tree->nodes[child];
-            __builtin_prefetch(kid.count == NODE_INTERIOR ? (const void *)&tree->nodes[kid.first]
-                                                          : (const void *)&tree->leaf_items[kid.first]);
-        }
+        /* A pipelined walk asks for exactly the next node's memory instead (see
+         * walk_prefetch_next); these extra requests gave it nothing measurable (0.85-1.13x
+         * on random batches, this machine's noise). */
+        if (!pipelined)
+            prefetch_child(tree, child);
     }
     w->top = top;
 }
@@ -602,6 +627,160 @@ octree_status octree_ray(const octree *tree, const ray_input *ray, ray_detail de
     st = walk_finish(&w, tree, out);
     query_stats_finish(stats, &w.local, fallbacks_before, predicates_fallback_count());
     return st;
+}
+
+/* Rays from one origin (a camera image, a lidar scan) in visiting-order groups of up to
+ * PACKET_RAYS walk the tree together: a node is popped, its planes derived and its
+ * children's records read once for the group, and each ray's own intervals are computed
+ * side by side, which the processor overlaps, where one ray at a time waits on each step
+ * of its walk in turn. Each ray visits exactly the nodes, in exactly the order, that it
+ * would alone (the group shares the visiting order; a child is entered by the rays that
+ * meet it; a ray leaves an entry once its bound passes it), so the answers and the counts
+ * are the same. */
+#define PACKET_RAYS 4
+
+typedef struct packet_entry {
+    double tnear[PACKET_RAYS], tfar[PACKET_RAYS]; /* set for the active rays only */
+    uint32_t node;
+    unsigned char level;
+    unsigned char upper;
+    unsigned char active; /* bit i: ray i of the packet meets the node */
+} packet_entry;
+
+typedef struct ray_packet {
+    ray_walk *walk[PACKET_RAYS];
+    int count;
+    packet_entry stack[OCTREE_STACK_MAX];
+    double level_planes[OCTREE_MAX_DEPTH_CAP + 1][3][3];
+} ray_packet;
+
+/* Runs the packet's walks, each begun by walk_begin and sharing one visiting order, to
+ * their end. */
+static void packet_run(ray_packet *p, const octree *tree)
+{
+    const ray_setup *order = &p->walk[0]->r;
+    size_t top = 0;
+    packet_entry root = {.node = 0, .level = 0, .upper = 0, .active = 0};
+    for (int i = 0; i < p->count; i++) {
+        ray_walk *w = p->walk[i];
+        if (w->top == 0)
+            continue;
+        root.tnear[i] = w->stack[0].tnear;
+        root.tfar[i] = w->stack[0].tfar;
+        root.active |= (unsigned char)(1u << i);
+        w->top = 0;
+    }
+    if (root.active)
+        p->stack[top++] = root;
+    while (top > 0) {
+        /* Copied: the first child pushed overwrites the slot. */
+        packet_entry e = p->stack[--top];
+        unsigned active = 0;
+        for (int i = 0; i < p->count; i++)
+            if (((e.active >> i) & 1) && !p->walk[i]->done && e.tnear[i] <= p->walk[i]->bound)
+                active |= 1u << i;
+        if (!active)
+            continue;
+        octree_node node = tree->nodes[e.node];
+        if (node.count != NODE_INTERIOR) {
+            prefetch_leaf_triangles(tree, node);
+            for (int i = 0; i < p->count; i++) {
+                if (!((active >> i) & 1))
+                    continue;
+                p->walk[i]->local.nodes_visited++;
+                p->walk[i]->local.leaves_visited++;
+                walk_test_leaf(p->walk[i], tree, node);
+            }
+            continue;
+        }
+        entry_planes(p->level_planes, tree, e.level, e.upper);
+        const double(*planes)[3] = (const double(*)[3])p->level_planes[e.level];
+        unsigned nonempty = children_nonempty(tree, node, order->octant);
+        double tnear[PACKET_RAYS][8], tfar[PACKET_RAYS][8];
+        unsigned met[PACKET_RAYS] = {0}, any = 0;
+        for (int i = 0; i < p->count; i++) {
+            if (!((active >> i) & 1))
+                continue;
+            ray_walk *w = p->walk[i];
+            w->local.nodes_visited++;
+            double lo = e.tnear[i] > w->r.tmin ? e.tnear[i] : w->r.tmin;
+            double hi = e.tfar[i] < w->bound ? e.tfar[i] : w->bound;
+            met[i] = children_met(&w->r, lo, hi, planes, tnear[i], tfar[i]) & nonempty;
+            any |= met[i];
+        }
+        /* Pushed far to near, so the nearest is popped first. */
+        unsigned char level = (unsigned char)(e.level + 1);
+        while (any) {
+            int j = 31 - __builtin_clz(any);
+            any &= ~(1u << j);
+            packet_entry child = {.node = node.first + order->octant[j], .level = level, .upper = order->upper[j]};
+            for (int i = 0; i < p->count; i++) {
+                if (!((met[i] >> j) & 1))
+                    continue;
+                child.active |= (unsigned char)(1u << i);
+                child.tnear[i] = tnear[i][j];
+                child.tfar[i] = tfar[i][j];
+            }
+            p->stack[top++] = child;
+            prefetch_child(tree, child.node);
+        }
+    }
+}
+
+octree_status octree_ray_packets(const octree *tree, const ray_input *rays, size_t count, ray_detail detail,
+                                 accuracy_mode mode, ray_output *outs, octree_status *statuses,
+                                 query_stats *stats)
+{
+    octree_status batch = OCTREE_OK;
+    ray_walk *walks = malloc(PACKET_RAYS * sizeof *walks);
+    ray_packet *p = malloc(sizeof *p);
+    if (!walks || !p) {
+        free(walks);
+        free(p);
+        for (size_t i = 0; i < count; i++) {
+            statuses[i] = octree_ray(tree, &rays[i], detail, mode, &outs[i], stats);
+            if (statuses[i] == OCTREE_ERR_NOMEM)
+                batch = OCTREE_ERR_NOMEM;
+        }
+        return batch;
+    }
+    uint64_t fallbacks_before = predicates_fallback_count();
+    query_stats sum = {0};
+    size_t ray_of[PACKET_RAYS];
+    size_t i = 0;
+    while (i < count) {
+        /* The next run of valid rays sharing a visiting order, up to PACKET_RAYS. */
+        p->count = 0;
+        for (; i < count && p->count < PACKET_RAYS; i++) {
+            octree_status st = check_query(&rays[i], detail, mode);
+            if (st != OCTREE_OK) {
+                statuses[i] = st;
+                continue;
+            }
+            ray_walk *w = &walks[p->count];
+            walk_begin(w, tree, &rays[i], detail, mode, &outs[i]);
+            if (p->count > 0 && memcmp(w->r.upper, walks[0].r.upper, sizeof w->r.upper) != 0) {
+                id_set_release(&w->tested);
+                break; /* begins the next packet */
+            }
+            p->walk[p->count] = w;
+            ray_of[p->count++] = i;
+        }
+        packet_run(p, tree);
+        for (int k = 0; k < p->count; k++) {
+            size_t r = ray_of[k];
+            statuses[r] = walk_finish(&walks[k], tree, &outs[r]);
+            if (statuses[r] == OCTREE_ERR_NOMEM)
+                batch = OCTREE_ERR_NOMEM;
+            sum.nodes_visited += walks[k].local.nodes_visited;
+            sum.leaves_visited += walks[k].local.leaves_visited;
+            sum.candidates_tested += walks[k].local.candidates_tested;
+        }
+    }
+    free(walks);
+    free(p);
+    query_stats_finish(stats, &sum, fallbacks_before, predicates_fallback_count());
+    return batch;
 }
 
 /* Starts the next ray of the stream that is valid, giving each invalid one its status on
