@@ -137,7 +137,7 @@ static int triangle_in_node(const build_ctx *ctx, const shared_list *parent, uin
 static void compute_reach(const build_ctx *ctx, shared_list *list)
 {
     box3 box = list->box;
-    vec3 c = box_split_point(box);
+    vec3 c = octree_split_point(ctx->tree, box);
     box3 child[8];
     for (int k = 0; k < 8; k++)
         child[k] = box_child(box, c, box_octant_upper_bits[k]);
@@ -322,7 +322,7 @@ static octree_status build_nodes(build_ctx *ctx, int max_level)
             goto unwind;
         }
         uint32_t first = tree->nodes[e.node].first;
-        vec3 c = box_split_point(e.box);
+        vec3 c = octree_split_point(tree, e.box);
         /* Octants pushed 1..8, so the stack pops them 8..1, as the seed's loop does. */
         for (int k = 0; k < 8; k++)
             stack[top++] = (build_entry){first + (uint32_t)k, e.level + 1, k,

@@ -7,6 +7,7 @@
 #include <stdlib.h>
 
 #include "../engine.h"
+#include "../geom/box_geometry.h"
 #include "../geom/vec3.h"
 
 /* count == NODE_INTERIOR marks an interior node whose eight children, in the seed's octant
@@ -56,6 +57,16 @@ struct octree {
     double seed_epsilon;
     octree_info info;
 };
+
+/* A node's split point, as box_split_point computes it, without its overflow checks when
+ * no node of the tree can need them. */
+static inline vec3 octree_split_point(const struct octree *tree, box3 box)
+{
+    if (tree->splits_in_range)
+        return (vec3){box_split_in_range(box.lo.x, box.hi.x), box_split_in_range(box.lo.y, box.hi.y),
+                      box_split_in_range(box.lo.z, box.hi.z)};
+    return box_split_point(box);
+}
 
 static inline const vec3 *octree_triangle_at(const struct octree *tree, uint32_t id)
 {
