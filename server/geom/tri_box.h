@@ -18,16 +18,13 @@ int tri_box_overlap_exact(const vec3 tri[3], box3 box);
  * answers are the same. Parts are computed on first need (most boxes are settled by a
  * vertex inside them), so the test writes to the struct: a prepared triangle is never
  * shared between threads. */
-enum { TRI_BOX_SAMPLES = 1, TRI_BOX_AXES = 2 };
-
 typedef struct tri_box_triangle {
     double v[3][3];            /* vertices, by coordinate */
     double lo[3], hi[3];       /* exact bounds */
     double edge_delta[3][3];   /* fl(q - p) for edge e = v[e] -> v[e + 1], per coordinate */
     int normal_sign[3];        /* exact signs of the normal's components (all 0: zero area) */
-    double sample_lo[3 + 1][3], sample_hi[3 + 1][3]; /* edge midpoints and centroid, widened by their rounding */
     orient3d_plane plane;
-    unsigned ready;            /* TRI_BOX_SAMPLES: the samples are set; TRI_BOX_AXES: the rest */
+    int ready;                 /* edge_delta, normal_sign and plane set (on first need) */
 } tri_box_triangle;
 
 void tri_box_prepare(tri_box_triangle *t, const vec3 tri[3]);
