@@ -727,65 +727,9 @@ static void packet_run(ray_packet *p, const octree *tree)
     }
 }
 
-octree_status octree_ray_packets(const octree *tree, const ray_input *rays, size_t count, ray_detail detail,
-                                 accuracy_mode mode, ray_output *outs, octree_status *statuses,
-                                 query_stats *stats)
-{
-    octree_status batch = OCTREE_OK;
-    ray_walk *walks = malloc(PACKET_RAYS * sizeof *walks);
-    ray_packet *p = malloc(sizeof *p);
-    if (!walks || !p) {
-        free(walks);
-        free(p);
-        for (size_t i = 0; i < count; i++) {
-            statuses[i] = octree_ray(tree, &rays[i], detail, mode, &outs[i], stats);
-            if (statuses[i] == OCTREE_ERR_NOMEM)
-                batch = OCTREE_ERR_NOMEM;
-        }
-        return batch;
-    }
-    uint64_t fallbacks_before = predicates_fallback_count();
-    query_stats sum = {0};
-    size_t ray_of[PACKET_RAYS];
-    size_t i = 0;
-    while (i < count) {
-        /* The next run of valid rays sharing a visiting order, up to PACKET_RAYS. */
-        p->count = 0;
-        for (; i < count && p->count < PACKET_RAYS; i++) {
-            octree_status st = check_query(&rays[i], detail, mode);
-            if (st != OCTREE_OK) {
-                statuses[i] = st;
-                continue;
-            }
-            ray_walk *w = &walks[p->count];
-            walk_begin(w, tree, &rays[i], detail, mode, &outs[i]);
-            if (p->count > 0 && memcmp(w->r.upper, walks[0].r.upper, sizeof w->r.upper) != 0) {
-                id_set_release(&w->tested);
-                break; /* begins the next packet */
-            }
-            p->walk[p->count] = w;
-            ray_of[p->count++] = i;
-        }
-        packet_run(p, tree);
-        for (int k = 0; k < p->count; k++) {
-            size_t r = ray_of[k];
-            statuses[r] = walk_finish(&walks[k], tree, &outs[r]);
-            if (statuses[r] == OCTREE_ERR_NOMEM)
-                batch = OCTREE_ERR_NOMEM;
-            sum.nodes_visited += walks[k].local.nodes_visited;
-            sum.leaves_visited += walks[k].local.leaves_visited;
-            sum.candidates_tested += walks[k].local.candidates_tested;
-        }
-    }
-    free(walks);
-    free(p);
-    query_stats_finish(stats, &sum, fallbacks_before, predicates_fallback_count());
-    return batch;
-}
-
-/* Starts the next ray of the stream that is valid, giving each invalid one its status on
- * the way. Returns the ray's index, or count when none is left. */
-static size_t stream_start_next(ray_walk *w, const octree *tree, const ray_input *rays, size_t count,
+/* Starts the walk of the next valid ray from *next on, giving each invalid one its status
+ * on the way. Returns the ray's index, or count when none is left. */
+static size_t walk_start_next(ray_walk *w, const octree *tree, const ray_input *rays, size_t count,
                                 size_t *next, ray_detail detail, accuracy_mode mode, ray_output *outs,
                                 octree_status *statuses)
 {
@@ -802,6 +746,76 @@ static size_t stream_start_next(ray_walk *w, const octree *tree, const ray_input
     return count;
 }
 
+/* Every ray answered by octree_ray, when a batch could not get its walks' memory. */
+static octree_status rays_one_at_a_time(const octree *tree, const ray_input *rays, size_t count, ray_detail detail,
+                                        accuracy_mode mode, ray_output *outs, octree_status *statuses,
+                                        query_stats *stats)
+{
+    octree_status batch = OCTREE_OK;
+    for (size_t i = 0; i < count; i++) {
+        statuses[i] = octree_ray(tree, &rays[i], detail, mode, &outs[i], stats);
+        if (statuses[i] == OCTREE_ERR_NOMEM)
+            batch = OCTREE_ERR_NOMEM;
+    }
+    return batch;
+}
+
+/* A finished walk's counters, into a batch's sum (whose fallbacks query_stats_finish
+ * counts once for the batch). */
+static void add_walk_counts(query_stats *sum, const ray_walk *w)
+{
+    sum->nodes_visited += w->local.nodes_visited;
+    sum->leaves_visited += w->local.leaves_visited;
+    sum->candidates_tested += w->local.candidates_tested;
+}
+
+octree_status octree_ray_packets(const octree *tree, const ray_input *rays, size_t count, ray_detail detail,
+                                 accuracy_mode mode, ray_output *outs, octree_status *statuses,
+                                 query_stats *stats)
+{
+    octree_status batch = OCTREE_OK;
+    ray_walk *walks = malloc(PACKET_RAYS * sizeof *walks);
+    ray_packet *p = malloc(sizeof *p);
+    if (!walks || !p) {
+        free(walks);
+        free(p);
+        return rays_one_at_a_time(tree, rays, count, detail, mode, outs, statuses, stats);
+    }
+    uint64_t fallbacks_before = predicates_fallback_count();
+    query_stats sum = {0};
+    size_t ray_of[PACKET_RAYS];
+    size_t i = 0;
+    while (i < count) {
+        /* The next run of valid rays sharing a visiting order, up to PACKET_RAYS. */
+        p->count = 0;
+        while (p->count < PACKET_RAYS) {
+            ray_walk *w = &walks[p->count];
+            size_t at = walk_start_next(w, tree, rays, count, &i, detail, mode, outs, statuses);
+            if (at == count)
+                break;
+            if (p->count > 0 && memcmp(w->r.upper, walks[0].r.upper, sizeof w->r.upper) != 0) {
+                id_set_release(&w->tested);
+                i = at; /* begins the next packet */
+                break;
+            }
+            p->walk[p->count] = w;
+            ray_of[p->count++] = at;
+        }
+        packet_run(p, tree);
+        for (int k = 0; k < p->count; k++) {
+            size_t r = ray_of[k];
+            statuses[r] = walk_finish(&walks[k], tree, &outs[r]);
+            if (statuses[r] == OCTREE_ERR_NOMEM)
+                batch = OCTREE_ERR_NOMEM;
+            add_walk_counts(&sum, &walks[k]);
+        }
+    }
+    free(walks);
+    free(p);
+    query_stats_finish(stats, &sum, fallbacks_before, predicates_fallback_count());
+    return batch;
+}
+
 octree_status octree_ray_stream(const octree *tree, const ray_input *rays, size_t count, ray_detail detail,
                                 accuracy_mode mode, ray_output *outs, octree_status *statuses,
                                 query_stats *stats)
@@ -810,21 +824,15 @@ octree_status octree_ray_stream(const octree *tree, const ray_input *rays, size_
     /* Walks are large (their stacks): on the heap, once per batch. Without the memory the
      * rays still get their answers, one at a time. */
     ray_walk *walks = malloc(RAY_STREAM_WIDTH * sizeof *walks);
-    if (!walks) {
-        for (size_t i = 0; i < count; i++) {
-            statuses[i] = octree_ray(tree, &rays[i], detail, mode, &outs[i], stats);
-            if (statuses[i] == OCTREE_ERR_NOMEM)
-                batch = OCTREE_ERR_NOMEM;
-        }
-        return batch;
-    }
+    if (!walks)
+        return rays_one_at_a_time(tree, rays, count, detail, mode, outs, statuses, stats);
     uint64_t fallbacks_before = predicates_fallback_count();
     query_stats sum = {0};
     size_t ray_of[RAY_STREAM_WIDTH];
     size_t next = 0;
     int live = 0;
     for (int s = 0; s < RAY_STREAM_WIDTH; s++) {
-        ray_of[s] = stream_start_next(&walks[s], tree, rays, count, &next, detail, mode, outs, statuses);
+        ray_of[s] = walk_start_next(&walks[s], tree, rays, count, &next, detail, mode, outs, statuses);
         live += ray_of[s] < count;
     }
     /* Round robin, one step per walk: each step ends by prefetching what that walk reads
@@ -838,10 +846,8 @@ octree_status octree_ray_stream(const octree *tree, const ray_input *rays, size_
             statuses[i] = walk_finish(&walks[s], tree, &outs[i]);
             if (statuses[i] == OCTREE_ERR_NOMEM)
                 batch = OCTREE_ERR_NOMEM;
-            sum.nodes_visited += walks[s].local.nodes_visited;
-            sum.leaves_visited += walks[s].local.leaves_visited;
-            sum.candidates_tested += walks[s].local.candidates_tested;
-            ray_of[s] = stream_start_next(&walks[s], tree, rays, count, &next, detail, mode, outs, statuses);
+            add_walk_counts(&sum, &walks[s]);
+            ray_of[s] = walk_start_next(&walks[s], tree, rays, count, &next, detail, mode, outs, statuses);
             live -= ray_of[s] == count;
         }
     }
