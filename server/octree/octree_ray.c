@@ -26,6 +26,10 @@ typedef struct ray_setup {
     int kind[3];
     double tmin, tmax;
     int widen; /* exact mode: widen every interval by its rounding error */
+    /* Every axis kind 0, as nearly every ray: its split crossings take the branch-free
+     * path, widened by slack_rel |t| + slack_abs (4 eps and TINY in exact mode, else 0). */
+    int ordinary;
+    double slack_rel, slack_abs;
     int near_upper[3]; /* 1 when the ray meets the upper half along the axis first */
     /* Front-to-back visiting order of a node's children for this ray: the j-th child to
      * visit takes the upper half along axis a when bit a of upper[j] is set, and is seed
@@ -60,6 +64,9 @@ static void setup_ray(ray_setup *r, const ray_input *in, accuracy_mode mode)
     }
     for (int a = 0; a < 3; a++)
         r->near_upper[a] = r->kind[a] == 0 && r->inv[a] < 0.0;
+    r->ordinary = r->kind[0] == 0 && r->kind[1] == 0 && r->kind[2] == 0;
+    r->slack_rel = r->widen ? 4 * EPS : 0.0;
+    r->slack_abs = r->widen ? TINY : 0.0;
     for (int j = 0; j < 8; j++) {
         int hx = r->near_upper[0] ^ ((j >> 2) & 1), hy = r->near_upper[1] ^ ((j >> 1) & 1),
             hz = r->near_upper[2] ^ (j & 1);
@@ -405,26 +412,31 @@ static void walk_test_leaf(ray_walk *w, const octree *tree, octree_node node)
 static inline void entry_planes(double (*levels)[3][3], const octree *tree, unsigned level, unsigned upper)
 {
     double(*p)[3] = levels[level];
+    double lo[3], hi[3];
     if (level == 0) {
         const box3 *world = &tree->world;
-        p[0][0] = world->lo.x, p[0][2] = world->hi.x;
-        p[1][0] = world->lo.y, p[1][2] = world->hi.y;
-        p[2][0] = world->lo.z, p[2][2] = world->hi.z;
+        lo[0] = world->lo.x, hi[0] = world->hi.x;
+        lo[1] = world->lo.y, hi[1] = world->hi.y;
+        lo[2] = world->lo.z, hi[2] = world->hi.z;
     } else {
         const double(*q)[3] = levels[level - 1];
-        for (int a = 0; a < 3; a++) {
-            unsigned h = (upper >> a) & 1;
-            p[a][0] = q[a][h];
-            p[a][2] = q[a][h + 1];
-        }
+        unsigned hx = upper & 1, hy = (upper >> 1) & 1, hz = (upper >> 2) & 1;
+        lo[0] = q[0][hx], hi[0] = q[0][hx + 1];
+        lo[1] = q[1][hy], hi[1] = q[1][hy + 1];
+        lo[2] = q[2][hz], hi[2] = q[2][hz + 1];
     }
+    /* Written from registers in one pass: storing the faces and reading them back for the
+     * split stalled each expansion on store forwarding. */
+    double c0, c1, c2;
     if (tree->splits_in_range) {
-        for (int a = 0; a < 3; a++)
-            p[a][1] = box_split_in_range(p[a][0], p[a][2]);
+        c0 = box_split_in_range(lo[0], hi[0]), c1 = box_split_in_range(lo[1], hi[1]),
+        c2 = box_split_in_range(lo[2], hi[2]);
     } else {
-        for (int a = 0; a < 3; a++)
-            p[a][1] = box_split(p[a][0], p[a][2]);
+        c0 = box_split(lo[0], hi[0]), c1 = box_split(lo[1], hi[1]), c2 = box_split(lo[2], hi[2]);
     }
+    p[0][0] = lo[0], p[0][1] = c0, p[0][2] = hi[0];
+    p[1][0] = lo[1], p[1][1] = c1, p[1][2] = hi[1];
+    p[2][0] = lo[2], p[2][1] = c2, p[2][2] = hi[2];
 }
 
 /* The children of a node (faces and split planes `planes`) that the ray meets within
@@ -438,9 +450,20 @@ static inline unsigned children_met(const ray_setup *r, double lo, double hi, co
                                     double tnear[8], double tfar[8])
 {
     double fx, nx, fy, ny, fz, nz;
-    axis_split_crossing(r, 0, planes[0][1], &fx, &nx);
-    axis_split_crossing(r, 1, planes[1][1], &fy, &ny);
-    axis_split_crossing(r, 2, planes[2][1], &fz, &nz);
+    if (r->ordinary) {
+        /* axis_split_crossing's kind 0 case, the same values without its branches. */
+        double tx = (planes[0][1] - r->o.x) * r->inv[0], ty = (planes[1][1] - r->o.y) * r->inv[1],
+               tz = (planes[2][1] - r->o.z) * r->inv[2];
+        double ax = fabs(tx), ay = fabs(ty), az = fabs(tz);
+        double sx = (ax < DBL_MAX ? ax : DBL_MAX) * r->slack_rel + r->slack_abs;
+        double sy = (ay < DBL_MAX ? ay : DBL_MAX) * r->slack_rel + r->slack_abs;
+        double sz = (az < DBL_MAX ? az : DBL_MAX) * r->slack_rel + r->slack_abs;
+        fx = tx - sx, nx = tx + sx, fy = ty - sy, ny = ty + sy, fz = tz - sz, nz = tz + sz;
+    } else {
+        axis_split_crossing(r, 0, planes[0][1], &fx, &nx);
+        axis_split_crossing(r, 1, planes[1][1], &fy, &ny);
+        axis_split_crossing(r, 2, planes[2][1], &fz, &nz);
+    }
     /* Child j (in visiting order) takes the far half along x, y, z when bit 2, 1, 0 of j is
      * set. Its entry is the largest of lo and its far axes' crossings, its exit the
      * smallest of hi and its near axes' crossings; the x-y parts are shared by two
