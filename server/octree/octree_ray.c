@@ -81,19 +81,24 @@ static void setup_ray(ray_setup *r, const ray_input *in, accuracy_mode mode)
  * node's own interval, which its stack entry carries, so a node costs three planes, not
  * nine. Exact mode widens the crossing by its rounding error: (c - o) and the product each
  * round once and 1/d was a third rounding, so 4 eps |t| + TINY bounds the exact crossing
- * (|t| clamped to DBL_MAX so that an overflowed crossing widens to itself, not to NaN). */
+ * (|t| clamped to DBL_MAX so that an overflowed crossing widens to itself, not to NaN);
+ * other modes' slack is 0 |t| + 0. This is the crossing of an axis of kind 0. */
+static inline void ordinary_split_crossing(const ray_setup *r, double o, double inv, double c, double *far_enter,
+                                           double *near_exit)
+{
+    double tc = (c - o) * inv;
+    double size = fabs(tc) < DBL_MAX ? fabs(tc) : DBL_MAX;
+    double slack = size * r->slack_rel + r->slack_abs;
+    *far_enter = tc - slack;
+    *near_exit = tc + slack;
+}
+
+/* The crossing along axis a, whatever its kind. */
 static inline void axis_split_crossing(const ray_setup *r, int a, double c, double *far_enter, double *near_exit)
 {
     double o = a == 0 ? r->o.x : a == 1 ? r->o.y : r->o.z;
     if (r->kind[a] == 0) {
-        double tc = (c - o) * r->inv[a];
-        double slack = 0.0;
-        if (r->widen) {
-            double size = fabs(tc) < DBL_MAX ? fabs(tc) : DBL_MAX;
-            slack = size * (4 * EPS) + TINY;
-        }
-        *far_enter = tc - slack;
-        *near_exit = tc + slack;
+        ordinary_split_crossing(r, o, r->inv[a], c, far_enter, near_exit);
     } else if (r->kind[a] == 1) {
         /* The ray keeps this coordinate: a half either always holds it or never. Such an
          * axis has near_upper 0, so near is the lower half. */
@@ -451,14 +456,10 @@ static inline unsigned children_met(const ray_setup *r, double lo, double hi, co
 {
     double fx, nx, fy, ny, fz, nz;
     if (r->ordinary) {
-        /* axis_split_crossing's kind 0 case, the same values without its branches. */
-        double tx = (planes[0][1] - r->o.x) * r->inv[0], ty = (planes[1][1] - r->o.y) * r->inv[1],
-               tz = (planes[2][1] - r->o.z) * r->inv[2];
-        double ax = fabs(tx), ay = fabs(ty), az = fabs(tz);
-        double sx = (ax < DBL_MAX ? ax : DBL_MAX) * r->slack_rel + r->slack_abs;
-        double sy = (ay < DBL_MAX ? ay : DBL_MAX) * r->slack_rel + r->slack_abs;
-        double sz = (az < DBL_MAX ? az : DBL_MAX) * r->slack_rel + r->slack_abs;
-        fx = tx - sx, nx = tx + sx, fy = ty - sy, ny = ty + sy, fz = tz - sz, nz = tz + sz;
+        /* No axis's kind to branch on. */
+        ordinary_split_crossing(r, r->o.x, r->inv[0], planes[0][1], &fx, &nx);
+        ordinary_split_crossing(r, r->o.y, r->inv[1], planes[1][1], &fy, &ny);
+        ordinary_split_crossing(r, r->o.z, r->inv[2], planes[2][1], &fz, &nz);
     } else {
         axis_split_crossing(r, 0, planes[0][1], &fx, &nx);
         axis_split_crossing(r, 1, planes[1][1], &fy, &ny);
