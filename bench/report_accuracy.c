@@ -8,6 +8,7 @@
 #include <time.h>
 #include <unistd.h>
 
+#include "array_reserve.h"
 #include "engine.h"
 #include "support/hard_cases.h"
 #include "support/meshgen.h"
@@ -399,9 +400,13 @@ static void measure(const octree *t, const mesh_data *m, const workload *w, accu
         res->ray_wrong += (size_t)wrong;
         res->ray_wrong_by_cat[cat] += (size_t)wrong;
     }
-    size_t ids_used = 0, ids_cap = record ? 1024 : 0;
+    size_t ids_used = 0, ids_cap = 0;
     if (record) {
-        tr->tri_ids = malloc(ids_cap * sizeof *tr->tri_ids);
+        tr->tri_ids = NULL;
+        if (array_reserve((void **)&tr->tri_ids, &ids_cap, 1, sizeof *tr->tri_ids, 1024) != 0) {
+            fprintf(stderr, "report_accuracy: out of memory\n");
+            exit(1);
+        }
         tr->tri_first[0] = 0;
     }
     for (size_t i = 0; i < w->tri_count; i++) {
@@ -414,12 +419,7 @@ static void measure(const octree *t, const mesh_data *m, const workload *w, accu
         res->tri_truncated += (size_t)(out.truncated != 0);
         size_t n = out.count < TRI_CAPACITY ? out.count : TRI_CAPACITY;
         if (record) {
-            if (ids_used + n > ids_cap) {
-                while (ids_used + n > ids_cap)
-                    ids_cap *= 2;
-                tr->tri_ids = realloc(tr->tri_ids, ids_cap * sizeof *tr->tri_ids);
-            }
-            if (!tr->tri_ids) {
+            if (array_reserve((void **)&tr->tri_ids, &ids_cap, ids_used + n, sizeof *tr->tri_ids, 1024) != 0) {
                 fprintf(stderr, "report_accuracy: out of memory\n");
                 exit(1);
             }

@@ -18,18 +18,3 @@ void cli_batch_warn_rebuilt(cli_context *ctx, const cli_batch *b, const char *wo
         cli_warn(ctx, "world %s was rebuilt during the batch: the answers come from versions %" PRId64 " to %" PRId64,
                  world, b->first_version, b->last_version);
 }
-
-int cli_reserve(void **items, size_t *cap, size_t need, size_t elem)
-{
-    if (need <= *cap)
-        return 0;
-    size_t grown = *cap ? *cap : 1024;
-    while (grown < need)
-        grown *= 2;
-    void *p = realloc(*items, grown * elem);
-    if (p == NULL)
-        return -1;
-    *items = p;
-    *cap = grown;
-    return 0;
-}

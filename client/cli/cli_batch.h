@@ -22,8 +22,4 @@ void cli_batch_note(cli_batch *b, const trioct_reply *reply);
  * more than one version of it. */
 void cli_batch_warn_rebuilt(cli_context *ctx, const cli_batch *b, const char *world);
 
-/* Grows *items (each elem bytes, *cap of them) to hold at least need, doubling from 1024.
- * 0, or -1 out of memory (the array is left as it was). */
-int cli_reserve(void **items, size_t *cap, size_t need, size_t elem);
-
 #endif

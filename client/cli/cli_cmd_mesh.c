@@ -5,6 +5,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "array_reserve.h"
 #include "cli.h"
 #include "cli_batch.h"
 #include "cli_pose.h"
@@ -83,7 +84,7 @@ static void mesh_answer_free(mesh_answer *a)
 
 static int mesh_answer_add(mesh_answer *a, const trioct_mesh_result *res, size_t offset)
 {
-    if (cli_reserve((void **)&a->pairs, &a->cap_pairs, a->num_pairs + res->num_pairs, sizeof *a->pairs) != 0)
+    if (array_reserve((void **)&a->pairs, &a->cap_pairs, a->num_pairs + res->num_pairs, sizeof *a->pairs, 1024) != 0)
         return -1;
     for (size_t i = 0; i < res->num_poses; i++)
         a->found[offset + i] = res->found[i];

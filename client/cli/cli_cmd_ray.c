@@ -6,6 +6,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "array_reserve.h"
 #include "cli.h"
 #include "cli_batch.h"
 #include "cli_csv.h"
@@ -111,7 +112,7 @@ static void ray_answer_free(ray_answer *a)
 /* Appends one request's result, its rays numbered from offset. 0, or -1 out of memory. */
 static int ray_answer_add(ray_answer *a, const trioct_ray_result *res, size_t offset)
 {
-    if (cli_reserve((void **)&a->hits, &a->cap_hits, a->num_hits + res->num_hits, sizeof *a->hits) != 0)
+    if (array_reserve((void **)&a->hits, &a->cap_hits, a->num_hits + res->num_hits, sizeof *a->hits, 1024) != 0)
         return -1;
     for (size_t i = 0; i < res->num_rays; i++)
         a->found[offset + i] = res->found[i];

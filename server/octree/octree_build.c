@@ -80,7 +80,7 @@ typedef struct u32_array {
 
 static int u32_reserve(u32_array *a, size_t extra)
 {
-    return octree_reserve((void **)&a->items, &a->capacity, a->count + extra, sizeof *a->items, 64);
+    return array_reserve((void **)&a->items, &a->capacity, a->count + extra, sizeof *a->items, 64);
 }
 
 /* A triangle list shared by the eight children that test it; freed when the last of them

@@ -6,6 +6,7 @@
 #include <stdint.h>
 #include <stdlib.h>
 
+#include "../../common/array_reserve.h"
 #include "../engine.h"
 #include "../geom/box_geometry.h"
 #include "../geom/vec3.h"
@@ -177,23 +178,5 @@ octree_status octree_ray_packets(const struct octree *tree, const ray_input *ray
 
 /* Deepest traversal stack a query needs: 7 siblings waiting per level plus the node. */
 #define OCTREE_STACK_MAX (8 * (OCTREE_MAX_DEPTH_CAP + 1) + 1)
-
-/* Grows a realloc'd array (*items, *capacity elements of elem bytes) to hold at least need,
- * doubling from first. 0, or -1 out of memory with the array unchanged. The build's lists
- * and the queries' hit and id lists all grow this way. */
-static inline int octree_reserve(void **items, size_t *capacity, size_t need, size_t elem, size_t first)
-{
-    if (need <= *capacity)
-        return 0;
-    size_t cap = *capacity ? *capacity : first;
-    while (cap < need)
-        cap *= 2;
-    void *grown = realloc(*items, cap * elem);
-    if (grown == NULL)
-        return -1;
-    *items = grown;
-    *capacity = cap;
-    return 0;
-}
 
 #endif

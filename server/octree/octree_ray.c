@@ -220,7 +220,7 @@ typedef struct hit_list {
 
 static int hit_list_push(hit_list *l, ray_hit h)
 {
-    if (octree_reserve((void **)&l->items, &l->capacity, l->count + 1, sizeof *l->items, 16) != 0)
+    if (array_reserve((void **)&l->items, &l->capacity, l->count + 1, sizeof *l->items, 16) != 0)
         return -1;
     l->items[l->count++] = h;
     return 0;

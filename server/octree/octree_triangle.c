@@ -72,7 +72,7 @@ typedef struct id_list {
 
 static int id_list_push(id_list *l, uint32_t id)
 {
-    if (octree_reserve((void **)&l->items, &l->capacity, l->count + 1, sizeof *l->items, 32) != 0)
+    if (array_reserve((void **)&l->items, &l->capacity, l->count + 1, sizeof *l->items, 32) != 0)
         return -1;
     l->items[l->count++] = id;
     return 0;

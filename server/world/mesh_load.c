@@ -14,6 +14,7 @@
 #include <assimp/postprocess.h>
 #include <assimp/scene.h>
 
+#include "../../common/array_reserve.h"
 #include "geom/vec3.h"
 #include "error_text.h"
 
@@ -360,17 +361,9 @@ static int walk_nodes(loader *ld, const struct aiScene *scene)
         }
         if (status != 0 || !node->mChildren)
             continue;
-        if (node->mNumChildren > capacity - depth) {
-            size_t grown_capacity = capacity;
-            while (node->mNumChildren > grown_capacity - depth)
-                grown_capacity *= 2;
-            node_visit *grown = realloc(stack, grown_capacity * sizeof *grown);
-            if (!grown) {
-                status = fail_nomem(ld);
-                break;
-            }
-            stack = grown;
-            capacity = grown_capacity;
+        if (array_reserve((void **)&stack, &capacity, depth + node->mNumChildren, sizeof *stack, 64) != 0) {
+            status = fail_nomem(ld);
+            break;
         }
         /* Pushed last-first so the first child is visited first. */
         for (unsigned c = node->mNumChildren; c-- > 0;)
