@@ -49,6 +49,21 @@ int trioct_channel_name(char *out, const char *prefix, trioct_channel_kind kind,
     return 0;
 }
 
+int trioct_mark_channel_name(char *out, const char *prefix, trioct_mark_kind kind, const char *daemon)
+{
+    out[0] = '\0';
+    if ((kind != TRIOCT_MARK_RELOAD && kind != TRIOCT_MARK_STOP) || !trioct_name_valid(prefix, TRIOCT_MAX_PREFIX_LEN) ||
+        !trioct_name_valid(daemon, TRIOCT_MAX_NAME_LEN))
+        return -1;
+    int n = snprintf(out, TRIOCT_MAX_CHANNEL_LEN + 1, "%s_%s_%s", prefix, kind == TRIOCT_MARK_RELOAD ? "RELOAD" : "STOP",
+                     daemon);
+    if (n < 0 || n > TRIOCT_MAX_CHANNEL_LEN) {
+        out[0] = '\0';
+        return -1;
+    }
+    return 0;
+}
+
 int trioct_channel_parse(const char *channel, const char *prefix, trioct_channel_kind *kind,
                          char name[TRIOCT_MAX_NAME_LEN + 1])
 {

@@ -39,4 +39,15 @@ int trioct_channel_name(char *out, const char *prefix, trioct_channel_kind kind,
 int trioct_channel_parse(const char *channel, const char *prefix, trioct_channel_kind *kind,
                          char name[TRIOCT_MAX_NAME_LEN + 1]);
 
+/* The marks of a daemon run with --ordered on a recorded log, which can carry neither
+ * SIGHUP nor SIGTERM: a message on <prefix>_RELOAD_<daemon> reloads the scene at its
+ * place in the input, one on <prefix>_STOP_<daemon> begins stopping there. They are not
+ * protocol channels (a daemon not run with --ordered never hears them). */
+typedef enum trioct_mark_kind { TRIOCT_MARK_RELOAD, TRIOCT_MARK_STOP } trioct_mark_kind;
+
+/* Writes the mark channel of kind for prefix and daemon into
+ * out[TRIOCT_MAX_CHANNEL_LEN + 1]. Returns 0, or -1 for an invalid prefix or daemon name
+ * (out is then the empty string). */
+int trioct_mark_channel_name(char *out, const char *prefix, trioct_mark_kind kind, const char *daemon);
+
 #endif

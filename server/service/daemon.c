@@ -691,11 +691,14 @@ static int ordered_stop_waits(const daemon *d)
     return d->stop_marked && d->input_is_file && !d->eof;
 }
 
-static lcm_subscription_t *ordered_listen(daemon *d, const char *what, lcm_msg_handler_t handler)
+static lcm_subscription_t *ordered_listen(daemon *d, trioct_mark_kind kind, lcm_msg_handler_t handler)
 {
     /* prefix and name are checked names: this fits, and is its own regular expression. */
     char ch[TRIOCT_MAX_CHANNEL_LEN + 1];
-    snprintf(ch, sizeof ch, "%s_%s_%s", d->opt.prefix, what, d->opt.name);
+    if (trioct_mark_channel_name(ch, d->opt.prefix, kind, d->opt.name) < 0) {
+        LOG(LOG_ERROR, "prefix %s and name %s make no mark channel", d->opt.prefix, d->opt.name);
+        return NULL;
+    }
     lcm_subscription_t *sub = lcm_subscribe(d->lcm_in, ch, handler, d);
     if (sub == NULL) {
         LOG(LOG_ERROR, "could not subscribe to %s", ch);
@@ -708,8 +711,8 @@ static lcm_subscription_t *ordered_listen(daemon *d, const char *what, lcm_msg_h
 
 static int ordered_subscribe(daemon *d)
 {
-    d->sub_reload = ordered_listen(d, "RELOAD", on_reload_message);
-    d->sub_stop = ordered_listen(d, "STOP", on_stop_message);
+    d->sub_reload = ordered_listen(d, TRIOCT_MARK_RELOAD, on_reload_message);
+    d->sub_stop = ordered_listen(d, TRIOCT_MARK_STOP, on_stop_message);
     return d->sub_reload != NULL && d->sub_stop != NULL ? 0 : -1;
 }
 

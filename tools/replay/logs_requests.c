@@ -116,11 +116,11 @@ void lr_admin(logs_writer *w, const lr_req *q, int8_t op, const char *mesh_path)
 void lr_reload(logs_writer *w)
 {
     /* Any bytes: the daemon reads only that the message came. */
-    lw_raw(w, LOGS_PREFIX "_RELOAD_" LOGS_DAEMON, "reload", 6);
+    lw_raw(w, lw_mark_channel(TRIOCT_MARK_RELOAD), "reload", 6);
 }
 
 void lr_stop(logs_writer *w)
 {
     /* Any bytes, as for the reload mark. */
-    lw_raw(w, LOGS_PREFIX "_STOP_" LOGS_DAEMON, "stop", 4);
+    lw_raw(w, lw_mark_channel(TRIOCT_MARK_STOP), "stop", 4);
 }

@@ -129,14 +129,30 @@ int lw_save(logs_writer *w, const char *dir, const char *name)
     return rc;
 }
 
-const char *lw_channel(int kind, const char *name)
+/* The next of eight channel buffers in rotation. */
+static char *channel_slot(void)
 {
     static char ring[8][TRIOCT_MAX_CHANNEL_LEN + 1];
     static int next;
-    char *out = ring[next++ % 8];
+    return ring[next++ % 8];
+}
+
+const char *lw_channel(int kind, const char *name)
+{
+    char *out = channel_slot();
     if (trioct_channel_name(out, LOGS_PREFIX, (trioct_channel_kind)kind, name) < 0) {
         /* The generator names its own worlds: a bad one is a bug here. */
         fprintf(stderr, "trioct-make-logs: '%s' makes no channel\n", name);
+        exit(1);
+    }
+    return out;
+}
+
+const char *lw_mark_channel(int kind)
+{
+    char *out = channel_slot();
+    if (trioct_mark_channel_name(out, LOGS_PREFIX, (trioct_mark_kind)kind, LOGS_DAEMON) < 0) {
+        fprintf(stderr, "trioct-make-logs: '%s' makes no mark channel\n", LOGS_DAEMON);
         exit(1);
     }
     return out;

@@ -53,6 +53,9 @@ int lw_save(logs_writer *w, const char *dir, const char *name);
 /* A channel of the scene: lw_channel(TRIOCT_CHANNEL_RAY, "yard") is "TRIOCT_RAY_yard".
  * Returns a static buffer of eight in rotation. */
 const char *lw_channel(int kind, const char *name);
+/* The ordered daemon's mark channel of kind (a trioct_mark_kind): "TRIOCT_RELOAD_replayd"
+ * for TRIOCT_MARK_RELOAD. Same rotation as lw_channel. */
+const char *lw_mark_channel(int kind);
 
 /* A header with no deadline. */
 trioct_request_header_t lw_header(int64_t client, int64_t id, const char *reply, const char *world);

@@ -17,9 +17,9 @@ int replay_proto_init(replay_proto *p, const char *prefix, const char *name)
     snprintf(p->name, sizeof p->name, "%s", name);
     if (trioct_channel_name(p->status_channel, prefix, TRIOCT_CHANNEL_STATUS, NULL) < 0)
         return -1;
-    /* The daemon's --ordered reload and stop channels (server/service/daemon.c). */
-    snprintf(p->reload_channel, sizeof p->reload_channel, "%s_RELOAD_%s", prefix, name);
-    snprintf(p->stop_channel, sizeof p->stop_channel, "%s_STOP_%s", prefix, name);
+    if (trioct_mark_channel_name(p->reload_channel, prefix, TRIOCT_MARK_RELOAD, name) < 0 ||
+        trioct_mark_channel_name(p->stop_channel, prefix, TRIOCT_MARK_STOP, name) < 0)
+        return -1;
     return 0;
 }
 
