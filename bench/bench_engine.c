@@ -13,7 +13,7 @@
 #include "support/brute_force.h"
 #include "support/meshgen.h"
 #include "support/query_shapes.h"
-#include "world/mesh_load.h"
+#include "support/real_meshes.h"
 
 static double now(void)
 {
@@ -396,21 +396,18 @@ int main(int argc, char **argv)
     bench_scene("icosphere (generated)", &sphere, threads, queries, boxes_only);
     mesh_data_free(&sphere);
 
-    const char *real[] = {"/usr/share/assimp/models/PLY/Wuson.ply", "/usr/share/assimp/models/STL/Spider_binary.stl"};
-    for (size_t i = 0; i < 2; i++) {
-        mesh_data m = {0};
+    for (int i = 0; i < REAL_MESH_COUNT; i++) {
+        mesh_data m, big;
+        int times;
         char err[256];
-        if (mesh_load_file(real[i], &m, NULL, err, sizeof err) != 0) {
+        /* Subdivided so the real shape reaches the 250k-1M range the targets speak of. */
+        if (real_mesh_load((real_mesh)i, 1000000, &m, &big, &times, err, sizeof err) != 0) {
             printf("%s\n", err);
             continue;
         }
-        /* Subdivided so the real shape reaches the 250k-1M range the targets speak of. */
-        int times = 0;
-        while ((m.triangle_count << (2 * (times + 1))) <= 1000000)
-            times++;
-        mesh_data big = meshgen_subdivide(&m, times);
         char name[320];
-        snprintf(name, sizeof name, "%s (real, %zu triangles, subdivided x%d)", real[i], m.triangle_count, times);
+        snprintf(name, sizeof name, "%s (real, %zu triangles, subdivided x%d)", real_mesh_path((real_mesh)i),
+                 m.triangle_count, times);
         bench_scene(name, &big, threads, queries, boxes_only);
         mesh_data_free(&big);
         mesh_data_free(&m);

@@ -17,7 +17,7 @@
 #include "engine.h"
 #include "support/meshgen.h"
 #include "support/query_shapes.h"
-#include "world/mesh_load.h"
+#include "support/real_meshes.h"
 
 /* The accuracy report's triangle categories (query_shapes.h), in its order. */
 enum { CAT_COUNT = QUERY_TRI_SAME + 1 };
@@ -62,22 +62,22 @@ int main(int argc, char **argv)
                                                                                                   : RUN_EXACT_BOXES;
     if (only >= 0)
         rounds = 1;
-    const char *files[2] = {"/usr/share/assimp/models/PLY/Wuson.ply", "/usr/share/assimp/models/STL/Spider_binary.stl"};
-    const char *names[2] = {"wuson-sub", "spider-sub"};
-    const int times[2] = {3, 4};
+    /* The accuracy report's subdivided scenes: Wuson x3 (239k), Spider x4 (350k). */
+    const char *names[REAL_MESH_COUNT] = {[REAL_WUSON] = "wuson-sub", [REAL_SPIDER] = "spider-sub"};
+    const size_t limits[REAL_MESH_COUNT] = {[REAL_WUSON] = 300000, [REAL_SPIDER] = 1000000};
     tri_output out = {0};
     out.capacity = 4096;
     out.contacts = malloc(out.capacity * sizeof *out.contacts);
     printf("triangle ids queries, exact over fast (best of %d alternated rounds, %zu queries a category)\n", rounds,
            per_cat);
-    for (int s = 0; s < 2; s++) {
-        mesh_data base = {0};
+    for (int s = 0; s < REAL_MESH_COUNT; s++) {
+        mesh_data base, m;
+        int times;
         char err[256];
-        if (mesh_load_file(files[s], &base, NULL, err, sizeof err) != 0) {
-            printf("skipping %s: %s\n", files[s], err);
+        if (real_mesh_load((real_mesh)s, limits[s], &base, &m, &times, err, sizeof err) != 0) {
+            printf("skipping %s: %s\n", real_mesh_path((real_mesh)s), err);
             continue;
         }
-        mesh_data m = meshgen_subdivide(&base, times[s]);
         mesh_data_free(&base);
         mesh_view view = {m.vertices, m.vertex_count, m.indices, m.triangle_count};
         octree *trees[RUN_COUNT];

@@ -13,7 +13,7 @@
 #include "support/hard_cases.h"
 #include "support/meshgen.h"
 #include "support/query_shapes.h"
-#include "world/mesh_load.h"
+#include "support/real_meshes.h"
 
 /* ---------- the sweep ---------- */
 
@@ -469,14 +469,6 @@ static double per(double num, size_t den)
 
 /* ---------- scenes ---------- */
 
-static int subdivisions_to_reach(size_t triangles, size_t limit)
-{
-    int times = 0;
-    while ((triangles << (2 * (times + 1))) <= limit)
-        times++;
-    return times;
-}
-
 #define MAX_SCENES 8
 
 /* Real meshes as loaded and subdivided, a generated terrain, and the CAD-like blocks. quick
@@ -484,25 +476,21 @@ static int subdivisions_to_reach(size_t triangles, size_t limit)
 static size_t load_scenes(scene *out, int quick)
 {
     size_t n = 0;
-    const char *real[] = {"/usr/share/assimp/models/PLY/Wuson.ply", "/usr/share/assimp/models/STL/Spider_binary.stl"};
-    const char *keys[] = {"wuson", "spider"};
-    const char *subkeys[] = {"wuson-sub", "spider-sub"};
+    const char *subkeys[REAL_MESH_COUNT] = {[REAL_WUSON] = "wuson-sub", [REAL_SPIDER] = "spider-sub"};
     /* Subdivided to the 250k-1M range: Wuson (3732) x3 = 239k, Spider (1368) x4 = 350k. */
-    const size_t limits[] = {300000, 1000000};
-    mesh_data subs[2] = {{0}};
-    int sub_times[2] = {0};
-    for (size_t i = 0; i < 2; i++) {
-        mesh_data m = {0};
+    const size_t limits[REAL_MESH_COUNT] = {[REAL_WUSON] = 300000, [REAL_SPIDER] = 1000000};
+    mesh_data subs[REAL_MESH_COUNT] = {{0}};
+    int sub_times[REAL_MESH_COUNT] = {0};
+    for (int i = 0; i < REAL_MESH_COUNT; i++) {
+        mesh_data m;
         char err[256];
-        if (mesh_load_file(real[i], &m, NULL, err, sizeof err) != 0) {
-            printf("skipping %s: %s\n", real[i], err);
+        if (real_mesh_load((real_mesh)i, quick ? 30000 : limits[i], &m, &subs[i], &sub_times[i], err, sizeof err) !=
+            0) {
+            printf("skipping %s: %s\n", real_mesh_path((real_mesh)i), err);
             continue;
         }
-        int times = subdivisions_to_reach(m.triangle_count, quick ? 30000 : limits[i]);
-        subs[i] = meshgen_subdivide(&m, times);
-        sub_times[i] = times;
-        out[n] = (scene){.name = keys[i], .kind = "real", .mesh = m, .full_sweep = 1};
-        snprintf(out[n].title, sizeof out[n].title, "%s, as loaded (real)", real[i]);
+        out[n] = (scene){.name = real_mesh_key((real_mesh)i), .kind = "real", .mesh = m, .full_sweep = 1};
+        snprintf(out[n].title, sizeof out[n].title, "%s, as loaded (real)", real_mesh_path((real_mesh)i));
         n++;
     }
     int blocks = quick ? 8 : 16;
@@ -511,11 +499,11 @@ static size_t load_scenes(scene *out, int quick)
     snprintf(out[n].title, sizeof out[n].title, "meshgen_blocks, %d^3 cells of 0.5, 3 in 4 present (CAD-like)",
              blocks);
     n++;
-    for (size_t i = 0; i < 2; i++)
+    for (int i = 0; i < REAL_MESH_COUNT; i++)
         if (subs[i].triangle_count) {
             out[n] = (scene){.name = subkeys[i], .kind = "real-subdivided", .mesh = subs[i]};
-            snprintf(out[n].title, sizeof out[n].title, "%s subdivided %d times (meshgen_subdivide)", real[i],
-                     sub_times[i]);
+            snprintf(out[n].title, sizeof out[n].title, "%s subdivided %d times (meshgen_subdivide)",
+                     real_mesh_path((real_mesh)i), sub_times[i]);
             n++;
         }
     int grid = quick ? 100 : 708;
