@@ -432,28 +432,27 @@ static inline void entry_planes(double (*levels)[3][3], const octree *tree, unsi
     }
     /* Written from registers in one pass: storing the faces and reading them back for the
      * split stalled each expansion on store forwarding. */
-    double c0, c1, c2;
-    if (tree->splits_in_range) {
-        c0 = box_split_in_range(lo[0], hi[0]), c1 = box_split_in_range(lo[1], hi[1]),
-        c2 = box_split_in_range(lo[2], hi[2]);
-    } else {
-        c0 = box_split(lo[0], hi[0]), c1 = box_split(lo[1], hi[1]), c2 = box_split(lo[2], hi[2]);
-    }
-    p[0][0] = lo[0], p[0][1] = c0, p[0][2] = hi[0];
-    p[1][0] = lo[1], p[1][1] = c1, p[1][2] = hi[1];
-    p[2][0] = lo[2], p[2][1] = c2, p[2][2] = hi[2];
+    vec3 c = octree_split_point(tree, (box3){{lo[0], lo[1], lo[2]}, {hi[0], hi[1], hi[2]}});
+    p[0][0] = lo[0], p[0][1] = c.x, p[0][2] = hi[0];
+    p[1][0] = lo[1], p[1][1] = c.y, p[1][2] = hi[1];
+    p[2][0] = lo[2], p[2][1] = c.z, p[2][2] = hi[2];
 }
 
-/* The children of a node (faces and split planes `planes`) that the ray meets within
- * [lo, hi], the node's interval clipped to [tmin, bound], as a mask in the ray's visiting
- * order, with each child's interval in tnear[j], tfar[j]. A child's interval is the
- * node's narrowed along each axis by the split plane: the near half ends where the ray
- * crosses it, the far half begins there. The bounds stay conservative (every one is at or
- * outside the exact value), so a child the exact ray touches is never dropped; the exact
- * per-axis entries of the node itself are implied by its interval. */
-static inline unsigned children_met(const ray_setup *r, double lo, double hi, const double (*planes)[3],
+/* The children of a node (faces and split planes `planes`) that the walk's ray meets
+ * within the node's interval [node_near, node_far] clipped to [tmin, bound], as a mask in
+ * the ray's visiting order, with each child's interval in tnear[j], tfar[j]. Lone walks
+ * and packets both expand nodes here, so a ray visits the same nodes either way. A
+ * child's interval is the node's narrowed along each axis by the split plane: the near
+ * half ends where the ray crosses it, the far half begins there. The bounds stay
+ * conservative (every one is at or outside the exact value), so a child the exact ray
+ * touches is never dropped; the exact per-axis entries of the node itself are implied by
+ * its interval. */
+static inline unsigned children_met(const ray_walk *w, double node_near, double node_far, const double (*planes)[3],
                                     double tnear[8], double tfar[8])
 {
+    const ray_setup *r = &w->r;
+    double lo = node_near > r->tmin ? node_near : r->tmin;
+    double hi = node_far < w->bound ? node_far : w->bound;
     double fx, nx, fy, ny, fz, nz;
     if (r->ordinary) {
         /* No axis's kind to branch on. */
@@ -519,10 +518,8 @@ static inline void walk_expand(ray_walk *w, const octree *tree, ray_entry e, oct
 {
     const ray_setup *r = &w->r;
     entry_planes(w->level_planes, tree, e.level, e.upper);
-    double lo = e.tnear > r->tmin ? e.tnear : r->tmin;
-    double hi = e.tfar < w->bound ? e.tfar : w->bound;
     double tnear[8], tfar[8];
-    unsigned accepted = children_met(r, lo, hi, (const double(*)[3])w->level_planes[e.level], tnear, tfar) &
+    unsigned accepted = children_met(w, e.tnear, e.tfar, (const double(*)[3])w->level_planes[e.level], tnear, tfar) &
                         children_nonempty(tree, node, r->octant);
     /* Pushed far to near, so the nearest is popped first. */
     size_t top = w->top;
@@ -727,9 +724,7 @@ static void packet_run(ray_packet *p, const octree *tree)
                 continue;
             ray_walk *w = p->walk[i];
             w->local.nodes_visited++;
-            double lo = e.tnear[i] > w->r.tmin ? e.tnear[i] : w->r.tmin;
-            double hi = e.tfar[i] < w->bound ? e.tfar[i] : w->bound;
-            met[i] = children_met(&w->r, lo, hi, planes, tnear[i], tfar[i]) & nonempty;
+            met[i] = children_met(w, e.tnear[i], e.tfar[i], planes, tnear[i], tfar[i]) & nonempty;
             any |= met[i];
         }
         /* Pushed far to near, so the nearest is popped first. */
