@@ -89,11 +89,6 @@ static double now(void)
     return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
 }
 
-static vec3 tri_vertex(const mesh_data *m, size_t t, int k)
-{
-    return m->vertices[m->indices[3 * t + (size_t)k]];
-}
-
 /* True when a - b rounds to nothing (Knuth's TwoSum error is zero), so o = a - b, d = b gives
  * a ray passing exactly through a. */
 static int difference_is_exact(double a, double b)
@@ -148,7 +143,7 @@ static void make_ray(const scene *s, rng *r, box3 around, int cat, ray_input *ou
 {
     const mesh_data *m = &s->mesh;
     size_t t = rng_next(r) % m->triangle_count;
-    vec3 a = tri_vertex(m, t, 0), b = tri_vertex(m, t, 1), c = tri_vertex(m, t, 2);
+    vec3 a = mesh_data_corner(m, t, 0), b = mesh_data_corner(m, t, 1), c = mesh_data_corner(m, t, 2);
     switch (cat) {
     case RC_RANDOM: {
         double u = rng_uniform(r, 0, 1), v = rng_uniform(r, 0, 1);
@@ -207,7 +202,7 @@ static void make_tri(const scene *s, rng *r, double leaf, int cat, vec3 out[3])
     /* Corners on the half-cell grid of the face's plane, reaching into the neighbouring
      * faces: coplanar area contacts, every coordinate exact. */
     size_t t = rng_next(r) % m->triangle_count;
-    vec3 a = tri_vertex(m, t, 0), b = tri_vertex(m, t, 1), c = tri_vertex(m, t, 2);
+    vec3 a = mesh_data_corner(m, t, 0), b = mesh_data_corner(m, t, 1), c = mesh_data_corner(m, t, 2);
     int n = flat_axis(a, b, c);
     if (n < 0) {
         out[0] = a, out[1] = b, out[2] = c;
@@ -328,7 +323,7 @@ static size_t count_missing(const uint32_t *a, size_t na, const uint32_t *b, siz
  * grazing); `fallback` when the ray is parallel to the plane. */
 static double plane_t(const mesh_data *m, const ray_input *ray, uint32_t tri, double fallback)
 {
-    vec3 a = tri_vertex(m, tri, 0), b = tri_vertex(m, tri, 1), c = tri_vertex(m, tri, 2);
+    vec3 a = mesh_data_corner(m, tri, 0), b = mesh_data_corner(m, tri, 1), c = mesh_data_corner(m, tri, 2);
     vec3 n = vec3_cross(vec3_sub(b, a), vec3_sub(c, a));
     double denom = vec3_dot(n, ray->direction);
     if (denom == 0.0 || !isfinite(denom))

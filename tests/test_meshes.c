@@ -59,14 +59,12 @@ static double now_seconds(void)
     return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
 }
 
-static vec3 corner(const mesh_data *m, size_t t, int k) { return m->vertices[m->indices[3 * t + (size_t)k]]; }
-
 /* Sum of a . (b x c) / 6: the enclosed volume, positive when the normals point out. */
 static double signed_volume(const mesh_data *m)
 {
     double sum = 0.0;
     for (size_t t = 0; t < m->triangle_count; t++)
-        sum += vec3_dot(corner(m, t, 0), vec3_cross(corner(m, t, 1), corner(m, t, 2)));
+        sum += vec3_dot(mesh_data_corner(m, t, 0), vec3_cross(mesh_data_corner(m, t, 1), mesh_data_corner(m, t, 2)));
     return sum / 6.0;
 }
 
@@ -74,8 +72,8 @@ static double surface_area(const mesh_data *m)
 {
     double sum = 0.0;
     for (size_t t = 0; t < m->triangle_count; t++) {
-        vec3 a = corner(m, t, 0);
-        sum += 0.5 * vec3_length(vec3_cross(vec3_sub(corner(m, t, 1), a), vec3_sub(corner(m, t, 2), a)));
+        vec3 a = mesh_data_corner(m, t, 0);
+        sum += 0.5 * vec3_length(vec3_cross(vec3_sub(mesh_data_corner(m, t, 1), a), vec3_sub(mesh_data_corner(m, t, 2), a)));
     }
     return sum;
 }
@@ -231,8 +229,8 @@ static void test_box_has_twelve_outward_triangles_and_exact_volume(void **state)
     assert_true(signed_volume(&m) == 2.0 * 2.5 * 3.75);
     vec3 centre = vec3_scale(vec3_add(box.lo, box.hi), 0.5);
     for (size_t t = 0; t < 12; t++) {
-        vec3 a = corner(&m, t, 0);
-        vec3 n = vec3_cross(vec3_sub(corner(&m, t, 1), a), vec3_sub(corner(&m, t, 2), a));
+        vec3 a = mesh_data_corner(&m, t, 0);
+        vec3 n = vec3_cross(vec3_sub(mesh_data_corner(&m, t, 1), a), vec3_sub(mesh_data_corner(&m, t, 2), a));
         /* Axis-aligned and pointing away from the centre. */
         int nonzero = (n.x != 0) + (n.y != 0) + (n.z != 0);
         assert_int_equal(nonzero, 1);
@@ -319,8 +317,8 @@ static void test_terrain_grid_faces_up_and_is_deterministic(void **state)
     }
     assert_true(z_max - z_min > 0.1); /* the bumps are there */
     for (size_t t = 0; t < m.triangle_count; t++) {
-        vec3 a = corner(&m, t, 0);
-        vec3 n = vec3_cross(vec3_sub(corner(&m, t, 1), a), vec3_sub(corner(&m, t, 2), a));
+        vec3 a = mesh_data_corner(&m, t, 0);
+        vec3 n = vec3_cross(vec3_sub(mesh_data_corner(&m, t, 1), a), vec3_sub(mesh_data_corner(&m, t, 2), a));
         assert_true(n.z > 0.0);
     }
     /* Interior edges used once each way, boundary edges once: an oriented open sheet. */
@@ -362,12 +360,12 @@ static void test_soup_triangles_sized_inside_region_and_deterministic(void **sta
     for (size_t t = 0; t < n; t++) {
         for (int k = 0; k < 3; k++) {
             assert_int_equal(m.indices[3 * t + (size_t)k], 3 * t + (size_t)k); /* independent */
-            assert_in_box(corner(&m, t, k), region);
-            double edge = vec3_length(vec3_sub(corner(&m, t, k), corner(&m, t, (k + 1) % 3)));
+            assert_in_box(mesh_data_corner(&m, t, k), region);
+            double edge = vec3_length(vec3_sub(mesh_data_corner(&m, t, k), mesh_data_corner(&m, t, (k + 1) % 3)));
             assert_true(edge <= size * (1 + 1e-12));
         }
-        vec3 a = corner(&m, t, 0);
-        vec3 nrm = vec3_cross(vec3_sub(corner(&m, t, 1), a), vec3_sub(corner(&m, t, 2), a));
+        vec3 a = mesh_data_corner(&m, t, 0);
+        vec3 nrm = vec3_cross(vec3_sub(mesh_data_corner(&m, t, 1), a), vec3_sub(mesh_data_corner(&m, t, 2), a));
         normal_sum = vec3_add(normal_sum, vec3_normalize(nrm));
     }
     /* Random orientation: unit normals nearly cancel (a fixed winding would sum to ~n). */
@@ -858,7 +856,7 @@ static void test_load_applies_nested_node_transforms(void **state)
         for (int e = 0; e < 2; e++) {
             int all = 1;
             for (int k = 0; k < 3; k++)
-                all &= vec3_equal(corner(&l.mesh, t, k), expected[e][k]);
+                all &= vec3_equal(mesh_data_corner(&l.mesh, t, k), expected[e][k]);
             matched[e] += all;
         }
     assert_int_equal(matched[0], 1);

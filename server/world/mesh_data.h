@@ -15,6 +15,12 @@ typedef struct mesh_data {
     size_t triangle_count;
 } mesh_data;
 
+/* Corner k (0-2) of triangle t. */
+static inline vec3 mesh_data_corner(const mesh_data *mesh, size_t t, int k)
+{
+    return mesh->vertices[mesh->indices[3 * t + (size_t)k]];
+}
+
 /* Frees the arrays and zeroes the struct; safe on a zeroed struct. */
 void mesh_data_free(mesh_data *mesh);
 /* A borrowed view for octree_build and the queries. */

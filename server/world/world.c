@@ -146,7 +146,7 @@ static size_t first_nonfinite_triangle(const mesh_data *mesh)
 {
     for (size_t t = 0; t < mesh->triangle_count; t++)
         for (int k = 0; k < 3; k++)
-            if (!vec3_is_finite(mesh->vertices[mesh->indices[3 * t + (size_t)k]]))
+            if (!vec3_is_finite(mesh_data_corner(mesh, t, k)))
                 return t;
     return SIZE_MAX;
 }

@@ -1,15 +1,13 @@
 #include "query_shapes.h"
 
-static vec3 vertex_of(const mesh_data *m, size_t t, int k) { return m->vertices[m->indices[3 * t + (size_t)k]]; }
-
 void query_triangle_sample(const mesh_data *m, rng *r, double leaf, query_triangle_kind kind, vec3 out[3])
 {
     size_t t = rng_next(r) % m->triangle_count;
-    vec3 a = vertex_of(m, t, 0);
+    vec3 a = mesh_data_corner(m, t, 0);
     if (kind == QUERY_TRI_SAME) {
         out[0] = a;
-        out[1] = vertex_of(m, t, 1);
-        out[2] = vertex_of(m, t, 2);
+        out[1] = mesh_data_corner(m, t, 1);
+        out[2] = mesh_data_corner(m, t, 2);
         return;
     }
     vec3 q0 = a;
