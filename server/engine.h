@@ -93,7 +93,8 @@ typedef struct octree_info {
     int depth_clamped;         /* 1 when the heuristic resolution was clamped to the cap */
     double resolution;         /* d actually used */
     double world_size;         /* D = 2^L_max * d */
-    vec3 world_min;            /* the world cube is [world_min, world_min + D] */
+    vec3 world_min;            /* the world cube is [world_min, world_min + D], its upper
+                                  corner rounded up so that it holds every vertex */
     size_t bytes_nodes, bytes_leaf_lists, bytes_triangles, bytes_total;
     size_t bytes_triangle_boxes; /* 24 per triangle with octree_def.triangle_boxes, else 0;
                                     part of bytes_total */

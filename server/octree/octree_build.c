@@ -8,6 +8,7 @@
 #include <time.h>
 
 #include "../geom/box_geometry.h"
+#include "../geom/expansion.h"
 #include "../geom/tri_box.h"
 #include "octree_internal.h"
 
@@ -395,6 +396,27 @@ static octree_status copy_mesh(octree *tree, const mesh_view *mesh, octree_error
     return OCTREE_OK;
 }
 
+/* The smallest double at or above the real a + b (finite a, b); DBL_MAX in place of an
+ * overflow to +infinity, which is still at or above any finite bound the caller needs. */
+static double sum_rounded_up(double a, double b)
+{
+    double s, err;
+    two_sum(a, b, &s, &err);
+    if (isinf(s))
+        return s > 0 ? DBL_MAX : -DBL_MAX;
+    return err > 0 ? nextafter(s, INFINITY) : s;
+}
+
+/* The smallest double at or above the real a - b (finite a, b). */
+static double difference_rounded_up(double a, double b)
+{
+    double s, err;
+    two_diff(a, b, &s, &err);
+    if (isinf(s))
+        return s;
+    return err > 0 ? nextafter(s, INFINITY) : s;
+}
+
 /* Spreads the low 10 bits of v to every third bit. */
 static uint32_t spread_bits(uint32_t v)
 {
@@ -514,7 +536,10 @@ octree *octree_build(const mesh_view *mesh, const octree_def *def_in, octree_err
         const vec3 *t = tree->triangles[i];
         ctx.bounds[i] = (triangle_bounds){vec3_min(vec3_min(t[0], t[1]), t[2]), vec3_max(vec3_max(t[0], t[1]), t[2])};
     }
-    double extent = fmax(hi.x - lo.x, fmax(hi.y - lo.y, hi.z - lo.z));
+    /* Rounded up: the cube's side D >= extent must hold for the real extent, which a
+     * rounded-to-nearest difference may fall short of by half an ulp. */
+    double extent = fmax(difference_rounded_up(hi.x, lo.x),
+                         fmax(difference_rounded_up(hi.y, lo.y), difference_rounded_up(hi.z, lo.z)));
     if (!isfinite(extent)) {
         free(ctx.bounds);
         octree_free(tree);
@@ -543,8 +568,12 @@ octree *octree_build(const mesh_view *mesh, const octree_def *def_in, octree_err
         clamped = 1;
     }
     double size = ldexp(d, levels);
-    /* Rounding lo + size is monotone, so the cube still encloses every vertex. */
-    tree->world = (box3){lo, vec3_make(lo.x + size, lo.y + size, lo.z + size)};
+    /* The upper corner is lo + D rounded up on each axis: it lies at or above the real
+     * lo + D, which is at or above every vertex since D >= the real extent. Rounded to
+     * nearest it can land one ulp below the largest coordinate (when D equals the extent),
+     * and a query touching the mesh on that face would then lie outside the root. */
+    tree->world = (box3){lo, vec3_make(sum_rounded_up(lo.x, size), sum_rounded_up(lo.y, size),
+                                       sum_rounded_up(lo.z, size))};
     tree->splits_in_range = fabs(tree->world.lo.x) <= DBL_MAX / 2 && fabs(tree->world.lo.y) <= DBL_MAX / 2 &&
                             fabs(tree->world.lo.z) <= DBL_MAX / 2 && fabs(tree->world.hi.x) <= DBL_MAX / 2 &&
                             fabs(tree->world.hi.y) <= DBL_MAX / 2 && fabs(tree->world.hi.z) <= DBL_MAX / 2;
