@@ -23,12 +23,13 @@ const char *accuracy_mode_name(accuracy_mode mode);
 #define OCTREE_STATUS_MAP(X)                                                       \
     X(OCTREE_OK, 0, "ok")                                                          \
     X(OCTREE_ERR_INVALID, -1, "invalid argument")                                  \
-    X(OCTREE_ERR_NONFINITE, -2, "triangle has a NaN or infinite coordinate")       \
+    X(OCTREE_ERR_NONFINITE, -2, "a coordinate is NaN or infinite")                 \
     X(OCTREE_ERR_INDEX, -3, "triangle refers to a vertex that does not exist")     \
     X(OCTREE_ERR_DEPTH, -4, "resolution needs more levels than the depth cap")     \
     X(OCTREE_ERR_NOMEM, -5, "out of memory")                                       \
     X(OCTREE_ERR_TOO_BIG, -6, "more triangles or nodes than the engine addresses") \
-    X(OCTREE_ERR_EMPTY, -7, "no triangles")
+    X(OCTREE_ERR_EMPTY, -7, "no triangles")                                       \
+    X(OCTREE_ERR_BUDGET, -8, "the build needs more memory than its budget")
 
 typedef enum octree_status {
 #define OCTREE_STATUS_ENUM(name, code, text) name = code,
@@ -56,7 +57,20 @@ typedef struct octree_def {
      * triangles whose boxes are apart, so there a skip would change the answer. Ray queries
      * never read the boxes. 0 (the default): none. */
     int triangle_boxes;
+    /* The most memory the build may hold, in bytes: its copy of the mesh, the nodes, the
+     * leaf lists and the lists it holds while building, each growing array counted at the
+     * capacity it is about to take. A build that would pass it stops with
+     * OCTREE_ERR_BUDGET, naming the budget and what it held, and frees everything. 0 (the
+     * default) is OCTREE_DEFAULT_BUDGET_BASE + OCTREE_DEFAULT_BUDGET_PER_TRIANGLE per
+     * triangle, about forty times what real meshes take; SIZE_MAX is no budget. */
+    size_t budget_bytes;
 } octree_def;
+
+/* The default build budget: real meshes take 100-115 bytes a triangle in all; a build past
+ * 4 KiB a triangle (and 256 MiB) is a resolution or a mode gone wrong (a needle triangle
+ * at the depth cap, the seed's epsilon at the world's own scale). */
+#define OCTREE_DEFAULT_BUDGET_BASE ((size_t)256 << 20)
+#define OCTREE_DEFAULT_BUDGET_PER_TRIANGLE ((size_t)4096)
 
 octree_def octree_default_def(void);
 

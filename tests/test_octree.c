@@ -133,6 +133,103 @@ static void test_depth_cap_errors_when_explicit_and_clamps_heuristic(void **stat
     mesh_data_free(&a);
 }
 
+/* A needle: its area is tiny, so the heuristic leaf is tiny and the tree goes to the depth
+ * cap along the needle's length (about 0.9 million nodes, 7.6 MB, for one triangle). */
+static mesh_data needle(void)
+{
+    mesh_data m = {0};
+    m.vertex_count = 3;
+    m.triangle_count = 1;
+    m.vertices = malloc(3 * sizeof *m.vertices);
+    m.indices = malloc(3 * sizeof *m.indices);
+    assert_non_null(m.vertices);
+    assert_non_null(m.indices);
+    m.vertices[0] = (vec3){0, 0, 0};
+    m.vertices[1] = (vec3){1, 0.3, 0.2};
+    m.vertices[2] = (vec3){0.5, 0.15 + 1e-12, 0.1};
+    for (uint32_t i = 0; i < 3; i++)
+        m.indices[i] = i;
+    return m;
+}
+
+static void test_build_stops_at_its_budget(void **state)
+{
+    (void)state;
+    mesh_data m = needle();
+    mesh_view v = mesh_data_view(&m);
+    octree_def def = octree_default_def();
+    octree_error err;
+    /* The default budget (256 MiB + 4 KiB a triangle) lets the needle build. */
+    octree *t = octree_build(&v, &def, &err);
+    assert_non_null(t);
+    octree_info info;
+    octree_get_info(t, &info);
+    assert_int_equal(info.max_level, 16);
+    assert_true(info.node_count > 100000);
+    octree_free(t);
+    /* A budget below what it needs stops it, naming the budget; nothing leaks (ASan). */
+    def.budget_bytes = info.bytes_total / 4;
+    assert_null(octree_build(&v, &def, &err));
+    assert_int_equal(err.status, OCTREE_ERR_BUDGET);
+    char budget[32];
+    snprintf(budget, sizeof budget, "budget of %zu bytes", def.budget_bytes);
+    assert_non_null(strstr(err.message, budget));
+    assert_string_equal(octree_status_text(OCTREE_ERR_BUDGET), "the build needs more memory than its budget");
+    /* A budget smaller than the copy of the mesh stops it before anything is built. */
+    def.budget_bytes = 100;
+    assert_null(octree_build(&v, &def, &err));
+    assert_int_equal(err.status, OCTREE_ERR_BUDGET);
+    assert_non_null(strstr(err.message, "over its budget of 100 bytes"));
+    /* No budget at all: the same tree as the default's. */
+    def.budget_bytes = SIZE_MAX;
+    t = octree_build(&v, &def, &err);
+    assert_non_null(t);
+    octree_info unbounded;
+    octree_get_info(t, &unbounded);
+    assert_int_equal(unbounded.node_count, info.node_count);
+    octree_free(t);
+    mesh_data_free(&m);
+}
+
+/* The seed's epsilon at the scale of the world makes every node touch every triangle: the
+ * seed's test as written, which the budget keeps from taking the machine. */
+static void test_seed_epsilon_at_the_world_scale_hits_the_budget(void **state)
+{
+    (void)state;
+    mesh_data m = needle();
+    mesh_data tiny = meshgen_transformed(&m, 1e-9, (vec3){0, 0, 0});
+    mesh_view v = mesh_data_view(&tiny);
+    octree_def def = octree_default_def();
+    def.mode = ACCURACY_SEED;
+    def.seed_epsilon = 1e-9;
+    def.budget_bytes = (size_t)16 << 20;
+    octree_error err;
+    assert_null(octree_build(&v, &def, &err));
+    assert_int_equal(err.status, OCTREE_ERR_BUDGET);
+    mesh_data_free(&tiny);
+    mesh_data_free(&m);
+}
+
+/* Each status's text says what was wrong, whatever was given: a ray's NaN is not a
+ * triangle's. */
+static void test_status_texts_are_distinct_and_general(void **state)
+{
+    (void)state;
+    const octree_status all[] = {
+#define OCTREE_STATUS_LIST(name, code, text) name,
+        OCTREE_STATUS_MAP(OCTREE_STATUS_LIST)
+#undef OCTREE_STATUS_LIST
+    };
+    size_t n = sizeof all / sizeof all[0];
+    for (size_t i = 0; i < n; i++) {
+        assert_true(strlen(octree_status_text(all[i])) > 0);
+        for (size_t j = 0; j < i; j++)
+            assert_string_not_equal(octree_status_text(all[i]), octree_status_text(all[j]));
+    }
+    assert_null(strstr(octree_status_text(OCTREE_ERR_NONFINITE), "triangle"));
+    assert_string_equal(octree_status_text(OCTREE_ERR_NONFINITE), "a coordinate is NaN or infinite");
+}
+
 static void test_children_follow_the_seed_octant_order(void **state)
 {
     (void)state;
@@ -859,6 +956,9 @@ int main(void)
         cmocka_unit_test(test_nan_vertex_is_rejected_naming_the_triangle),
         cmocka_unit_test(test_bad_index_and_empty_mesh_are_rejected),
         cmocka_unit_test(test_depth_cap_errors_when_explicit_and_clamps_heuristic),
+        cmocka_unit_test(test_build_stops_at_its_budget),
+        cmocka_unit_test(test_seed_epsilon_at_the_world_scale_hits_the_budget),
+        cmocka_unit_test(test_status_texts_are_distinct_and_general),
         cmocka_unit_test(test_children_follow_the_seed_octant_order),
         cmocka_unit_test(test_membership_is_exact_on_random_leaves),
         cmocka_unit_test(test_triangles_on_node_faces_are_in_both_neighbours),

@@ -39,6 +39,15 @@ const char *octree_status_text(octree_status status)
 /* Default depth cap: 2^16 leaves a side is already ~2.8e14 leaf cells. */
 #define OCTREE_DEFAULT_MAX_DEPTH 16
 
+/* OCTREE_DEFAULT_BUDGET_BASE + OCTREE_DEFAULT_BUDGET_PER_TRIANGLE a triangle, or SIZE_MAX
+ * when that does not fit. */
+static size_t default_budget(size_t triangles)
+{
+    if (triangles > (SIZE_MAX - OCTREE_DEFAULT_BUDGET_BASE) / OCTREE_DEFAULT_BUDGET_PER_TRIANGLE)
+        return SIZE_MAX;
+    return OCTREE_DEFAULT_BUDGET_BASE + triangles * OCTREE_DEFAULT_BUDGET_PER_TRIANGLE;
+}
+
 octree_def octree_default_def(void)
 {
     return (octree_def){
@@ -47,6 +56,7 @@ octree_def octree_default_def(void)
         .mode = ACCURACY_EXACT,
         .seed_epsilon = OCTREE_DEFAULT_SEED_EPSILON,
         .triangle_boxes = 0,
+        .budget_bytes = 0,
     };
 }
 
@@ -79,10 +89,8 @@ typedef struct u32_array {
     size_t count, capacity;
 } u32_array;
 
-static int u32_reserve(u32_array *a, size_t extra)
-{
-    return array_reserve((void **)&a->items, &a->capacity, a->count + extra, sizeof *a->items, 64);
-}
+/* First capacity of a build list. */
+#define U32_ARRAY_FIRST 64
 
 /* A triangle list shared by the eight children that test it; freed when the last of them
  * has built its own list (the seed's "interior nodes' lists are released after use"). */
@@ -91,6 +99,7 @@ typedef struct shared_list {
     uint32_t count;
     int pending_children;
     box3 box; /* the box of the node that owns the list: every listed triangle touches it */
+    size_t bytes; /* what the list holds, counted against the build's budget */
     /* Exact mode: per item, bit k set when the item touches the seed's octant k of `box`.
      * Computed once by the owner so that each of its eight children reads one byte per
      * item, and a straddling item's test is prepared once for all its children. NULL for
@@ -115,7 +124,39 @@ typedef struct build_ctx {
     const octree_def *def;
     triangle_bounds *bounds; /* per triangle, exact min/max of its vertices */
     size_t node_capacity;
+    size_t budget; /* bytes the build may hold (octree_def.budget_bytes, resolved) */
+    size_t held;   /* bytes it holds now */
+    size_t asked;  /* the request that would have passed the budget, when one did */
 } build_ctx;
+
+/* Counts bytes against the budget before they are allocated: 0, or -1 (nothing counted)
+ * when they would pass it. */
+static int budget_take(build_ctx *ctx, size_t bytes)
+{
+    if (bytes > ctx->budget - ctx->held) {
+        ctx->asked = bytes;
+        return -1;
+    }
+    ctx->held += bytes;
+    return 0;
+}
+
+static void budget_give_back(build_ctx *ctx, size_t bytes) { ctx->held -= bytes; }
+
+/* Grows a build list to hold extra more items, counting its new capacity first. */
+static octree_status u32_reserve(build_ctx *ctx, u32_array *a, size_t extra)
+{
+    size_t need = a->count + extra;
+    size_t cap = array_grown_capacity(a->capacity, need, sizeof *a->items, U32_ARRAY_FIRST);
+    size_t grown = (cap - a->capacity) * sizeof *a->items;
+    if (budget_take(ctx, grown) != 0)
+        return OCTREE_ERR_BUDGET;
+    if (array_reserve((void **)&a->items, &a->capacity, need, sizeof *a->items, U32_ARRAY_FIRST) != 0) {
+        budget_give_back(ctx, grown);
+        return OCTREE_ERR_NOMEM;
+    }
+    return OCTREE_OK;
+}
 
 /* Membership of the parent list's item i in a node's closed box, in the tree's mode. In
  * exact mode the parent has decided it already for all eight children (see shared_list). */
@@ -207,9 +248,14 @@ static int add_children(build_ctx *ctx, uint32_t parent_node)
         return -1;
     if (tree->node_count + 8 > ctx->node_capacity) {
         size_t cap = ctx->node_capacity * 2;
+        size_t grown = (cap - ctx->node_capacity) * sizeof *tree->nodes;
+        if (budget_take(ctx, grown) != 0)
+            return -3;
         octree_node *nodes = realloc(tree->nodes, cap * sizeof *nodes);
-        if (!nodes)
+        if (!nodes) {
+            budget_give_back(ctx, grown);
             return -2;
+        }
         tree->nodes = nodes;
         ctx->node_capacity = cap;
     }
@@ -220,9 +266,10 @@ static int add_children(build_ctx *ctx, uint32_t parent_node)
     return 0;
 }
 
-static void release_list(shared_list *list)
+static void release_list(build_ctx *ctx, shared_list *list)
 {
     if (list && --list->pending_children == 0) {
+        budget_give_back(ctx, list->bytes);
         free(list->items);
         free(list->reach);
         free(list);
@@ -238,9 +285,13 @@ static octree_status build_nodes(build_ctx *ctx, int max_level)
     octree_status status = OCTREE_OK;
 
     /* The root's "parent list" is every triangle. */
+    size_t all_bytes = sizeof(shared_list) + (tree->triangle_count ? tree->triangle_count : 1) * sizeof(uint32_t);
+    if (budget_take(ctx, all_bytes) != 0)
+        return OCTREE_ERR_BUDGET;
     shared_list *all = malloc(sizeof *all);
     if (!all)
         return OCTREE_ERR_NOMEM;
+    all->bytes = all_bytes;
     all->count = (uint32_t)tree->triangle_count;
     all->pending_children = 1;
     all->box = tree->world;
@@ -262,9 +313,8 @@ static octree_status build_nodes(build_ctx *ctx, int max_level)
     while (top > 0) {
         build_entry e = stack[--top];
         scratch.count = 0;
-        if (u32_reserve(&scratch, e.parent->count) != 0) {
-            status = OCTREE_ERR_NOMEM;
-            release_list(e.parent);
+        if ((status = u32_reserve(ctx, &scratch, e.parent->count)) != OCTREE_OK) {
+            release_list(ctx, e.parent);
             goto unwind;
         }
         if (e.parent->reach) {
@@ -274,13 +324,11 @@ static octree_status build_nodes(build_ctx *ctx, int max_level)
                 if (triangle_in_node(ctx, e.parent, i, &e))
                     scratch.items[scratch.count++] = e.parent->items[i];
         }
-        release_list(e.parent);
+        release_list(ctx, e.parent);
 
         if (scratch.count == 0 || e.level >= max_level) {
-            if (u32_reserve(&leaves, scratch.count) != 0) {
-                status = OCTREE_ERR_NOMEM;
+            if ((status = u32_reserve(ctx, &leaves, scratch.count)) != OCTREE_OK)
                 goto unwind;
-            }
             if (leaves.count + scratch.count > UINT32_MAX - 1) {
                 status = OCTREE_ERR_TOO_BIG;
                 goto unwind;
@@ -292,11 +340,20 @@ static octree_status build_nodes(build_ctx *ctx, int max_level)
             continue;
         }
 
+        /* The list takes over scratch's items (already counted) and adds itself and, in
+         * exact mode, a byte per item. */
+        size_t own_bytes = sizeof(shared_list) + (ctx->def->mode == ACCURACY_EXACT ? scratch.count : 0);
+        if (budget_take(ctx, own_bytes) != 0) {
+            status = OCTREE_ERR_BUDGET;
+            goto unwind;
+        }
         shared_list *list = malloc(sizeof *list);
         if (!list) {
+            budget_give_back(ctx, own_bytes);
             status = OCTREE_ERR_NOMEM;
             goto unwind;
         }
+        list->bytes = own_bytes + scratch.capacity * sizeof *scratch.items;
         list->items = scratch.items;
         list->count = (uint32_t)scratch.count;
         list->pending_children = 8;
@@ -306,6 +363,7 @@ static octree_status build_nodes(build_ctx *ctx, int max_level)
         if (ctx->def->mode == ACCURACY_EXACT) {
             list->reach = malloc(list->count);
             if (!list->reach) {
+                budget_give_back(ctx, list->bytes);
                 free(list->items);
                 free(list);
                 status = OCTREE_ERR_NOMEM;
@@ -316,10 +374,11 @@ static octree_status build_nodes(build_ctx *ctx, int max_level)
 
         int added = add_children(ctx, e.node);
         if (added != 0) {
+            budget_give_back(ctx, list->bytes);
             free(list->items);
             free(list->reach);
             free(list);
-            status = added == -1 ? OCTREE_ERR_TOO_BIG : OCTREE_ERR_NOMEM;
+            status = added == -1 ? OCTREE_ERR_TOO_BIG : added == -3 ? OCTREE_ERR_BUDGET : OCTREE_ERR_NOMEM;
             goto unwind;
         }
         uint32_t first = tree->nodes[e.node].first;
@@ -330,6 +389,7 @@ static octree_status build_nodes(build_ctx *ctx, int max_level)
                                          box_child(e.box, c, box_octant_upper_bits[k]), list};
     }
 
+    budget_give_back(ctx, scratch.capacity * sizeof *scratch.items);
     free(scratch.items);
     tree->leaf_items = leaves.items ? leaves.items : malloc(sizeof(uint32_t));
     tree->leaf_item_count = leaves.count;
@@ -337,14 +397,16 @@ static octree_status build_nodes(build_ctx *ctx, int max_level)
         return OCTREE_ERR_NOMEM;
     if (leaves.items && leaves.count < leaves.capacity) {
         uint32_t *shrunk = realloc(leaves.items, (leaves.count ? leaves.count : 1) * sizeof *shrunk);
-        if (shrunk)
+        if (shrunk) {
             tree->leaf_items = shrunk;
+            budget_give_back(ctx, (leaves.capacity - (leaves.count ? leaves.count : 1)) * sizeof *shrunk);
+        }
     }
     return OCTREE_OK;
 
 unwind:
     while (top > 0)
-        release_list(stack[--top].parent);
+        release_list(ctx, stack[--top].parent);
     free(scratch.items);
     free(leaves.items);
     return status;
@@ -508,6 +570,21 @@ octree *octree_build(const mesh_view *mesh, const octree_def *def_in, octree_err
     if (def.triangle_boxes != 0 && def.triangle_boxes != 1)
         return fail(err, OCTREE_ERR_INVALID, SIZE_MAX, "triangle_boxes %d is neither 0 nor 1", def.triangle_boxes);
 
+    /* The budget, and what the build holds before its first node: at its peak (the Morton
+     * renumbering holds two copies of the triangles and two key arrays beside the bounds),
+     * then for the rest of the build (one copy, the ids, the bounds, the boxes). */
+    size_t n = mesh->triangle_count;
+    size_t budget = def.budget_bytes ? def.budget_bytes : default_budget(n);
+    size_t peak = sizeof(octree) + n * (2 * sizeof(vec3[3]) + 2 * sizeof(keyed_id) + sizeof(uint32_t) +
+                                        sizeof(triangle_bounds));
+    size_t steady = sizeof(octree) + 1024 * sizeof(octree_node) +
+                    n * (sizeof(vec3[3]) + sizeof(uint32_t) + sizeof(triangle_bounds) +
+                         (def.triangle_boxes ? sizeof(triangle_box) : 0));
+    if (peak > budget || steady > budget)
+        return fail(err, OCTREE_ERR_BUDGET, SIZE_MAX,
+                    "the build needs %zu bytes for its copy of %zu triangles, over its budget of %zu bytes",
+                    peak > steady ? peak : steady, n, budget);
+
     octree *tree = calloc(1, sizeof *tree);
     if (!tree)
         return fail(err, OCTREE_ERR_NOMEM, SIZE_MAX, "out of memory");
@@ -525,7 +602,7 @@ octree *octree_build(const mesh_view *mesh, const octree_def *def_in, octree_err
             lo = vec3_min(lo, tree->triangles[i][k]);
             hi = vec3_max(hi, tree->triangles[i][k]);
         }
-    build_ctx ctx = {.tree = tree, .def = &def};
+    build_ctx ctx = {.tree = tree, .def = &def, .budget = budget, .held = steady};
     ctx.bounds = malloc(tree->triangle_count * sizeof *ctx.bounds);
     if (!ctx.bounds || reorder_triangles(tree, lo, hi) != OCTREE_OK) {
         free(ctx.bounds);
@@ -600,13 +677,22 @@ octree *octree_build(const mesh_view *mesh, const octree_def *def_in, octree_err
     }
     st = build_nodes(&ctx, levels);
     free(ctx.bounds);
+    /* The final array, 64-byte aligned (realloc keeps no alignment, so the build grows a
+     * plain array and copies it once). aligned_alloc wants a multiple of the alignment. */
+    size_t node_bytes = (tree->node_count * sizeof(octree_node) + 63) & ~(size_t)63;
+    if (st == OCTREE_OK && budget_take(&ctx, node_bytes) != 0)
+        st = OCTREE_ERR_BUDGET;
+    if (st == OCTREE_ERR_BUDGET) {
+        size_t nodes = tree->node_count;
+        octree_free(tree);
+        return fail(err, st,
+                    SIZE_MAX, "the build needs more than its budget of %zu bytes: it held %zu and asked for %zu more, at %zu nodes",
+                    budget, ctx.held, ctx.asked, nodes);
+    }
     if (st != OCTREE_OK) {
         octree_free(tree);
         return fail(err, st, SIZE_MAX, "building the octree: %s", octree_status_text(st));
     }
-    /* The final array, 64-byte aligned (realloc keeps no alignment, so the build grows a
-     * plain array and copies it once). aligned_alloc wants a multiple of the alignment. */
-    size_t node_bytes = (tree->node_count * sizeof(octree_node) + 63) & ~(size_t)63;
     octree_node *aligned = aligned_alloc(64, node_bytes);
     if (!aligned) {
         octree_free(tree);

@@ -199,7 +199,7 @@ static int transform_equal(const world_transform *a, const world_transform *b)
 static int def_equal(const octree_def *a, const octree_def *b)
 {
     return a->resolution == b->resolution && a->max_depth == b->max_depth && a->mode == b->mode &&
-           a->seed_epsilon == b->seed_epsilon;
+           a->seed_epsilon == b->seed_epsilon && a->budget_bytes == b->budget_bytes;
 }
 
 int world_spec_equal(const world_spec *a, const world_spec *b)
