@@ -134,7 +134,11 @@ if [ "$codes" -eq 6 ]; then ok "trioct.1 documents exit codes 0-5"; else not_ok 
 # ---- the example scene -----------------------------------------------------------------------
 # Runs the built daemon on a scene over memq:// until it logs "ready:", then stops it;
 # prints its exit code. The scene's own udpm URL is overridden: nothing goes on a network.
+# The log is emptied first, in this shell: the daemon's own redirection happens in the
+# background, and until it does a second run would find the first run's "ready:" and stop
+# the daemon before it handles SIGTERM.
 run_scene() {
+    : >"$2"
     "$daemon_abs" --scene "$1" --url memq:// >"$2" 2>&1 &
     pid=$!
     i=0
