@@ -597,7 +597,9 @@ int ray_tri_seed(vec3 o, vec3 d, double tmin, double tmax, const vec3 tri[3], do
     }
     if (hit) {
         vec3 w = vec3_sub(p, v0), e02 = vec3_sub(v2, v0);
-        hit->t = t;
+        /* The test's epsilon accepts t a little outside [tmin, tmax]; the hit is reported
+         * at the nearest end of the closed interval the API promises (ray_tri.h). */
+        hit->t = t < tmin ? tmin : t > tmax ? tmax : t;
         hit->u = vec3_dot(vec3_cross(w, e02), n) / n2;
         hit->v = vec3_dot(vec3_cross(edges[0], w), n) / n2;
     }
