@@ -90,7 +90,7 @@ typedef struct shared_list {
     uint32_t count;
     int pending_children;
     box3 box; /* the box of the node that owns the list: every listed triangle touches it */
-    /* Exact mode: per item, bit k set when the item touches the seed's octant k of `box`.
+    /* Per item, bit k set when the item touches the seed's octant k of `box`, exactly.
      * Computed once by the owner so that each of its eight children reads one byte per
      * item, and a straddling item's test is prepared once for all its children. NULL for
      * the root's list. */
@@ -116,15 +116,20 @@ typedef struct build_ctx {
     size_t node_capacity;
 } build_ctx;
 
-/* Membership of the parent list's item i in a node's closed box, in the tree's mode. In
- * exact mode the parent has decided it already for all eight children (see shared_list). */
-static int triangle_in_node(const build_ctx *ctx, const shared_list *parent, uint32_t i, const build_entry *e)
+/* Membership of the parent list's item i in a node's closed box: the parent has decided it
+ * already for all eight children (see shared_list), exactly, whatever the tree's mode.
+ *
+ * Every mode builds this same tree. Membership must be conservative in every mode (a
+ * triangle touching the closed box is in the node), and a tree is queried in every mode
+ * (a query names its own), so each mode's queries make up for their own final test on the
+ * query side: fast and seed walks and descents grow the node boxes by what their final
+ * test can accept beyond the exact geometry (octree_ray.c, octree_triangle.c). The plain
+ * double triangle-box test dropped triangles that only touch a node, and the seed's
+ * three-step test accepts whatever lies within epsilon, which in a world about as small
+ * as epsilon is every node down to the last level; neither is conservative, and both cost
+ * more than the exact decision (docs/engine.md has the figures). */
+static int triangle_in_node(const shared_list *parent, uint32_t i, const build_entry *e)
 {
-    if (ctx->def->mode != ACCURACY_EXACT) {
-        const vec3 *tri = octree_triangle_at(ctx->tree, parent->items[i]);
-        return ctx->def->mode == ACCURACY_SEED ? tri_box_overlap_seed(tri, e->box, ctx->def->seed_epsilon)
-                                               : tri_box_overlap_fast(tri, e->box);
-    }
     /* The root: every triangle lies inside the world cube. */
     return parent->reach ? (parent->reach[i] >> e->octant) & 1 : 1;
 }
@@ -159,7 +164,7 @@ static void compute_reach(const build_ctx *ctx, shared_list *list)
     }
 }
 
-/* Exact mode below the root: the parent's bytes decide which of its items a child takes.
+/* Below the root the parent's bytes decide which of its items a child takes.
  * Items follow a Morton order, so a child's items come in runs and most groups of eight
  * bytes hold none of its bits: those are skipped with one test (of the whole group, so
  * the byte order does not matter). Within a group the items are appended without a
@@ -270,7 +275,7 @@ static octree_status build_nodes(build_ctx *ctx, int max_level)
             scratch.count = take_children_items(e.parent, e.octant, scratch.items);
         } else {
             for (uint32_t i = 0; i < e.parent->count; i++)
-                if (triangle_in_node(ctx, e.parent, i, &e))
+                if (triangle_in_node(e.parent, i, &e))
                     scratch.items[scratch.count++] = e.parent->items[i];
         }
         release_list(e.parent);
@@ -302,16 +307,14 @@ static octree_status build_nodes(build_ctx *ctx, int max_level)
         list->box = e.box;
         list->reach = NULL;
         scratch = (u32_array){0};
-        if (ctx->def->mode == ACCURACY_EXACT) {
-            list->reach = malloc(list->count);
-            if (!list->reach) {
-                free(list->items);
-                free(list);
-                status = OCTREE_ERR_NOMEM;
-                goto unwind;
-            }
-            compute_reach(ctx, list);
+        list->reach = malloc(list->count);
+        if (!list->reach) {
+            free(list->items);
+            free(list);
+            status = OCTREE_ERR_NOMEM;
+            goto unwind;
         }
+        compute_reach(ctx, list);
 
         int added = add_children(ctx, e.node);
         if (added != 0) {
