@@ -10,6 +10,7 @@
 #include "../geom/box_geometry.h"
 #include "../geom/tri_box.h"
 #include "octree_internal.h"
+#include "octree_modes.h"
 
 const char *accuracy_mode_name(accuracy_mode mode)
 {
@@ -334,7 +335,7 @@ static octree_status build_nodes(build_ctx *ctx, int max_level)
 
     free(scratch.items);
     tree->leaf_items = leaves.items ? leaves.items : malloc(sizeof(uint32_t));
-    tree->leaf_item_count = leaves.count;
+    tree->info.leaf_refs = leaves.count;
     if (!tree->leaf_items)
         return OCTREE_ERR_NOMEM;
     if (leaves.items && leaves.count < leaves.capacity) {
@@ -574,6 +575,8 @@ octree *octree_build(const mesh_view *mesh, const octree_def *def_in, octree_err
     }
     st = build_nodes(&ctx, levels);
     free(ctx.bounds);
+    if (st == OCTREE_OK)
+        st = octree_modes_prepare(tree);
     if (st != OCTREE_OK) {
         octree_free(tree);
         return fail(err, st, SIZE_MAX, "building the octree: %s", octree_status_text(st));
@@ -601,14 +604,13 @@ octree *octree_build(const mesh_view *mesh, const octree_def *def_in, octree_err
         info->leaf_count++;
         info->nonempty_leaf_count += tree->nodes[i].count > 0;
     }
-    info->leaf_refs = tree->leaf_item_count;
     info->max_level = levels;
     info->depth_clamped = clamped;
     info->resolution = d;
     info->world_size = size;
     info->world_min = lo;
     info->bytes_nodes = node_bytes;
-    info->bytes_leaf_lists = tree->leaf_item_count * sizeof(uint32_t);
+    info->bytes_leaf_lists = (info->leaf_refs + tree->seed_list_count) * sizeof(uint32_t);
     info->bytes_triangles = tree->triangle_count * (sizeof *tree->triangles + sizeof *tree->original_id);
     info->bytes_triangle_boxes = tree->triangle_boxes ? tree->triangle_count * sizeof *tree->triangle_boxes : 0;
     info->bytes_total =
