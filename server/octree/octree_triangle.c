@@ -121,9 +121,12 @@ static tri_entry single_child_descent(const octree *tree, box3 qb, tri_entry e, 
  * boxes are apart (seed: within epsilon of each other, and a zero-area triangle touches
  * everything; fast: rounding at large offsets), so a skip would change their answers. */
 /* Tests candidate `id` unless tested already: 1 when it touches q, 0 when not (or tested
- * before), -1 when the tested set ran out of memory. */
-static int test_candidate(const octree *tree, const vec3 q[3], const tri_tri_query *prepared, accuracy_mode mode,
-                          id_set *tested, uint32_t id, query_stats *stats)
+ * before), -1 when the tested set ran out of memory. Forced inline: it runs once per
+ * candidate, and as a call it cost exact triangle queries a fifth of their time. */
+static inline __attribute__((always_inline)) int test_candidate(const octree *tree, const vec3 q[3],
+                                                              const tri_tri_query *prepared,
+                                                              accuracy_mode mode, id_set *tested, uint32_t id,
+                                                              query_stats *stats)
 {
     int fresh = id_set_insert(tested, id);
     if (fresh <= 0)
