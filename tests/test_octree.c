@@ -191,21 +191,32 @@ static void test_build_stops_at_its_budget(void **state)
     mesh_data_free(&m);
 }
 
-/* The seed's epsilon at the scale of the world makes every node touch every triangle: the
- * seed's test as written, which the budget keeps from taking the machine. */
-static void test_seed_epsilon_at_the_world_scale_hits_the_budget(void **state)
+/* The seed's epsilon at the scale of the world made every node touch every triangle when
+ * the seed's test decided membership (one tiny triangle passed 4 GB). Every mode now builds
+ * the exact tree, so the seed build is the exact build and fits a small budget. */
+static void test_seed_epsilon_at_the_world_scale_builds_the_exact_tree(void **state)
 {
     (void)state;
     mesh_data m = needle();
     mesh_data tiny = meshgen_transformed(&m, 1e-9, (vec3){0, 0, 0});
     mesh_view v = mesh_data_view(&tiny);
     octree_def def = octree_default_def();
-    def.mode = ACCURACY_SEED;
-    def.seed_epsilon = 1e-9;
     def.budget_bytes = (size_t)16 << 20;
     octree_error err;
-    assert_null(octree_build(&v, &def, &err));
-    assert_int_equal(err.status, OCTREE_ERR_BUDGET);
+    octree *exact = octree_build(&v, &def, &err);
+    assert_non_null(exact);
+    def.mode = ACCURACY_SEED;
+    def.seed_epsilon = 1e-9;
+    octree *seed = octree_build(&v, &def, &err);
+    if (!seed)
+        fail_msg("seed build: %s", err.message);
+    octree_info a, b;
+    octree_get_info(exact, &a);
+    octree_get_info(seed, &b);
+    assert_int_equal(a.node_count, b.node_count);
+    assert_int_equal(a.leaf_refs, b.leaf_refs);
+    octree_free(exact);
+    octree_free(seed);
     mesh_data_free(&tiny);
     mesh_data_free(&m);
 }
@@ -957,7 +968,7 @@ int main(void)
         cmocka_unit_test(test_bad_index_and_empty_mesh_are_rejected),
         cmocka_unit_test(test_depth_cap_errors_when_explicit_and_clamps_heuristic),
         cmocka_unit_test(test_build_stops_at_its_budget),
-        cmocka_unit_test(test_seed_epsilon_at_the_world_scale_hits_the_budget),
+        cmocka_unit_test(test_seed_epsilon_at_the_world_scale_builds_the_exact_tree),
         cmocka_unit_test(test_status_texts_are_distinct_and_general),
         cmocka_unit_test(test_children_follow_the_seed_octant_order),
         cmocka_unit_test(test_membership_is_exact_on_random_leaves),

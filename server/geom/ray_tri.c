@@ -597,7 +597,9 @@ int ray_tri_seed(vec3 o, vec3 d, double tmin, double tmax, const vec3 tri[3], do
     }
     if (hit) {
         vec3 w = vec3_sub(p, v0), e02 = vec3_sub(v2, v0);
-        hit->t = t;
+        /* The test's epsilon accepts t a little outside [tmin, tmax]; the hit is reported
+         * at the nearest end of the closed interval the API promises (ray_tri.h). */
+        hit->t = t < tmin ? tmin : t > tmax ? tmax : t;
         hit->u = vec3_dot(vec3_cross(w, e02), n) / n2;
         hit->v = vec3_dot(vec3_cross(edges[0], w), n) / n2;
     }
@@ -607,8 +609,11 @@ int ray_tri_seed(vec3 o, vec3 d, double tmin, double tmax, const vec3 tri[3], do
 /* ---------------------------------------------------------------- Moller-Trumbore */
 
 /* The paper rejects |det| < 1e-6 in absolute terms, which assumes unit-sized scenes; this
- * cutoff is relative to the edge and direction sizes so it means "parallel" at any scale. */
-#define FAST_PARALLEL_CUTOFF 1e-12
+ * cutoff is relative to the edge and direction sizes so it means "parallel" at any scale.
+ * It is the paper's value, 2^-20: the octree's walk must visit every node within the
+ * distance by which a hit this test accepts can miss the triangle, and that distance
+ * grows as 1 / cutoff (server/octree/octree_modes.c); at 1e-12 it was 3% of the scene. */
+#define FAST_PARALLEL_CUTOFF 0x1p-20
 
 static inline double max_abs(vec3 a) { return fmax(fabs(a.x), fmax(fabs(a.y), fabs(a.z))); }
 

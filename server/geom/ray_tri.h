@@ -59,10 +59,12 @@ int ray_tri_compare_t(vec3 o, vec3 d, const vec3 a[3], const vec3 b[3]);
 /* The seed's plane + point-in-triangle test with epsilon, and Moller-Trumbore.
  * ray_tri_seed: t = n.(v0 - o) / (n.d + eps) with the unit normal n, accepted when
  * tmin - eps < t < tmax + eps, then the hit point's signed distance along each edge's
- * unit outward normal must be below eps; zero-area triangles never hit.
- * ray_tri_fast: Moller-Trumbore in plain double, rejecting rays within a relative 1e-12 of
- * parallel. Neither is watertight: shared edges and vertices may be counted twice or
- * missed. */
+ * unit outward normal must be below eps; zero-area triangles never hit. A t accepted
+ * outside [tmin, tmax] (by the epsilon) is reported clamped to it, so every reported hit
+ * lies in the closed interval.
+ * ray_tri_fast: Moller-Trumbore in plain double, rejecting rays within a relative 2^-20 of
+ * parallel (|det| <= 2^-20 |e1| |e2| |d|, max norms). Neither is watertight: shared edges
+ * and vertices may be counted twice or missed. */
 int ray_tri_seed(vec3 o, vec3 d, double tmin, double tmax, const vec3 tri[3], double eps,
                  ray_tri_hit *hit);
 int ray_tri_fast(vec3 o, vec3 d, double tmin, double tmax, const vec3 tri[3], ray_tri_hit *hit);

@@ -11,6 +11,7 @@
 #include "../geom/expansion.h"
 #include "../geom/tri_box.h"
 #include "octree_internal.h"
+#include "octree_modes.h"
 
 const char *accuracy_mode_name(accuracy_mode mode)
 {
@@ -100,7 +101,7 @@ typedef struct shared_list {
     int pending_children;
     box3 box; /* the box of the node that owns the list: every listed triangle touches it */
     size_t bytes; /* what the list holds, counted against the build's budget */
-    /* Exact mode: per item, bit k set when the item touches the seed's octant k of `box`.
+    /* Per item, bit k set when the item touches the seed's octant k of `box`, exactly.
      * Computed once by the owner so that each of its eight children reads one byte per
      * item, and a straddling item's test is prepared once for all its children. NULL for
      * the root's list. */
@@ -158,15 +159,20 @@ static octree_status u32_reserve(build_ctx *ctx, u32_array *a, size_t extra)
     return OCTREE_OK;
 }
 
-/* Membership of the parent list's item i in a node's closed box, in the tree's mode. In
- * exact mode the parent has decided it already for all eight children (see shared_list). */
-static int triangle_in_node(const build_ctx *ctx, const shared_list *parent, uint32_t i, const build_entry *e)
+/* Membership of the parent list's item i in a node's closed box: the parent has decided it
+ * already for all eight children (see shared_list), exactly, whatever the tree's mode.
+ *
+ * Every mode builds this same tree. Membership must be conservative in every mode (a
+ * triangle touching the closed box is in the node), and a tree is queried in every mode
+ * (a query names its own), so each mode's queries make up for their own final test on the
+ * query side: fast and seed walks and descents grow the node boxes by what their final
+ * test can accept beyond the exact geometry (octree_ray.c, octree_triangle.c). The plain
+ * double triangle-box test dropped triangles that only touch a node, and the seed's
+ * three-step test accepts whatever lies within epsilon, which in a world about as small
+ * as epsilon is every node down to the last level; neither is conservative, and both cost
+ * more than the exact decision (docs/engine.md has the figures). */
+static int triangle_in_node(const shared_list *parent, uint32_t i, const build_entry *e)
 {
-    if (ctx->def->mode != ACCURACY_EXACT) {
-        const vec3 *tri = octree_triangle_at(ctx->tree, parent->items[i]);
-        return ctx->def->mode == ACCURACY_SEED ? tri_box_overlap_seed(tri, e->box, ctx->def->seed_epsilon)
-                                               : tri_box_overlap_fast(tri, e->box);
-    }
     /* The root: every triangle lies inside the world cube. */
     return parent->reach ? (parent->reach[i] >> e->octant) & 1 : 1;
 }
@@ -201,7 +207,7 @@ static void compute_reach(const build_ctx *ctx, shared_list *list)
     }
 }
 
-/* Exact mode below the root: the parent's bytes decide which of its items a child takes.
+/* Below the root the parent's bytes decide which of its items a child takes.
  * Items follow a Morton order, so a child's items come in runs and most groups of eight
  * bytes hold none of its bits: those are skipped with one test (of the whole group, so
  * the byte order does not matter). Within a group the items are appended without a
@@ -321,7 +327,7 @@ static octree_status build_nodes(build_ctx *ctx, int max_level)
             scratch.count = take_children_items(e.parent, e.octant, scratch.items);
         } else {
             for (uint32_t i = 0; i < e.parent->count; i++)
-                if (triangle_in_node(ctx, e.parent, i, &e))
+                if (triangle_in_node(e.parent, i, &e))
                     scratch.items[scratch.count++] = e.parent->items[i];
         }
         release_list(ctx, e.parent);
@@ -340,9 +346,9 @@ static octree_status build_nodes(build_ctx *ctx, int max_level)
             continue;
         }
 
-        /* The list takes over scratch's items (already counted) and adds itself and, in
-         * exact mode, a byte per item. */
-        size_t own_bytes = sizeof(shared_list) + (ctx->def->mode == ACCURACY_EXACT ? scratch.count : 0);
+        /* The list takes over scratch's items (already counted) and adds itself and a byte
+         * per item. */
+        size_t own_bytes = sizeof(shared_list) + scratch.count;
         if (budget_take(ctx, own_bytes) != 0) {
             status = OCTREE_ERR_BUDGET;
             goto unwind;
@@ -360,17 +366,15 @@ static octree_status build_nodes(build_ctx *ctx, int max_level)
         list->box = e.box;
         list->reach = NULL;
         scratch = (u32_array){0};
-        if (ctx->def->mode == ACCURACY_EXACT) {
-            list->reach = malloc(list->count);
-            if (!list->reach) {
-                budget_give_back(ctx, list->bytes);
-                free(list->items);
-                free(list);
-                status = OCTREE_ERR_NOMEM;
-                goto unwind;
-            }
-            compute_reach(ctx, list);
+        list->reach = malloc(list->count);
+        if (!list->reach) {
+            budget_give_back(ctx, list->bytes);
+            free(list->items);
+            free(list);
+            status = OCTREE_ERR_NOMEM;
+            goto unwind;
         }
+        compute_reach(ctx, list);
 
         int added = add_children(ctx, e.node);
         if (added != 0) {
@@ -392,7 +396,7 @@ static octree_status build_nodes(build_ctx *ctx, int max_level)
     budget_give_back(ctx, scratch.capacity * sizeof *scratch.items);
     free(scratch.items);
     tree->leaf_items = leaves.items ? leaves.items : malloc(sizeof(uint32_t));
-    tree->leaf_item_count = leaves.count;
+    tree->info.leaf_refs = leaves.count;
     if (!tree->leaf_items)
         return OCTREE_ERR_NOMEM;
     if (leaves.items && leaves.count < leaves.capacity) {
@@ -680,6 +684,8 @@ octree *octree_build(const mesh_view *mesh, const octree_def *def_in, octree_err
     /* The final array, 64-byte aligned (realloc keeps no alignment, so the build grows a
      * plain array and copies it once). aligned_alloc wants a multiple of the alignment. */
     size_t node_bytes = (tree->node_count * sizeof(octree_node) + 63) & ~(size_t)63;
+    if (st == OCTREE_OK)
+        st = octree_modes_prepare(tree);
     if (st == OCTREE_OK && budget_take(&ctx, node_bytes) != 0)
         st = OCTREE_ERR_BUDGET;
     if (st == OCTREE_ERR_BUDGET) {
@@ -713,14 +719,13 @@ octree *octree_build(const mesh_view *mesh, const octree_def *def_in, octree_err
         info->leaf_count++;
         info->nonempty_leaf_count += tree->nodes[i].count > 0;
     }
-    info->leaf_refs = tree->leaf_item_count;
     info->max_level = levels;
     info->depth_clamped = clamped;
     info->resolution = d;
     info->world_size = size;
     info->world_min = lo;
     info->bytes_nodes = node_bytes;
-    info->bytes_leaf_lists = tree->leaf_item_count * sizeof(uint32_t);
+    info->bytes_leaf_lists = (info->leaf_refs + tree->seed_list_count) * sizeof(uint32_t);
     info->bytes_triangles = tree->triangle_count * (sizeof *tree->triangles + sizeof *tree->original_id);
     info->bytes_triangle_boxes = tree->triangle_boxes ? tree->triangle_count * sizeof *tree->triangle_boxes : 0;
     info->bytes_total =

@@ -48,16 +48,30 @@ struct octree {
 
     octree_node *nodes;
     size_t node_count;
+    /* The leaves' lists (info.leaf_refs ids), then the seed list (seed_list_count ids). */
     uint32_t *leaf_items;
-    size_t leaf_item_count;
+    /* What fast and seed queries need beyond exact membership (octree_modes.c): the seed
+     * reach factor, the largest 2 / sin of a triangle's smallest angle (rounded up); and
+     * k with 2^k at or below the smallest nonzero product of the max norms of a triangle's
+     * edges v1 - v0 and v2 - v0 (INT_MAX when there is none). */
+    float seed_reach_factor;
+    int fast_edge_product_log2;
 
     box3 world; /* the cube [lo, lo + D] */
     /* Every coordinate of the world within DBL_MAX / 2: no node's lo + hi overflows, so a
      * split is box_split_in_range. */
     int splits_in_range;
+    /* The triangles the seed tests may accept anywhere (zero area, slivers), which every
+     * seed query tests: internal ids, after the leaf lists in leaf_items. */
+    uint32_t seed_list_count;
     double seed_epsilon;
     octree_info info;
 };
+
+static inline const uint32_t *octree_seed_list(const struct octree *tree)
+{
+    return tree->leaf_items + tree->info.leaf_refs;
+}
 
 /* A node's split point, as box_split_point computes it, without its overflow checks when
  * no node of the tree can need them. */

@@ -1,0 +1,246 @@
+/* What fast and seed queries add to the octree's exact membership so that they find every
+ * triangle their own final test accepts: the slack by which their walks and descents grow
+ * node boxes, and the seed triangles that no slack covers, listed once per tree.
+ *
+ * Every mode builds the same tree, with exact membership: a triangle touching a node's
+ * closed box is in the node. A query in exact mode visits the nodes its ray or triangle
+ * touches, exactly or more. A fast or seed final test can accept a triangle the query does
+ * not touch (rounding; the seed's epsilon), so such a query visits every node whose box,
+ * grown by a slack delta in every direction, the query touches: if the test accepts T, a
+ * point of T lies within delta (max norm) of the query, the leaf holding that point holds
+ * T, and that leaf's grown box meets the query. The slacks below bound that distance.
+ * u = 2^-53 is the unit roundoff throughout; |x| of a vector is its max norm. */
+#include <float.h>
+#include <limits.h>
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "octree_modes.h"
+
+#define U 0x1p-53
+
+/* ---------- fast rays: Moller-Trumbore ----------
+ *
+ * ray_tri_fast computes e1 = v1 - v0, e2 = v2 - v0, s = o - v0, p = d x e2, q = s x e1,
+ * det = e1.p, and u = (s.p)/det, v = (d.q)/det, t = (e2.q)/det, and accepts when
+ * |det| > c |e1||e2||d| (c = FAST_PARALLEL_CUTOFF = 2^-20), u, v >= 0, u + v <= 1 and
+ * tmin <= t <= tmax. Let P = v0 + u e1 + v e2 (a point of T, the computed u, v taken
+ * exactly; fl(u + v) <= 1 lets u + v exceed 1 by 2u, which moves P by 2u D at most) and
+ * Q = o + t d, the ray's point at the computed t. Then P - Q = A (x - x*) with
+ * A = [e1 e2 -d], x = (u, v, t) computed and x* the exact solution, so
+ *   |P - Q| <= |e1||du| + |e2||dv| + |d||dt|.
+ * Each of s.p, d.q, e2.q, det is a triple product of the inputs' differences, whose
+ * computed value is off by at most 8u times its permanent (orient3d's bound is
+ * (7 + 56u)u), a permanent being at most 6 times the product of the three max norms. With
+ * n = N + a, det = Det + b and one rounding each in 1/det and the product,
+ *   |dx_i| <= (8u perm_i + |x*_i| 8u perm_det) / |det| + 2u |x*_i| (1 + small),
+ * and |det| > c |e1||e2||d| turns every perm / |det| into 6 / c times the one norm the
+ * numerator has that det lacks:
+ *   |e1||du| <= (48u / c)(|s| + |u*||e1|) + 2u |u*||e1|, likewise for v with e2, and
+ *   |d||dt| <= (48u / c)(|s| + |t*||d|) + 2u |t*||d|.
+ * Every vertex lies in the world cube W of side D, so |s| <= S, the largest max-norm
+ * distance from o to a corner of W, and |e1|, |e2| <= D. |u*| <= 1 + |du| and
+ * |t*||d| <= |Q - o| + |d||dt| <= S + |P - Q| + |d||dt| keep the bound linear in itself;
+ * with k = 48u / c + 2u = 2^-27.4 (c = 2^-20) it solves to
+ *   |P - Q| <= 1.01 k (4 S + 2 D) <= 2^-25.4 (S + D).
+ * The slack used is 2^-23 (S + D), five times that, which also covers the roundings in the
+ * cutoff's own product and in S. The derivation needs the triple products free of
+ * overflow and underflow: S, D and |d| at most 2^300, and |e1||e2||d| at least 2^-960 for
+ * every triangle (the tree keeps the smallest nonzero |e1||e2|; a zero edge gives det = 0,
+ * which the test rejects). Outside that, the slack is infinite: the walk visits every
+ * node, which is brute force.
+ *
+ * With the old cutoff c = 1e-12 the same bound is 0.03 (S + D): a walk that wide is brute
+ * force in all but name, which is why the cutoff is 2^-20 (Moller and Trumbore's 1e-6, made
+ * relative to the sizes). */
+#define FAST_RAY_SLACK 0x1p-23
+#define RANGE_MAX 0x1p300
+#define EDGE_PRODUCT_MIN 0x1p-960
+
+double octree_fast_ray_slack(const struct octree *tree, vec3 o, vec3 d)
+{
+    box3 w = tree->world;
+    double s = fmax(fmax(fmax(fabs(o.x - w.lo.x), fabs(o.x - w.hi.x)), fmax(fabs(o.y - w.lo.y), fabs(o.y - w.hi.y))),
+                    fmax(fabs(o.z - w.lo.z), fabs(o.z - w.hi.z)));
+    double size = w.hi.x - w.lo.x;
+    double dm = fmax(fabs(d.x), fmax(fabs(d.y), fabs(d.z)));
+    if (!(s + size <= RANGE_MAX) || !(dm <= RANGE_MAX))
+        return INFINITY;
+    if (tree->fast_edge_product_log2 != INT_MAX && !(ldexp(dm, tree->fast_edge_product_log2) >= EDGE_PRODUCT_MIN))
+        return INFINITY;
+    return FAST_RAY_SLACK * (s + size);
+}
+
+/* ---------- seed: the epsilon tests ----------
+ *
+ * ray_tri_seed accepts when the point p = o + t d, t = n.(v0 - o) / (n.d + eps) (n the
+ * unit normal), lies on the inner side of each edge's line by less than eps along the
+ * edge's unit outward normal, with tmin - eps < t < tmax + eps. In exact arithmetic
+ * n.(p - v0) = -t eps: p lies |t| eps off the plane. Within the plane, the region where
+ * all three edge distances are below eps is T offset outward by eps, whose corners lie
+ * eps / sin(a / 2) <= 2 eps / sin a from T's (a the angle there). So p is within
+ *   r_T = 2 eps' / sin(a_min) + |t| eps' of T,
+ * eps' being eps plus the rounding of the computed distances. A triangle whose smallest
+ * angle has a sine below SEED_SLIVER (or none: zero area, overflow) has a normal the
+ * rounding may point anywhere and a reach without a useful bound: such triangles go on the
+ * tree's seed list, which every seed query tests, and the others set the tree's reach
+ * factor K = max 2 / sin(a_min). Their normals and edge normals are accurate to
+ * 4u / SEED_SLIVER, so a distance measured over at most 2 D (a point near T to a vertex)
+ * is off by (8u / SEED_SLIVER) D, plus 4u of the coordinates' magnitude M for the rounded
+ * p and differences: eps' = eps + (8u / SEED_SLIVER) D + 4u M.
+ *
+ * tri_tri_overlap_seed accepts when (1) a vertex of one triangle lies within eps of the
+ * other's plane and its edge distances are below eps, or (2) an edge start + s E, with
+ * s = n.(v0 - start) / (n.E + eps) in (-eps, 1 + eps), meets the other triangle so: the
+ * point lies (1 + eps) eps off the plane (as for rays, with |s| <= 1 + eps) and up to
+ * eps |E| past the edge's ends. Both ways round, q and T then lie within
+ *   eps (|E| + 2) + K_both eps'
+ * of each other, |E| the longest edge (at most D for the world's), K_both the larger of the
+ * tree's K and the query's own 2 / sin(a_min). A zero-area query has a zero normal and
+ * touches every triangle (the seed's own behaviour, tri_tri.c); a sliver query has no
+ * useful bound either: both are tested against every triangle. */
+#define SEED_SLIVER 0x1p-10
+
+/* 2 / sin of the triangle's smallest angle, or INFINITY when it is below SEED_SLIVER's
+ * reciprocal's reach or not a finite number (zero area, overflow). The smallest angle is
+ * opposite the shortest edge, between the two longest: sin = |cross| / (l1 l2). */
+static double seed_reach_factor(const vec3 t[3])
+{
+    vec3 e0 = vec3_sub(t[1], t[0]), e1 = vec3_sub(t[2], t[1]), e2 = vec3_sub(t[0], t[2]);
+    double l0 = vec3_length(e0), l1 = vec3_length(e1), l2 = vec3_length(e2);
+    double area2 = vec3_length(vec3_cross(e2, e0));
+    double shortest = fmin(l0, fmin(l1, l2));
+    double product = l0 == shortest ? l1 * l2 : l1 == shortest ? l0 * l2 : l0 * l1;
+    double sine = area2 / product;
+    if (!(sine >= SEED_SLIVER) || !isfinite(area2) || !isfinite(product))
+        return INFINITY;
+    return 2.0 / fmin(sine, 1.0);
+}
+
+static double seed_epsilon_rounded(const struct octree *tree, double magnitude)
+{
+    double size = tree->world.hi.x - tree->world.lo.x;
+    return tree->seed_epsilon + (8 * U / SEED_SLIVER) * size + 4 * U * magnitude;
+}
+
+static double world_magnitude(const struct octree *tree)
+{
+    box3 w = tree->world;
+    return fmax(fmax(fmax(fabs(w.lo.x), fabs(w.hi.x)), fmax(fabs(w.lo.y), fabs(w.hi.y))),
+                fmax(fabs(w.lo.z), fabs(w.hi.z)));
+}
+
+/* Seed rays. With the constant part A = K eps' + eps |d| (tmin - eps and tmax + eps move
+ * the point by eps |d|) and B = eps' per unit |t|, a hit at t puts p within A + B |t| of
+ * T, so inside W grown by that; along the axis of the largest direction component this
+ * bounds |t| |d| <= S + A + B |t|, |t| <= (S + A) / (|d| - B) = T_far, and the slack is
+ * A + B T_far. A direction no longer than B (eps is absolute, d need not be unit) leaves
+ * t unbounded: infinite slack. */
+double octree_seed_ray_slack(const struct octree *tree, vec3 o, vec3 d)
+{
+    box3 w = tree->world;
+    double s = fmax(fmax(fmax(fabs(o.x - w.lo.x), fabs(o.x - w.hi.x)), fmax(fabs(o.y - w.lo.y), fabs(o.y - w.hi.y))),
+                    fmax(fabs(o.z - w.lo.z), fabs(o.z - w.hi.z)));
+    double dm = fmax(fabs(d.x), fmax(fabs(d.y), fabs(d.z)));
+    double magnitude = fmax(world_magnitude(tree), fmax(fabs(o.x), fmax(fabs(o.y), fabs(o.z))));
+    double eps = seed_epsilon_rounded(tree, magnitude);
+    /* p = o + t d rounds by u (|o| + |t d|) per coordinate: 4u per unit |t| |d|. */
+    double a = tree->seed_reach_factor * eps + tree->seed_epsilon * dm + 4 * U * magnitude;
+    double b = eps + 4 * U * dm;
+    if (!(dm > 2 * b) || !isfinite(a))
+        return INFINITY;
+    double t_far = (s + a) / (dm - b);
+    double slack = 2 * (a + b * t_far);
+    return isfinite(slack) ? slack : INFINITY;
+}
+
+double octree_seed_triangle_slack(const struct octree *tree, const vec3 q[3])
+{
+    double k = seed_reach_factor(q);
+    if (!isfinite(k))
+        return INFINITY;
+    double magnitude = world_magnitude(tree);
+    double longest = tree->world.hi.x - tree->world.lo.x;
+    for (int i = 0; i < 3; i++) {
+        magnitude = fmax(magnitude, fmax(fabs(q[i].x), fmax(fabs(q[i].y), fabs(q[i].z))));
+        vec3 e = vec3_sub(q[i == 2 ? 0 : i + 1], q[i]);
+        longest = fmax(longest, fmax(fabs(e.x), fmax(fabs(e.y), fabs(e.z))));
+    }
+    double eps = seed_epsilon_rounded(tree, magnitude);
+    double slack = 2 * (tree->seed_epsilon * (longest + 2) + fmax(k, tree->seed_reach_factor) * eps);
+    return isfinite(slack) ? slack : INFINITY;
+}
+
+/* ---------- fast triangles: Moller's interval test ----------
+ *
+ * tri_tri_overlap_fast measures each vertex's distance to the other triangle's plane as
+ * n.x + offset on the absolute coordinates, off by about 7u M |n| for coordinates of
+ * magnitude M, so a triangle it places on a plane lies within 7u M of it. When the planes
+ * meet at an angle b, the two triangles' intervals on their common line then move by about
+ * 7u M / sin b, and triangles it accepts lie that close; in its coplanar branch the 2D
+ * tests work on differences, and the pair lies within 7u M of each other's planes and
+ * touches in projection. The slack 2^-32 (M + D) covers every pair whose planes meet at
+ * more than about 2^-18 rad. Closer to parallel the intervals come from the rounding
+ * alone and the test can accept pairs at any distance along the planes (measured: 1 in
+ * 200000 random coplanar pairs a triangle's size apart); no bounded slack covers those,
+ * and the fast contract says so (docs/engine.md). */
+#define FAST_TRIANGLE_SLACK 0x1p-32
+
+double octree_fast_triangle_slack(const struct octree *tree, const vec3 q[3])
+{
+    double magnitude = world_magnitude(tree);
+    for (int i = 0; i < 3; i++)
+        magnitude = fmax(magnitude, fmax(fabs(q[i].x), fmax(fabs(q[i].y), fabs(q[i].z))));
+    double slack = FAST_TRIANGLE_SLACK * (magnitude + (tree->world.hi.x - tree->world.lo.x));
+    return isfinite(slack) ? slack : INFINITY;
+}
+
+/* ---------- per tree ---------- */
+
+octree_status octree_modes_prepare(struct octree *tree)
+{
+    size_t n = tree->triangle_count, listed = 0, capacity = 0;
+    double product_min = INFINITY, reach = 2.0;
+    uint32_t *list = NULL;
+    for (size_t i = 0; i < n; i++) {
+        const vec3 *t = octree_triangle_at(tree, (uint32_t)i);
+        vec3 e1 = vec3_sub(t[1], t[0]), e2 = vec3_sub(t[2], t[0]);
+        double product = fmax(fabs(e1.x), fmax(fabs(e1.y), fabs(e1.z))) * fmax(fabs(e2.x), fmax(fabs(e2.y), fabs(e2.z)));
+        if (product > 0.0 && product < product_min)
+            product_min = product;
+        double k = seed_reach_factor(t);
+        if (isfinite(k)) {
+            reach = fmax(reach, k);
+            continue;
+        }
+        if (array_reserve((void **)&list, &capacity, listed + 1, sizeof *list, 16) != 0) {
+            free(list);
+            return OCTREE_ERR_NOMEM;
+        }
+        list[listed++] = (uint32_t)i;
+    }
+    /* product_min = f 2^e with f in [0.5, 1), so 2^(e - 1) is at or below it. */
+    int e = INT_MAX;
+    if (product_min < INFINITY) {
+        frexp(product_min, &e);
+        e -= 1;
+    }
+    tree->fast_edge_product_log2 = e;
+    /* Rounded up to a float: the factor only ever grows a slack. */
+    float f = (float)reach;
+    tree->seed_reach_factor = (double)f < reach ? nextafterf(f, INFINITY) : f;
+    tree->seed_list_count = (uint32_t)listed;
+    if (listed) {
+        size_t refs = tree->info.leaf_refs;
+        uint32_t *items = realloc(tree->leaf_items, (refs + listed) * sizeof *items);
+        if (!items) {
+            free(list);
+            return OCTREE_ERR_NOMEM;
+        }
+        memcpy(items + refs, list, listed * sizeof *items);
+        tree->leaf_items = items;
+    }
+    free(list);
+    return OCTREE_OK;
+}
