@@ -581,7 +581,7 @@ static size_t expect_rays(const answer *a, const char *world_name, const ray_set
     ray_hit *buf = calloc(cap, sizeof *buf);
     size_t r = 0, hitting = 0;
     for (int i = 0; i < rays->n; i++) {
-        ray_input in = {vv(rays->origin[i]), vv(rays->direction[i]), tmin, tmax};
+        ray_input in = {vv(rays->origin[i]), vv(rays->direction[i]), tmin, tmax, RAY_CROSSING};
         ray_output out = {.hits = buf, .max_hits = cap};
         assert_int_equal(octree_ray(w->tree, &in, detail, mode, &out, NULL), OCTREE_OK);
         assert_int_equal(a->found[i], (int32_t)out.hit_count);
@@ -844,7 +844,7 @@ static void test_rays_equal_the_engine(void **state)
     mesh_view view = mesh_data_view(&mesh);
     size_t rec = 0;
     for (int i = 0; i < rays.n; i++) {
-        ray_input in = {vv(rays.origin[i]), vv(rays.direction[i]), 0, INFINITY};
+        ray_input in = {vv(rays.origin[i]), vv(rays.direction[i]), 0, INFINITY, RAY_CROSSING};
         ray_hit h;
         size_t n = brute_ray(&view, &in, RAY_CLOSEST, ACCURACY_EXACT, 0, &h, 1);
         assert_int_equal(a.found[i], (int32_t)n);

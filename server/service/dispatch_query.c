@@ -148,7 +148,7 @@ static int ray_work(job *j, const trioct_ray_request_t *m, accuracy_mode mode, r
     if (!pool)
         return out_of_memory(j, "the rays' hits");
     for (size_t i = 0; i < n; i++) {
-        in[i] = (ray_input){vec_in(&m->origin[i]), vec_in(&m->direction[i]), m->tmin, m->tmax};
+        in[i] = (ray_input){vec_in(&m->origin[i]), vec_in(&m->direction[i]), m->tmin, m->tmax, RAY_CROSSING};
         outs[i] = (ray_output){.hits = pool + i * room, .max_hits = room};
     }
     int status = TRIOCT_OK;
