@@ -401,6 +401,31 @@ static void test_random_special_cases_match_oracle(void **state)
         assert_true(hits[k] > total[k] / 10 && hits[k] < total[k]);
 }
 
+/* The same branches 1e9 away: grid features stay exact there (1e9 + k/4 is a double), and
+ * the expansions keep every decision exact. */
+static void test_random_special_cases_far_away(void **state)
+{
+    (void)state;
+    rng r = rng_for(4);
+    const vec3 far = pt(1e9, -2e9, 1e9);
+    int hits = 0;
+    for (int i = 0; i < 3000; i++) {
+        int kind = i % 4, grid = rng_int(&r, 0, 3) != 0, axis = rng_int(&r, 0, 2);
+        double c = grid ? draw(&r, 1) : rng_range(&r, -3, 3);
+        vec3 tri[3], o, d;
+        double tmin, tmax;
+        draw_triangle(&r, kind, axis, c, grid, tri);
+        draw_ray(&r, kind, axis, c, grid, tri, &o, &d);
+        draw_limits(&r, &tmin, &tmax);
+        for (int k = 0; k < 3; k++)
+            tri[k] = vec3_add(tri[k], far);
+        o = vec3_add(o, far);
+        hits += check_against_oracle(o, d, tmin, tmax, tri, NULL);
+    }
+    printf("    far away: %d of 3000 touch\n", hits);
+    assert_true(hits > 300 && hits < 2700);
+}
+
 /* A triangle of the given kind with a point exactly on the ray's line (o + s d on the
  * grid), lying in a coordinate plane that holds the line when kind is 0 and the ray allows. */
 static void draw_triangle_on_ray(rng *r, int kind, vec3 o, vec3 d, vec3 tri[3])
@@ -507,6 +532,7 @@ int main(void)
         cmocka_unit_test(test_huge_offsets_tiny_features),
         cmocka_unit_test(test_compare_orders_every_kind),
         cmocka_unit_test(test_random_special_cases_match_oracle),
+        cmocka_unit_test(test_random_special_cases_far_away),
         cmocka_unit_test(test_random_pairs_ordered_as_oracle),
         cmocka_unit_test(test_generic_cases_agree_with_crossing),
     };
