@@ -51,7 +51,7 @@ static workload make_workload(const mesh_data *m, double leaf, size_t rays, size
              c = m->vertices[m->indices[3 * t + 2]];
         vec3 target = vec3_add(a, vec3_add(vec3_scale(vec3_sub(bb, a), u), vec3_scale(vec3_sub(c, a), v)));
         vec3 o = rng_point_in_box(&r, around);
-        w.rays[i] = (ray_input){o, vec3_sub(target, o), 0, INFINITY};
+        w.rays[i] = (ray_input){o, vec3_sub(target, o), 0, INFINITY, RAY_CROSSING};
     }
     for (size_t i = 0; i < tris; i++)
         query_triangle_sample(m, &r, leaf, QUERY_TRI_NEAR, w.tris[i]);
@@ -85,7 +85,7 @@ static ray_input *make_sensor_rays(const mesh_data *m, size_t count)
             double u = (2.0 * ((double)x + 0.5) / (double)width - 1.0) * half;
             double v = (2.0 * ((double)y + 0.5) / (double)height - 1.0) * half;
             vec3 d = vec3_add(forward, vec3_add(vec3_scale(right, u), vec3_scale(up, v)));
-            rays[y * width + x] = (ray_input){eye, d, 0, INFINITY};
+            rays[y * width + x] = (ray_input){eye, d, 0, INFINITY, RAY_CROSSING};
         }
     return rays;
 }

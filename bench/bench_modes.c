@@ -46,7 +46,7 @@ static void make_queries(const mesh_data *m, double leaf, queries *q)
         vec3 a = mesh_data_corner(m, t, 0), bb = mesh_data_corner(m, t, 1), c = mesh_data_corner(m, t, 2);
         vec3 target = vec3_add(a, vec3_add(vec3_scale(vec3_sub(bb, a), u), vec3_scale(vec3_sub(c, a), v)));
         vec3 o = rng_point_in_box(&r, around);
-        q->rays[i] = (ray_input){o, vec3_sub(target, o), 0, INFINITY};
+        q->rays[i] = (ray_input){o, vec3_sub(target, o), 0, INFINITY, RAY_CROSSING};
     }
     for (size_t i = 0; i < TRIS; i++)
         query_triangle_sample(m, &r, leaf, QUERY_TRI_NEAR, q->tris[i]);

@@ -46,7 +46,7 @@ static void make_rays(rng *r, trioct_vec3 *o, trioct_vec3 *d, ray_input *in, siz
         vec3 dir = vec3_sub(to, from);
         o[i] = (trioct_vec3){from.x, from.y, from.z};
         d[i] = (trioct_vec3){dir.x, dir.y, dir.z};
-        in[i] = (ray_input){from, dir, 0, INFINITY};
+        in[i] = (ray_input){from, dir, 0, INFINITY, RAY_CROSSING};
     }
 }
 

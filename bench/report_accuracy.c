@@ -107,7 +107,7 @@ static ray_input ray_axis_through(rng *r, vec3 p, box3 around)
     double c[3] = {p.x, p.y, p.z}, d[3] = {0, 0, 0};
     c[axis] = negative ? vec3_get(around.hi, axis) : vec3_get(around.lo, axis);
     d[axis] = negative ? -1.0 : 1.0;
-    return (ray_input){{c[0], c[1], c[2]}, {d[0], d[1], d[2]}, 0.0, INFINITY};
+    return (ray_input){{c[0], c[1], c[2]}, {d[0], d[1], d[2]}, 0.0, INFINITY, RAY_CROSSING};
 }
 
 /* A ray from near `around` that passes exactly through `target` at t = 1: each coordinate of
@@ -127,7 +127,7 @@ static ray_input ray_through(rng *r, vec3 target, box3 around)
     }
     if (dc[0] == 0.0 && dc[1] == 0.0 && dc[2] == 0.0)
         return ray_axis_through(r, target, around);
-    return (ray_input){{oc[0], oc[1], oc[2]}, {dc[0], dc[1], dc[2]}, 0.0, INFINITY};
+    return (ray_input){{oc[0], oc[1], oc[2]}, {dc[0], dc[1], dc[2]}, 0.0, INFINITY, RAY_CROSSING};
 }
 
 /* The axis along which a block-face triangle is flat, or -1 for a tilted triangle. */
@@ -153,7 +153,7 @@ static void make_ray(const scene *s, rng *r, box3 around, int cat, ray_input *ou
         }
         vec3 target = vec3_add(a, vec3_add(vec3_scale(vec3_sub(b, a), u), vec3_scale(vec3_sub(c, a), v)));
         vec3 o = rng_point_in_box(r, around);
-        *out = (ray_input){o, vec3_sub(target, o), 0.0, INFINITY};
+        *out = (ray_input){o, vec3_sub(target, o), 0.0, INFINITY, RAY_CROSSING};
         return;
     }
     case RC_AT_VERTEX:
@@ -184,7 +184,7 @@ static void make_ray(const scene *s, rng *r, box3 around, int cat, ray_input *ou
         int negative = (int)(rng_next(r) & 1);
         p = vec3_with(p, u, negative ? vec3_get(around.hi, u) : vec3_get(around.lo, u));
         vec3 d = vec3_with((vec3){0, 0, 0}, u, negative ? -1.0 : 1.0);
-        *out = (ray_input){p, d, 0.0, INFINITY};
+        *out = (ray_input){p, d, 0.0, INFINITY, RAY_CROSSING};
         return;
     }
     }

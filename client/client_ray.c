@@ -19,6 +19,9 @@ _Static_assert(TRIOCT_ACCURACY_WORLD == TRIOCT_RAY_REQUEST_T_ACCURACY_WORLD &&
                    TRIOCT_ACCURACY_SEED == TRIOCT_RAY_REQUEST_T_SEED &&
                    TRIOCT_ACCURACY_FAST == TRIOCT_RAY_REQUEST_T_FAST,
                "trioct.h's accuracy modes are the wire's");
+_Static_assert(TRIOCT_CONTACT_CROSSING == TRIOCT_RAY_REQUEST_T_CROSSING &&
+                   TRIOCT_CONTACT_TOUCH == TRIOCT_RAY_REQUEST_T_TOUCH,
+               "trioct.h's contact rules are the wire's");
 
 static int reply_decode(const void *buf, size_t size, void *msg)
 {
@@ -62,10 +65,13 @@ trioct_ray_query trioct_ray_query_default(const char *world)
     return q;
 }
 
-static int check_query(const trioct_ray_query *q, trioct_reply *r)
+static int check_query(const trioct_ray_query *q, int contact, trioct_reply *r)
 {
     if (q == NULL)
         return client_fail(r, TRIOCT_ERR_BAD_REQUEST, "no ray query given");
+    if (contact != TRIOCT_CONTACT_CROSSING && contact != TRIOCT_CONTACT_TOUCH)
+        return client_fail(r, TRIOCT_ERR_BAD_REQUEST,
+                           "unknown contact %d (TRIOCT_CONTACT_CROSSING or _TOUCH)", contact);
     if (q->detail < TRIOCT_RAY_ANY || q->detail > TRIOCT_RAY_ALL)
         return client_fail(r, TRIOCT_ERR_BAD_REQUEST,
                            "unknown ray detail %d (TRIOCT_RAY_ANY, _CLOSEST or _ALL)", q->detail);
@@ -148,11 +154,11 @@ static void complete_rays(trioct_client *c, pending *p)
 }
 
 /* Checks, encodes and sends q; *out is then the request waiting for its answer. */
-static int start_rays(trioct_client *c, const trioct_ray_query *q, int timeout_ms,
+static int start_rays(trioct_client *c, const trioct_ray_query *q, int contact, int timeout_ms,
                       trioct_reply *r, pending **out)
 {
     char channel[TRIOCT_MAX_CHANNEL_LEN + 1];
-    if (check_query(q, r) != TRIOCT_OK ||
+    if (check_query(q, contact, r) != TRIOCT_OK ||
         client_channel(c, TRIOCT_CHANNEL_RAY, q->world, channel, r, "world") != TRIOCT_OK)
         return r->status;
 
@@ -166,6 +172,7 @@ static int start_rays(trioct_client *c, const trioct_ray_query *q, int timeout_m
         .num_rays = (int32_t)n,
         .origin = calloc(n ? n : 1, sizeof(trioct_vec3_t)),
         .direction = calloc(n ? n : 1, sizeof(trioct_vec3_t)),
+        .contact = (int8_t)contact,
     };
     pending *p = NULL;
     int rc;
@@ -199,28 +206,40 @@ static void keep_rays(trioct_client *c, trioct_ray_result *res, void *user)
     memset(res, 0, sizeof *res);
 }
 
-int trioct_rays(trioct_client *c, const trioct_ray_query *q, int timeout_ms,
-                trioct_ray_result *out)
+int trioct_rays_contact(trioct_client *c, const trioct_ray_query *q, int contact, int timeout_ms,
+                        trioct_ray_result *out)
 {
     memset(out, 0, sizeof *out);
     pending *p;
-    int rc = start_rays(c, q, timeout_ms, &out->reply, &p);
+    int rc = start_rays(c, q, contact, timeout_ms, &out->reply, &p);
     if (rc != TRIOCT_OK)
         return rc;
     client_sync_finish(c, p, (void (*)(void))keep_rays, out);
     return out->reply.status;
 }
 
-int trioct_rays_async(trioct_client *c, const trioct_ray_query *q, int timeout_ms,
-                      trioct_ray_done cb, void *user, int64_t *request_id)
+int trioct_rays(trioct_client *c, const trioct_ray_query *q, int timeout_ms,
+                trioct_ray_result *out)
+{
+    return trioct_rays_contact(c, q, TRIOCT_CONTACT_CROSSING, timeout_ms, out);
+}
+
+int trioct_rays_contact_async(trioct_client *c, const trioct_ray_query *q, int contact, int timeout_ms,
+                              trioct_ray_done cb, void *user, int64_t *request_id)
 {
     trioct_reply r;
     memset(&r, 0, sizeof r);
     pending *p = NULL;
     int rc = client_async_check(c, cb != NULL, &r);
     if (rc == TRIOCT_OK)
-        rc = start_rays(c, q, timeout_ms, &r, &p);
+        rc = start_rays(c, q, contact, timeout_ms, &r, &p);
     return client_async_started(c, rc, &r, p, (void (*)(void))cb, user, request_id);
+}
+
+int trioct_rays_async(trioct_client *c, const trioct_ray_query *q, int timeout_ms,
+                      trioct_ray_done cb, void *user, int64_t *request_id)
+{
+    return trioct_rays_contact_async(c, q, TRIOCT_CONTACT_CROSSING, timeout_ms, cb, user, request_id);
 }
 
 /* Keeps .reply: the status and message stay readable after the arrays are gone. */

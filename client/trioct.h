@@ -209,6 +209,21 @@ TRIOCT_API int trioct_rays(trioct_client *c, const trioct_ray_query *q, int time
                            trioct_ray_result *out);
 TRIOCT_API void trioct_ray_result_free(trioct_ray_result *r);
 
+/* How a ray meets a triangle (docs/client.md, "Contact rules"). CROSSING, what trioct_rays
+ * asks: each crossing of a surface counted once (watertight), so a ray grazing an edge or
+ * sliding along a face may pass. TOUCH: every triangle the segment [tmin, tmax] shares a
+ * point with, edges, vertices, faces it lies in and zero-area triangles included, at the
+ * smallest such t: ANY becomes a conservative line-of-sight test. TOUCH is decided exactly:
+ * with TRIOCT_ACCURACY_WORLD it runs exact whatever the world's mode, and SEED or FAST with
+ * it is TRIOCT_ERR_BAD_REQUEST. */
+enum { TRIOCT_CONTACT_CROSSING = 0, TRIOCT_CONTACT_TOUCH = 1 };
+
+/* trioct_rays with a contact rule (an unknown one is TRIOCT_ERR_BAD_REQUEST). A separate
+ * call rather than a field of trioct_ray_query, so that programs built against an earlier
+ * trioct.h keep working with this library unchanged. */
+TRIOCT_API int trioct_rays_contact(trioct_client *c, const trioct_ray_query *q, int contact,
+                                   int timeout_ms, trioct_ray_result *out);
+
 /* ---- Triangles ----------------------------------------------------------------------- */
 
 enum { TRIOCT_TRI_YESNO = 0, TRIOCT_TRI_IDS = 1, TRIOCT_TRI_SEGMENTS = 2 };
@@ -430,6 +445,9 @@ typedef void (*trioct_list_done)(trioct_client *c, trioct_list_result *res, void
 
 TRIOCT_API int trioct_rays_async(trioct_client *c, const trioct_ray_query *q, int timeout_ms,
                                  trioct_ray_done cb, void *user, int64_t *request_id);
+TRIOCT_API int trioct_rays_contact_async(trioct_client *c, const trioct_ray_query *q, int contact,
+                                         int timeout_ms, trioct_ray_done cb, void *user,
+                                         int64_t *request_id);
 TRIOCT_API int trioct_triangles_async(trioct_client *c, const trioct_triangle_query *q,
                                       int timeout_ms, trioct_triangle_done cb, void *user,
                                       int64_t *request_id);

@@ -13,6 +13,7 @@
 #include "trioct_mesh_request_t.h"
 #include "trioct_ray_reply_t.h"
 #include "trioct_ray_request_t.h"
+#include "trioct_ray_request_v1_t.h"
 #include "trioct_status_t.h"
 #include "trioct_triangle_reply_t.h"
 #include "trioct_triangle_request_t.h"
@@ -298,7 +299,7 @@ static void walk_worlds(wire_cursor *c)
 
 /* ---- messages, one function each, fields in declaration order ---- */
 
-static void walk_ray_request(wire_cursor *c)
+static void walk_ray_request_v1(wire_cursor *c)
 {
     walk_request_header(c);
     cursor_int8(c, "detail");
@@ -309,6 +310,13 @@ static void walk_ray_request(wire_cursor *c)
     int32_t num_rays = cursor_count(c, "num_rays", 2 * VEC3_BYTES);
     cursor_fixed_array(c, num_rays, VEC3_BYTES, "origin");
     cursor_fixed_array(c, num_rays, VEC3_BYTES, "direction");
+}
+
+/* ray_request_v1_t's fields, then contact. */
+static void walk_ray_request(wire_cursor *c)
+{
+    walk_ray_request_v1(c);
+    cursor_int8(c, "contact");
 }
 
 static void walk_triangle_request(wire_cursor *c)
@@ -419,6 +427,7 @@ static const wire_type_info type_table[WIRE_TYPE_COUNT] = {
     [WIRE_MESH_REPLY] = {"mesh_reply_t", __trioct_mesh_reply_t_get_hash, walk_mesh_reply},
     [WIRE_ADMIN_REPLY] = {"admin_reply_t", __trioct_admin_reply_t_get_hash, walk_admin_reply},
     [WIRE_STATUS] = {"status_t", __trioct_status_t_get_hash, walk_status},
+    [WIRE_RAY_REQUEST_V1] = {"ray_request_v1_t", __trioct_ray_request_v1_t_get_hash, walk_ray_request_v1},
 };
 
 static int wire_type_valid(wire_type type)
@@ -486,4 +495,12 @@ const char *wire_type_name(wire_type type)
 int64_t wire_fingerprint(wire_type type)
 {
     return wire_type_valid(type) ? type_table[type].fingerprint() : 0;
+}
+
+wire_type wire_ray_request_type(const void *bytes, size_t size)
+{
+    if (bytes != NULL && size >= FINGERPRINT_BYTES &&
+        load_big_endian(bytes, FINGERPRINT_BYTES) == (uint64_t)wire_fingerprint(WIRE_RAY_REQUEST_V1))
+        return WIRE_RAY_REQUEST_V1;
+    return WIRE_RAY_REQUEST;
 }

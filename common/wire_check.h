@@ -23,6 +23,7 @@ typedef enum wire_type {
     WIRE_MESH_REPLY,
     WIRE_ADMIN_REPLY,
     WIRE_STATUS,
+    WIRE_RAY_REQUEST_V1, /* ray_request_t before its contact field, still taken on RAY */
     WIRE_TYPE_COUNT
 } wire_type;
 
@@ -35,6 +36,11 @@ typedef struct wire_error {
  * on any bytes and any size, allocates nothing. An unknown type, NULL bytes and a size
  * above INT32_MAX (more than the generated code can encode) are rejected too. */
 int wire_check(wire_type type, const void *bytes, size_t size, wire_error *err);
+
+/* The type of the request bytes on a RAY channel: WIRE_RAY_REQUEST_V1 when they start with
+ * that type's fingerprint (old clients, recorded logs), else WIRE_RAY_REQUEST, which
+ * wire_check then holds them to. Safe on any bytes. */
+wire_type wire_ray_request_type(const void *bytes, size_t size);
 
 /* The type's name ("ray_request_t") and its fingerprint as the generated code computes it;
  * "unknown" and 0 for a value outside wire_type. */

@@ -134,20 +134,33 @@ typedef struct query_stats {
 typedef enum ray_detail {
     RAY_ANY = 0,     /* stop at the first confirmed hit */
     RAY_CLOSEST = 1, /* smallest t, ties to the smaller triangle id */
-    RAY_ALL = 2,     /* every crossing, ordered by t then triangle id */
+    RAY_ALL = 2,     /* every hit (crossing or touch), ordered by exact t then triangle id */
 } ray_detail;
+
+/* How a ray meets a triangle (docs/engine.md, "Contact rules"). */
+typedef enum ray_contact {
+    /* Watertight: each crossing of a surface counted once; a ray lying in a triangle's
+     * plane, a zero-area triangle and an edge or vertex a neighbour claims do not count. */
+    RAY_CROSSING = 0,
+    /* The ray segment and the closed triangle share a point: boundary contacts, in-plane
+     * rays and zero-area triangles count, so RAY_ANY is a conservative line-of-sight
+     * test; t is the smallest common t. Exact mode only (OCTREE_ERR_INVALID otherwise). */
+    RAY_TOUCH = 1,
+} ray_contact;
 
 typedef struct ray_input {
     vec3 origin;
     vec3 direction;   /* need not be unit length; t is in units of |direction| */
     double tmin, tmax; /* closed interval; tmin finite, tmax may be INFINITY */
+    ray_contact contact; /* zero-initialised: RAY_CROSSING */
 } ray_input;
 
 typedef struct ray_hit {
     double t;
     uint32_t triangle;
     double u, v;  /* barycentric weights of vertices 1 and 2 */
-    vec3 normal;  /* unit geometric normal (v1-v0)x(v2-v0) */
+    vec3 normal;  /* unit geometric normal (v1-v0)x(v2-v0); (0, 0, 0) for a zero-area
+                     triangle (only RAY_TOUCH hits those) */
 } ray_hit;
 
 /* Results of one ray. For RAY_ALL the hits go to `hits` (capacity `max_hits`); hit_count
@@ -161,7 +174,8 @@ typedef struct ray_output {
 } ray_output;
 
 /* Returns OCTREE_OK, or OCTREE_ERR_INVALID/NONFINITE for a bad ray (zero or non-finite
- * direction, NaN origin, tmin > tmax). mode selects the primitive test. */
+ * direction, NaN origin, tmin > tmax, an unknown contact, RAY_TOUCH with a mode other
+ * than ACCURACY_EXACT). mode selects the primitive test. */
 octree_status octree_ray(const octree *tree, const ray_input *ray, ray_detail detail,
                          accuracy_mode mode, ray_output *out, query_stats *stats);
 

@@ -714,6 +714,33 @@ static void test_rays_closest_exact(void **state)
     assert_int_equal(s.requests_sent, 2);
     assert_int_equal(s.chunks_accepted, 2);
     assert_int_equal(s.foreign_client + s.unmatched + s.duplicate_chunks + s.malformed, 0);
+    assert_int_equal(e->d1.ray->contact, TRIOCT_CONTACT_CROSSING); /* what trioct_rays asks */
+}
+
+/* trioct_rays_contact puts its rule on the wire; an unknown rule never leaves the client. */
+static void test_rays_contact_travels(void **state)
+{
+    env *e = *state;
+    trioct_vec3 o[3], d[3];
+    make_rays(3, o, d);
+    trioct_ray_query q = trioct_ray_query_default("w1");
+    q.detail = TRIOCT_RAY_ANY;
+    q.count = 3;
+    q.origins = o;
+    q.directions = d;
+    trioct_ray_result res;
+    assert_int_equal(trioct_rays_contact(e->client, &q, TRIOCT_CONTACT_TOUCH, 2000, &res), TRIOCT_OK);
+    check_ray_request(e->d1.ray, &q);
+    assert_int_equal(e->d1.ray->contact, TRIOCT_CONTACT_TOUCH);
+    check_ray_result(&res, &e->d1);
+    trioct_ray_result_free(&res);
+    assert_int_equal(trioct_rays_contact(e->client, &q, TRIOCT_CONTACT_CROSSING, 2000, &res), TRIOCT_OK);
+    assert_int_equal(e->d1.ray->contact, TRIOCT_CONTACT_CROSSING);
+    trioct_ray_result_free(&res);
+    int sent = e->d1.requests;
+    assert_int_equal(trioct_rays_contact(e->client, &q, 2, 2000, &res), TRIOCT_ERR_BAD_REQUEST);
+    assert_string_equal(res.reply.message, "unknown contact 2 (TRIOCT_CONTACT_CROSSING or _TOUCH)");
+    assert_int_equal(e->d1.requests, sent);
 }
 
 static void test_rays_all_many_chunks_out_of_order_with_duplicates(void **state)
@@ -1410,6 +1437,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test_setup_teardown(test_connect_ids_channels_and_refusals, setup, teardown),
         cmocka_unit_test_setup_teardown(test_rays_closest_exact, setup, teardown),
+        cmocka_unit_test_setup_teardown(test_rays_contact_travels, setup, teardown),
         cmocka_unit_test_setup_teardown(test_rays_all_many_chunks_out_of_order_with_duplicates,
                                         setup, teardown),
         cmocka_unit_test_setup_teardown(test_foreign_replies_ignored, setup, teardown),

@@ -191,6 +191,7 @@ typedef struct msg {
         return m;                                                 \
     }
 DEFINE_ENCODER(trioct_ray_request_t)
+DEFINE_ENCODER(trioct_ray_request_v1_t)
 DEFINE_ENCODER(trioct_triangle_request_t)
 DEFINE_ENCODER(trioct_mesh_request_t)
 DEFINE_ENCODER(trioct_admin_request_t)
@@ -581,7 +582,7 @@ static size_t expect_rays(const answer *a, const char *world_name, const ray_set
     ray_hit *buf = calloc(cap, sizeof *buf);
     size_t r = 0, hitting = 0;
     for (int i = 0; i < rays->n; i++) {
-        ray_input in = {vv(rays->origin[i]), vv(rays->direction[i]), tmin, tmax};
+        ray_input in = {vv(rays->origin[i]), vv(rays->direction[i]), tmin, tmax, RAY_CROSSING};
         ray_output out = {.hits = buf, .max_hits = cap};
         assert_int_equal(octree_ray(w->tree, &in, detail, mode, &out, NULL), OCTREE_OK);
         assert_int_equal(a->found[i], (int32_t)out.hit_count);
@@ -802,6 +803,89 @@ static void test_hostile_bytes_are_dropped(void **state)
 
 /* ---------- rays ---------- */
 
+/* ---------- the contact rule over the wire ---------- */
+
+/* Over `spare` (the unit box, a fast world): a ray sliding along the top, one grazing the
+ * corner (0, 1, 1) and one straight through. The old request type and CROSSING see the
+ * first two clear; TOUCH sees all three blocked, at the engine's touch answer; touch with
+ * seed accuracy and an unknown contact are refused. */
+static void test_touch_requests_get_touch_answers(void **state)
+{
+    (void)state;
+    install_from_scene("spare");
+    trioct_vec3_t o[3] = {{-1, 0.5, 1}, {-0.5, 0.5, 1}, {-1, 0.375, 0.625}};
+    trioct_vec3_t d[3] = {{1, 0, 0}, {1, 1, 0}, {1, 0, 0}};
+    ray_set rays = {3, o, d};
+    trioct_ray_request_t q = ray_request("spare", &rays, TRIOCT_RAY_REQUEST_T_ANY, TRIOCT_RAY_REQUEST_T_EXACT, 0,
+                                         INFINITY, 0);
+    trioct_ray_request_v1_t old = {
+        .header = q.header,
+        .detail = q.detail,
+        .accuracy = q.accuracy,
+        .tmin = q.tmin,
+        .tmax = q.tmax,
+        .num_rays = 3,
+        .origin = o,
+        .direction = d,
+    };
+    answer a = ask(channel_of(TRIOCT_CHANNEL_RAY, "spare"), ENCODE(trioct_ray_request_v1_t, &old), REQUEST_RAY);
+    assert_int_equal(a.status, TRIOCT_OK);
+    assert_int_equal(a.num_found, 3);
+    const int32_t crossing_any[3] = {0, 0, 1};
+    assert_memory_equal(a.found, crossing_any, sizeof crossing_any);
+    answer_free(&a);
+
+    q.contact = TRIOCT_RAY_REQUEST_T_CROSSING;
+    a = ask_ray("spare", &q);
+    assert_int_equal(a.status, TRIOCT_OK);
+    assert_memory_equal(a.found, crossing_any, sizeof crossing_any);
+    answer_free(&a);
+
+    q.contact = TRIOCT_RAY_REQUEST_T_TOUCH;
+    q.accuracy = TRIOCT_RAY_REQUEST_T_ACCURACY_WORLD; /* a fast world: touch runs exact */
+    a = ask_ray("spare", &q);
+    assert_int_equal(a.status, TRIOCT_OK);
+    const int32_t touch_any[3] = {1, 1, 1};
+    assert_memory_equal(a.found, touch_any, sizeof touch_any);
+    answer_free(&a);
+
+    /* CLOSEST: the engine's touch answers on the same mesh, t = 1, 0.5 and 1. */
+    q.detail = TRIOCT_RAY_REQUEST_T_CLOSEST;
+    a = ask_ray("spare", &q);
+    assert_int_equal(a.status, TRIOCT_OK);
+    assert_int_equal(a.records, 3);
+    char path[512], err[256];
+    snprintf(path, sizeof path, "%s/box.obj", F.dir);
+    mesh_data mesh;
+    assert_int_equal(mesh_load_file(path, &mesh, NULL, err, sizeof err), 0);
+    mesh_view view = mesh_data_view(&mesh);
+    const double first_t[3] = {1, 0.5, 1};
+    for (int i = 0; i < 3; i++) {
+        ray_input in = {vv(o[i]), vv(d[i]), 0, INFINITY, RAY_TOUCH};
+        ray_hit h;
+        assert_int_equal(brute_ray(&view, &in, RAY_CLOSEST, ACCURACY_EXACT, 0, &h, 1), 1);
+        assert_int_equal(a.hits[i].ray, i);
+        assert_int_equal(a.hits[i].triangle, (int32_t)h.triangle);
+        assert_true(a.hits[i].t == first_t[i] && h.t == first_t[i]);
+    }
+    mesh_data_free(&mesh);
+    answer_free(&a);
+
+    q.accuracy = TRIOCT_RAY_REQUEST_T_SEED;
+    a = ask_ray("spare", &q);
+    assert_int_equal(a.status, TRIOCT_ERR_BAD_REQUEST);
+    assert_string_equal(a.message, "contact TOUCH is decided exactly only: send accuracy EXACT (0) or "
+                                   "ACCURACY_WORLD (-1), not SEED (1)");
+    answer_free(&a);
+    q.accuracy = TRIOCT_RAY_REQUEST_T_EXACT;
+    q.contact = 7;
+    a = ask_ray("spare", &q);
+    assert_int_equal(a.status, TRIOCT_ERR_BAD_REQUEST);
+    assert_string_equal(a.message, "contact 7 is not CROSSING (0) or TOUCH (1)");
+    answer_free(&a);
+    assert_int_equal(registry_remove(F.reg, "spare"), 0);
+}
+
 static void test_rays_equal_the_engine(void **state)
 {
     (void)state;
@@ -844,7 +928,7 @@ static void test_rays_equal_the_engine(void **state)
     mesh_view view = mesh_data_view(&mesh);
     size_t rec = 0;
     for (int i = 0; i < rays.n; i++) {
-        ray_input in = {vv(rays.origin[i]), vv(rays.direction[i]), 0, INFINITY};
+        ray_input in = {vv(rays.origin[i]), vv(rays.direction[i]), 0, INFINITY, RAY_CROSSING};
         ray_hit h;
         size_t n = brute_ray(&view, &in, RAY_CLOSEST, ACCURACY_EXACT, 0, &h, 1);
         assert_int_equal(a.found[i], (int32_t)n);
@@ -1728,6 +1812,7 @@ int main(void)
         cmocka_unit_test(test_peek_reads_the_header),
         cmocka_unit_test(test_hostile_bytes_are_dropped),
         cmocka_unit_test(test_rays_equal_the_engine),
+        cmocka_unit_test(test_touch_requests_get_touch_answers),
         cmocka_unit_test(test_all_hits_report_more_than_stored),
         cmocka_unit_test(test_ray_results_come_in_chunks),
         cmocka_unit_test(test_triangles_equal_the_engine),

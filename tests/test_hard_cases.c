@@ -327,7 +327,7 @@ static int octree_ray_tri_answer(const hard_case *c)
     ray_hit hits[3];
     ray_output out = {.hits = hits, .max_hits = 3};
     /* octree_ray wants a finite tmin; -DBL_MAX excludes no finite t. */
-    ray_input ray = {c->origin, c->direction, isinf(c->tmin) ? -DBL_MAX : c->tmin, c->tmax};
+    ray_input ray = {c->origin, c->direction, isinf(c->tmin) ? -DBL_MAX : c->tmin, c->tmax, RAY_CROSSING};
     assert_int_equal(octree_ray(tree, &ray, RAY_ALL, ACCURACY_EXACT, &out, NULL), OCTREE_OK);
     assert_false(out.truncated);
     int hit = 0;
@@ -787,22 +787,22 @@ static void test_bad_rays_and_triangles_are_rejected(void **state)
         for (int detail = RAY_ANY; detail <= RAY_ALL; detail++) {
             for (int b = 0; b < 3; b++)
                 for (int k = 0; k < 3; k++) {
-                    ray_input ray = {{-1, 0.5, 0.5}, {1, 0, 0}, 0, INFINITY};
+                    ray_input ray = {{-1, 0.5, 0.5}, {1, 0, 0}, 0, INFINITY, RAY_CROSSING};
                     ray_output out = {.hits = hits, .max_hits = 4};
                     double *origin[3] = {&ray.origin.x, &ray.origin.y, &ray.origin.z};
                     *origin[k] = bad[b];
                     assert_int_equal(octree_ray(tree, &ray, (ray_detail)detail, (accuracy_mode)mode, &out, NULL),
                                      OCTREE_ERR_NONFINITE);
-                    ray = (ray_input){{-1, 0.5, 0.5}, {1, 0, 0}, 0, INFINITY};
+                    ray = (ray_input){{-1, 0.5, 0.5}, {1, 0, 0}, 0, INFINITY, RAY_CROSSING};
                     double *direction[3] = {&ray.direction.x, &ray.direction.y, &ray.direction.z};
                     *direction[k] = bad[b];
                     assert_int_equal(octree_ray(tree, &ray, (ray_detail)detail, (accuracy_mode)mode, &out, NULL),
                                      OCTREE_ERR_NONFINITE);
                 }
             ray_output out = {.hits = hits, .max_hits = 4};
-            ray_input zero = {{-1, 0.5, 0.5}, {0, 0, 0}, 0, INFINITY};
-            ray_input negative_zero = {{-1, 0.5, 0.5}, {-0.0, 0.0, -0.0}, 0, INFINITY};
-            ray_input nan_limit = {{-1, 0.5, 0.5}, {1, 0, 0}, 0, NAN};
+            ray_input zero = {{-1, 0.5, 0.5}, {0, 0, 0}, 0, INFINITY, RAY_CROSSING};
+            ray_input negative_zero = {{-1, 0.5, 0.5}, {-0.0, 0.0, -0.0}, 0, INFINITY, RAY_CROSSING};
+            ray_input nan_limit = {{-1, 0.5, 0.5}, {1, 0, 0}, 0, NAN, RAY_CROSSING};
             assert_int_equal(octree_ray(tree, &zero, (ray_detail)detail, (accuracy_mode)mode, &out, NULL),
                              OCTREE_ERR_INVALID);
             assert_int_equal(octree_ray(tree, &negative_zero, (ray_detail)detail, (accuracy_mode)mode, &out, NULL),
@@ -810,8 +810,8 @@ static void test_bad_rays_and_triangles_are_rejected(void **state)
             assert_int_equal(octree_ray(tree, &nan_limit, (ray_detail)detail, (accuracy_mode)mode, &out, NULL),
                              OCTREE_ERR_INVALID);
             /* Extreme but valid directions are answered, and answered promptly. */
-            ray_input tiny = {{-1, 0.5, 0.5}, {0x1p-1074, 0, 0}, 0, INFINITY};
-            ray_input huge = {{-1, 0.5, 0.5}, {DBL_MAX, 0, 0}, 0, INFINITY};
+            ray_input tiny = {{-1, 0.5, 0.5}, {0x1p-1074, 0, 0}, 0, INFINITY, RAY_CROSSING};
+            ray_input huge = {{-1, 0.5, 0.5}, {DBL_MAX, 0, 0}, 0, INFINITY, RAY_CROSSING};
             assert_int_equal(octree_ray(tree, &tiny, (ray_detail)detail, (accuracy_mode)mode, &out, NULL), OCTREE_OK);
             assert_true(out.hit_count <= 4);
             assert_int_equal(octree_ray(tree, &huge, (ray_detail)detail, (accuracy_mode)mode, &out, NULL), OCTREE_OK);
@@ -829,7 +829,7 @@ static void test_bad_rays_and_triangles_are_rejected(void **state)
                 }
         }
     /* The same tree still answers a good ray: two crossings of the cube. */
-    ray_input good = {{-1, 0.5, 0.5}, {1, 0, 0}, 0, INFINITY};
+    ray_input good = {{-1, 0.5, 0.5}, {1, 0, 0}, 0, INFINITY, RAY_CROSSING};
     ray_output out = {.hits = hits, .max_hits = 4};
     assert_int_equal(octree_ray(tree, &good, RAY_ALL, ACCURACY_EXACT, &out, NULL), OCTREE_OK);
     assert_int_equal(out.hit_count, 2);

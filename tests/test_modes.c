@@ -322,7 +322,7 @@ static vec3 point_near(rng *r, box3 b)
 static ray_input hard_ray(rng *r, const mesh_data *m, const octree *t)
 {
     box3 b = mesh_data_bounds(m);
-    ray_input ray = {point_near(r, b), {0, 0, 0}, 0, INFINITY};
+    ray_input ray = {point_near(r, b), {0, 0, 0}, 0, INFINITY, RAY_CROSSING};
     vec3 target;
     size_t tri = rng_next(r) % m->triangle_count;
     vec3 a = m->vertices[m->indices[3 * tri]], c = m->vertices[m->indices[3 * tri + 1]];
@@ -532,7 +532,7 @@ static void test_fast_rays_from_afar_past_edges_near_node_faces(void **state)
             vec3 from_centre = vec3_sub(target, vec3_scale(vec3_add(w[0], vec3_add(w[1], w[2])), 1.0 / 3));
             target = vec3_add(target, vec3_scale(from_centre, 1e-12 * rng_uniform(&r, 0, 4)));
             vec3 o = vec3_add(target, vec3_scale(rng_unit_vector(&r), pow(10.0, rng_uniform(&r, 2, 6))));
-            ray_input ray = {o, vec3_sub(target, o), 0, INFINITY};
+            ray_input ray = {o, vec3_sub(target, o), 0, INFINITY, RAY_CROSSING};
             check_ray(t, &m, &ray, modes[k], &ty, "rays from afar");
         }
         printf("  %s: %zu of %zu rays hit\n", accuracy_mode_name(modes[k]), ty.ray_hits, ty.rays);
@@ -661,7 +661,7 @@ static void test_seed_hits_lie_in_the_closed_interval(void **state)
         mesh_triangle(&m, k, w);
         double a = rng_uniform(&r, 0.1, 0.8), b = rng_uniform(&r, 0.1, 0.9) * (1 - a);
         vec3 p = vec3_add(w[0], vec3_add(vec3_scale(vec3_sub(w[1], w[0]), a), vec3_scale(vec3_sub(w[2], w[0]), b)));
-        ray_input ray = {p, rng_unit_vector(&r), 0.0, INFINITY};
+        ray_input ray = {p, rng_unit_vector(&r), 0.0, INFINITY, RAY_CROSSING};
         ray_output out = {.hits = hits, .max_hits = 64};
         assert_int_equal(octree_ray(t, &ray, RAY_ALL, ACCURACY_SEED, &out, NULL), OCTREE_OK);
         for (size_t j = 0; j < out.hit_count && j < 64; j++) {

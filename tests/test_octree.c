@@ -404,7 +404,7 @@ static void test_triangles_on_node_faces_are_in_both_neighbours(void **state)
      * triangle (parallel: no crossing) and crosses the spanning triangle. */
     ray_hit h[4];
     ray_output ro = {.hits = h, .max_hits = 4};
-    ray_input ray = {{2, 1, -1}, {0, 0, 1}, 0, INFINITY};
+    ray_input ray = {{2, 1, -1}, {0, 0, 1}, 0, INFINITY, RAY_CROSSING};
     assert_int_equal(octree_ray(t, &ray, RAY_ALL, ACCURACY_EXACT, &ro, NULL), OCTREE_OK);
     ray_hit bh[4];
     size_t bn = brute_ray(&mv, &ray, RAY_ALL, ACCURACY_EXACT, 0, bh, 4);
@@ -433,7 +433,7 @@ static vec3 random_point_near(rng *r, box3 b)
  * midpoint, axis-aligned, and fully random. */
 static ray_input random_ray(rng *r, const mesh_data *m, box3 b)
 {
-    ray_input ray = {random_point_near(r, b), {0, 0, 0}, 0, INFINITY};
+    ray_input ray = {random_point_near(r, b), {0, 0, 0}, 0, INFINITY, RAY_CROSSING};
     uint64_t kind = rng_next(r) % 4;
     vec3 target;
     if (kind == 0) {
@@ -467,13 +467,15 @@ static void random_triangle(rng *r, box3 b, double size, vec3 q[3])
         q[k] = vec3_add(q[0], vec3_scale(rng_unit_vector(r), size * rng_uniform(r, 0.1, 1.0)));
 }
 
-static void compare_rays(const octree *t, const mesh_data *m, rng *r, int count, accuracy_mode mode)
+static void compare_rays(const octree *t, const mesh_data *m, rng *r, int count, accuracy_mode mode,
+                         ray_contact contact)
 {
     mesh_view v = mesh_data_view(m);
     box3 b = mesh_data_bounds(m);
     ray_hit got[64], want[64];
     for (int i = 0; i < count; i++) {
         ray_input ray = random_ray(r, m, b);
+        ray.contact = contact;
         for (int detail = RAY_ANY; detail <= RAY_ALL; detail++) {
             ray_output out = {.hits = got, .max_hits = 64};
             assert_int_equal(octree_ray(t, &ray, (ray_detail)detail, mode, &out, NULL), OCTREE_OK);
@@ -486,8 +488,8 @@ static void compare_rays(const octree *t, const mesh_data *m, rng *r, int count,
                 fail_msg("ray %d detail %d: octree %zu hits, brute force %zu", i, detail, out.hit_count, n);
             for (size_t k = 0; k < n && k < 64; k++) {
                 if (got[k].triangle != want[k].triangle)
-                    fail_msg("ray %d detail %d hit %zu: octree triangle %u, brute force %u", i, detail, k,
-                             got[k].triangle, want[k].triangle);
+                    fail_msg("ray %d detail %d contact %d hit %zu: octree triangle %u, brute force %u", i, detail,
+                             contact, k, got[k].triangle, want[k].triangle);
                 assert_true(got[k].t == want[k].t);
             }
         }
@@ -531,7 +533,9 @@ static void run_scene(scene *s, uint64_t seed, int rays, int tris)
     printf("scene %s: %zu triangles, seed %llu\n", s->name, s->mesh.triangle_count, (unsigned long long)seed);
     octree *t = build_or_fail(&s->mesh, s->resolution, ACCURACY_EXACT);
     rng r = rng_seeded(seed);
-    compare_rays(t, &s->mesh, &r, rays, ACCURACY_EXACT);
+    compare_rays(t, &s->mesh, &r, rays, ACCURACY_EXACT, RAY_CROSSING);
+    rng rt = rng_seeded(seed);
+    compare_rays(t, &s->mesh, &rt, rays, ACCURACY_EXACT, RAY_TOUCH);
     box3 b = mesh_data_bounds(&s->mesh);
     double size = 0.1 * fmax(b.hi.x - b.lo.x, fmax(b.hi.y - b.lo.y, b.hi.z - b.lo.z));
     compare_triangles(t, &s->mesh, &r, tris, size);
@@ -573,8 +577,9 @@ static void test_world_near_double_max_equals_brute_force(void **state)
     octree *t = build_or_fail(&m, 2e300 / 32, ACCURACY_EXACT);
     assert_false(t->splits_in_range);
     assert_true(t->info.max_level >= 4);
-    rng r = rng_seeded(seed);
-    compare_rays(t, &m, &r, 800, ACCURACY_EXACT);
+    rng r = rng_seeded(seed), rt = rng_seeded(seed);
+    compare_rays(t, &m, &r, 800, ACCURACY_EXACT, RAY_CROSSING);
+    compare_rays(t, &m, &rt, 800, ACCURACY_EXACT, RAY_TOUCH);
     compare_triangles(t, &m, &r, 100, 2e299);
     /* Rays aimed at vertices from around the soup: most hit, so the agreement above is
      * not the agreement of two empty answers. */
@@ -582,7 +587,7 @@ static void test_world_near_double_max_equals_brute_force(void **state)
     box3 b = mesh_data_bounds(&m);
     for (int i = 0; i < 200; i++) {
         vec3 o = random_point_near(&r, b);
-        ray_input ray = {o, vec3_sub(m.vertices[rng_next(&r) % m.vertex_count], o), 0, INFINITY};
+        ray_input ray = {o, vec3_sub(m.vertices[rng_next(&r) % m.vertex_count], o), 0, INFINITY, RAY_CROSSING};
         ray_hit h;
         ray_output out = {.hits = &h, .max_hits = 1};
         assert_int_equal(octree_ray(t, &ray, RAY_CLOSEST, ACCURACY_EXACT, &out, NULL), OCTREE_OK);
@@ -693,6 +698,131 @@ static void test_rays_cross_closed_meshes_an_even_number_of_times(void **state)
 
 /* ---------- bad queries ---------- */
 
+/* ---------- the touch rule on closed boxes and node faces ---------- */
+
+/* Every detail and both contacts of one ray: octree == brute force; for RAY_TOUCH, ALL
+ * lists exactly the triangles the oracle says the segment meets, ordered by the oracle's
+ * exact smallest t. Returns the touch ALL count. */
+static size_t check_touch_ray(const octree *t, const mesh_data *m, ray_input ray)
+{
+    mesh_view v = mesh_data_view(m);
+    ray_hit got[64], want[64];
+    for (int contact = RAY_CROSSING; contact <= RAY_TOUCH; contact++) {
+        ray.contact = (ray_contact)contact;
+        for (int detail = RAY_ANY; detail <= RAY_ALL; detail++) {
+            ray_output out = {.hits = got, .max_hits = 64};
+            assert_int_equal(octree_ray(t, &ray, (ray_detail)detail, ACCURACY_EXACT, &out, NULL), OCTREE_OK);
+            size_t n = brute_ray(&v, &ray, (ray_detail)detail, ACCURACY_EXACT, 0, want, 64);
+            assert_int_equal(out.hit_count, n);
+            if (detail == RAY_ANY)
+                continue;
+            for (size_t k = 0; k < n; k++) {
+                assert_int_equal(got[k].triangle, want[k].triangle);
+                assert_true(got[k].t == want[k].t);
+            }
+        }
+    }
+    ray_output out = {.hits = got, .max_hits = 64};
+    assert_int_equal(octree_ray(t, &ray, RAY_ALL, ACCURACY_EXACT, &out, NULL), OCTREE_OK);
+    size_t touched = 0;
+    for (size_t i = 0; i < m->triangle_count; i++) {
+        vec3 tri[3] = {mesh_data_corner(m, i, 0), mesh_data_corner(m, i, 1), mesh_data_corner(m, i, 2)};
+        touched += oracle_ray_tri(ray.origin, ray.direction, ray.tmin, ray.tmax, tri) == 1;
+    }
+    assert_int_equal(out.hit_count, touched);
+    for (size_t k = 0; k + 1 < out.hit_count; k++) {
+        vec3 a[3], b[3];
+        for (int c = 0; c < 3; c++) {
+            a[c] = mesh_data_corner(m, got[k].triangle, c);
+            b[c] = mesh_data_corner(m, got[k + 1].triangle, c);
+        }
+        int order = oracle_ray_tri_first_t_order(ray.origin, ray.direction, ray.tmin, ray.tmax, a, b);
+        assert_true(order < 0 || (order == 0 && got[k].triangle < got[k + 1].triangle));
+    }
+    return out.hit_count;
+}
+
+/* One ray, one detail, one contact: the hit count and the first hit's t. */
+static size_t ray_answer(const octree *t, ray_input ray, ray_contact contact, ray_detail detail, double *t0)
+{
+    ray_hit h[64];
+    ray_output out = {.hits = h, .max_hits = 64};
+    ray.contact = contact;
+    assert_int_equal(octree_ray(t, &ray, detail, ACCURACY_EXACT, &out, NULL), OCTREE_OK);
+    *t0 = out.hit_count > 0 ? h[0].t : NAN;
+    return out.hit_count;
+}
+
+static void test_touch_rule_on_closed_boxes_and_node_faces(void **state)
+{
+    (void)state;
+    /* Two closed unit boxes side by side: the world is [0, 2]^3, so the shared wall x = 1
+     * and the tops z = 1 lie on the root's split planes, and with d = 0.25 every face is a
+     * face of leaves. */
+    mesh_data m = meshgen_box((box3){{0, 0, 0}, {1, 1, 1}});
+    mesh_data right = meshgen_box((box3){{1, 0, 0}, {2, 1, 1}});
+    assert_int_equal(mesh_data_append(&m, &right), 0);
+    mesh_data_free(&right);
+    octree *t = build_or_fail(&m, 0.25, ACCURACY_EXACT);
+    assert_true(t->world.lo.x == 0 && t->world.hi.x == 2);
+    double t0;
+
+    /* Sliding along the tops at y = 0.5, in the split plane z = 1: crossing sees a clear
+     * line of sight (the perturbed ray passes above), touch is blocked where the ray reaches
+     * the first box's top edge, t = 1. */
+    ray_input slide = {{-1, 0.5, 1}, {1, 0, 0}, 0, INFINITY, RAY_CROSSING};
+    assert_int_equal(ray_answer(t, slide, RAY_CROSSING, RAY_ANY, &t0), 0);
+    assert_int_equal(ray_answer(t, slide, RAY_TOUCH, RAY_ANY, &t0), 1);
+    assert_int_equal(ray_answer(t, slide, RAY_TOUCH, RAY_CLOSEST, &t0), 1);
+    assert_true(t0 == 1.0);
+    assert_true(check_touch_ray(t, &m, slide) >= 8); /* both tops and four walls at least */
+
+    /* Grazing the corner (0, 1, 1) only, diagonally in the plane z = 1. */
+    ray_input corner = {{-0.5, 0.5, 1}, {1, 1, 0}, 0, INFINITY, RAY_CROSSING};
+    assert_int_equal(ray_answer(t, corner, RAY_CROSSING, RAY_ANY, &t0), 0);
+    assert_int_equal(ray_answer(t, corner, RAY_TOUCH, RAY_CLOSEST, &t0), 1);
+    assert_true(t0 == 0.5);
+    assert_true(check_touch_ray(t, &m, corner) >= 3); /* the corner's three faces */
+
+    /* Lying in the shared wall x = 1 (the root's split plane, direction zero along x):
+     * both boxes' walls are touched from t = 1, where the ray reaches y = 0. */
+    ray_input wall = {{1, -1, 0.5}, {0, 1, 0}, 0, INFINITY, RAY_CROSSING};
+    assert_int_equal(ray_answer(t, wall, RAY_TOUCH, RAY_CLOSEST, &t0), 1);
+    assert_true(t0 == 1.0);
+    assert_true(check_touch_ray(t, &m, wall) >= 4);
+
+    /* Along the edge line x = 1, z = 1 where four faces meet, one ulp above it (nothing),
+     * and stopping one ulp short of the boxes (tmax: nothing). */
+    ray_input edge = {{1, -1, 1}, {0, 1, 0}, 0, INFINITY, RAY_CROSSING};
+    assert_int_equal(ray_answer(t, edge, RAY_TOUCH, RAY_CLOSEST, &t0), 1);
+    assert_true(t0 == 1.0);
+    assert_true(check_touch_ray(t, &m, edge) >= 4);
+    ray_input above = {{1, -1, nextafter(1, 2)}, {0, 1, 0}, 0, INFINITY, RAY_CROSSING};
+    assert_int_equal(ray_answer(t, above, RAY_TOUCH, RAY_ANY, &t0), 0);
+    check_touch_ray(t, &m, above);
+    ray_input short_of = edge;
+    short_of.tmax = nextafter(1, 0);
+    assert_int_equal(ray_answer(t, short_of, RAY_TOUCH, RAY_ANY, &t0), 0);
+    short_of.tmax = 1;
+    assert_int_equal(ray_answer(t, short_of, RAY_TOUCH, RAY_CLOSEST, &t0), 1);
+    assert_true(t0 == 1.0);
+
+    /* Starting on a face, leaving the box: touch answers t = tmin = 0. */
+    ray_input leaving = {{0.5, 0.5, 1}, {0.25, -0.125, 1}, 0, INFINITY, RAY_CROSSING};
+    assert_int_equal(ray_answer(t, leaving, RAY_TOUCH, RAY_CLOSEST, &t0), 1);
+    assert_true(t0 == 0.0);
+    check_touch_ray(t, &m, leaving);
+
+    /* Straight through the middle of the shared wall: crossing counts the two coincident
+     * walls and the two outer ones; touch the same four here (no boundary is met). */
+    ray_input through = {{-1, 0.375, 0.625}, {1, 0, 0}, 0, INFINITY, RAY_CROSSING};
+    size_t crossings = ray_answer(t, through, RAY_CROSSING, RAY_ALL, &t0);
+    assert_int_equal(crossings, 4);
+    assert_int_equal(ray_answer(t, through, RAY_TOUCH, RAY_ALL, &t0), 4);
+    octree_free(t);
+    mesh_data_free(&m);
+}
+
 static void test_bad_queries_get_errors(void **state)
 {
     (void)state;
@@ -700,14 +830,24 @@ static void test_bad_queries_get_errors(void **state)
     octree *t = build_or_fail(&m, 0, ACCURACY_EXACT);
     ray_hit h;
     ray_output out = {.hits = &h, .max_hits = 1};
-    ray_input zero = {{0, 0, 0}, {0, 0, 0}, 0, 1};
+    ray_input zero = {{0, 0, 0}, {0, 0, 0}, 0, 1, RAY_CROSSING};
     assert_int_equal(octree_ray(t, &zero, RAY_CLOSEST, ACCURACY_EXACT, &out, NULL), OCTREE_ERR_INVALID);
-    ray_input nan = {{NAN, 0, 0}, {1, 0, 0}, 0, 1};
+    ray_input nan = {{NAN, 0, 0}, {1, 0, 0}, 0, 1, RAY_CROSSING};
     assert_int_equal(octree_ray(t, &nan, RAY_CLOSEST, ACCURACY_EXACT, &out, NULL), OCTREE_ERR_NONFINITE);
-    ray_input inf = {{0, 0, 0}, {INFINITY, 0, 0}, 0, 1};
+    ray_input inf = {{0, 0, 0}, {INFINITY, 0, 0}, 0, 1, RAY_CROSSING};
     assert_int_equal(octree_ray(t, &inf, RAY_CLOSEST, ACCURACY_EXACT, &out, NULL), OCTREE_ERR_NONFINITE);
-    ray_input backwards = {{0, 0, 0}, {1, 0, 0}, 2, 1};
+    ray_input backwards = {{0, 0, 0}, {1, 0, 0}, 2, 1, RAY_CROSSING};
     assert_int_equal(octree_ray(t, &backwards, RAY_CLOSEST, ACCURACY_EXACT, &out, NULL), OCTREE_ERR_INVALID);
+    /* The touch rule is exact-only, and a contact outside the enum is refused. */
+    ray_input touch = {{-1, 0.5, 0.5}, {1, 0, 0}, 0, INFINITY, RAY_TOUCH};
+    assert_int_equal(octree_ray(t, &touch, RAY_CLOSEST, ACCURACY_EXACT, &out, NULL), OCTREE_OK);
+    assert_int_equal(out.hit_count, 1);
+    assert_int_equal(octree_ray(t, &touch, RAY_CLOSEST, ACCURACY_SEED, &out, NULL), OCTREE_ERR_INVALID);
+    assert_int_equal(octree_ray(t, &touch, RAY_ANY, ACCURACY_FAST, &out, NULL), OCTREE_ERR_INVALID);
+    touch.contact = (ray_contact)2;
+    assert_int_equal(octree_ray(t, &touch, RAY_CLOSEST, ACCURACY_EXACT, &out, NULL), OCTREE_ERR_INVALID);
+    touch.contact = (ray_contact)-1;
+    assert_int_equal(octree_ray(t, &touch, RAY_CLOSEST, ACCURACY_EXACT, &out, NULL), OCTREE_ERR_INVALID);
     vec3 q[3] = {{0, 0, 0}, {NAN, 1, 1}, {1, 1, 1}};
     tri_output to = {0};
     assert_int_equal(octree_triangle(t, q, TRI_YESNO, ACCURACY_EXACT, &to, NULL), OCTREE_ERR_NONFINITE);
@@ -743,13 +883,13 @@ static ray_input invalid_ray(size_t i)
 {
     switch (i % 4) {
     case 0:
-        return (ray_input){{0, 0, 0}, {0, 0, 0}, 0, 1};
+        return (ray_input){{0, 0, 0}, {0, 0, 0}, 0, 1, RAY_CROSSING};
     case 1:
-        return (ray_input){{NAN, 0, 0}, {1, 0, 0}, 0, 1};
+        return (ray_input){{NAN, 0, 0}, {1, 0, 0}, 0, 1, RAY_CROSSING};
     case 2:
-        return (ray_input){{0, 0, 0}, {0, INFINITY, 0}, 0, 1};
+        return (ray_input){{0, 0, 0}, {0, INFINITY, 0}, 0, 1, RAY_CROSSING};
     default:
-        return (ray_input){{0, 0, 0}, {1, 1, 1}, 2, 1};
+        return (ray_input){{0, 0, 0}, {1, 1, 1}, 2, 1, RAY_CROSSING};
     }
 }
 
@@ -819,6 +959,31 @@ static void compare_batch_with_single(const octree *t, const ray_input *rays, si
     free(statuses);
 }
 
+/* rays with every other one switched to RAY_TOUCH, through both batch paths and single
+ * rays, every detail, exact and seed mode; the touch rays' own tally is kept apart so the
+ * comparison is seen to cover touch hits. */
+static size_t touch_hit_rays;
+
+static void compare_mixed_contacts(const octree *t, const ray_input *rays, size_t count, batch_tally *tally)
+{
+    ray_input *mixed = malloc(count * sizeof *mixed);
+    for (size_t i = 0; i < count; i++) {
+        mixed[i] = rays[i];
+        mixed[i].contact = i % 2 ? RAY_TOUCH : RAY_CROSSING;
+    }
+    const accuracy_mode modes[] = {ACCURACY_EXACT, ACCURACY_SEED};
+    for (size_t m = 0; m < 2; m++)
+        for (int detail = RAY_ANY; detail <= RAY_ALL; detail++)
+            compare_batch_with_single(t, mixed, count, (ray_detail)detail, modes[m], tally);
+    for (size_t i = 1; i < count; i += 2) {
+        ray_hit h;
+        ray_output out = {.hits = &h, .max_hits = 1};
+        if (octree_ray(t, &mixed[i], RAY_ANY, ACCURACY_EXACT, &out, NULL) == OCTREE_OK && out.hit_count > 0)
+            touch_hit_rays++;
+    }
+    free(mixed);
+}
+
 static void test_ray_batch_equals_single_rays_bit_for_bit(void **state)
 {
     (void)state;
@@ -849,24 +1014,29 @@ static void test_ray_batch_equals_single_rays_bit_for_bit(void **state)
         for (size_t m = 0; m < 2; m++)
             for (int detail = RAY_ANY; detail <= RAY_ALL; detail++)
                 compare_batch_with_single(t, rays, RAYS, (ray_detail)detail, modes[m], &tally);
+        /* The same rays, touch and crossing mixed in one batch (touch rays are refused in
+         * seed mode, alike in both). */
+        compare_mixed_contacts(t, rays, RAYS, &tally);
         /* Rays from one origin take the batch's other path, walking the tree in groups that
          * share a visiting order: scattered directions (groups of every size, broken by
          * changes of order and by invalid rays), then a camera's grid from a corner, whose
          * neighbours fill whole groups. */
         vec3 eye = vec3_add(b.hi, vec3_make(0.5, 0.75, 1.0));
         for (size_t i = 0; i < RAYS; i++)
-            rays[i] = i % 41 == 40 ? (ray_input){eye, {0, 0, 0}, 0, INFINITY}
-                                   : (ray_input){eye, vec3_sub(random_point_near(&r, b), eye), 0, INFINITY};
+            rays[i] = i % 41 == 40 ? (ray_input){eye, {0, 0, 0}, 0, INFINITY, RAY_CROSSING}
+                                   : (ray_input){eye, vec3_sub(random_point_near(&r, b), eye), 0, INFINITY, RAY_CROSSING};
         for (size_t m = 0; m < 2; m++)
             for (int detail = RAY_ANY; detail <= RAY_ALL; detail++)
                 compare_batch_with_single(t, rays, RAYS, (ray_detail)detail, modes[m], &tally);
+        compare_mixed_contacts(t, rays, RAYS, &tally);
         for (size_t i = 0; i < RAYS; i++) {
             double u = (double)(i % 50) / 49.0, v = (double)(i / 50) / 49.0;
             vec3 target = vec3_make(b.lo.x + u * (b.hi.x - b.lo.x), b.lo.y + v * (b.hi.y - b.lo.y), b.lo.z);
-            rays[i] = (ray_input){eye, vec3_sub(target, eye), 0, INFINITY};
+            rays[i] = (ray_input){eye, vec3_sub(target, eye), 0, INFINITY, RAY_CROSSING};
         }
         for (int detail = RAY_ANY; detail <= RAY_ALL; detail++)
             compare_batch_with_single(t, rays, RAYS, (ray_detail)detail, ACCURACY_EXACT, &tally);
+        compare_mixed_contacts(t, rays, RAYS, &tally);
         octree_free(t);
         mesh_data_free(&scenes[s].mesh);
     }
@@ -875,6 +1045,8 @@ static void test_ray_batch_equals_single_rays_bit_for_bit(void **state)
     /* the comparison saw every kind of answer */
     assert_true(tally.invalid > 0 && tally.hit_rays > tally.rays / 4 && tally.truncated > 0);
     assert_true(tally.hit_rays < tally.rays - tally.invalid);
+    printf("ray batch: %zu touch rays with hits\n", touch_hit_rays);
+    assert_true(touch_hit_rays > 1000);
     free(rays);
     mesh_data_free(&soup);
 }
@@ -979,6 +1151,7 @@ int main(void)
         cmocka_unit_test(test_mesh_query_equals_per_triangle_brute_force),
         cmocka_unit_test(test_rays_cross_closed_meshes_an_even_number_of_times),
         cmocka_unit_test(test_bad_queries_get_errors),
+        cmocka_unit_test(test_touch_rule_on_closed_boxes_and_node_faces),
         cmocka_unit_test(test_ray_batch_equals_single_rays_bit_for_bit),
         cmocka_unit_test(test_results_identical_for_one_and_four_threads),
     };

@@ -512,6 +512,36 @@ static void test_triangle_pairs_symmetric_and_invariant_under_relabelling(void *
     assert_true(hits > 20 && misses > 20);
 }
 
+/* The smallest common t, on cases whose value is known by construction: a crossing, an
+ * in-plane entry through an edge, the far end of an interval behind the origin, tmin
+ * inside, a single vertex, and no contact. */
+static void test_first_t_known_by_construction(void **state)
+{
+    (void)state;
+    const vec3 tri[3] = {pt(0, 0, 0), pt(3, 0, 0), pt(0, 3, 0)};
+    /* Down onto (1, 1, 0) from z = 2.5: t = 2.5; one ulp either side compares so. */
+    assert_int_equal(oracle_ray_tri_first_t_compare(pt(1, 1, 2.5), pt(0, 0, -1), 0, INFINITY, tri, 2.5), 0);
+    assert_int_equal(oracle_ray_tri_first_t_compare(pt(1, 1, 2.5), pt(0, 0, -1), 0, INFINITY, tri, up(2.5)), -1);
+    assert_int_equal(oracle_ray_tri_first_t_compare(pt(1, 1, 2.5), pt(0, 0, -1), 0, INFINITY, tri, down(2.5)), 1);
+    /* In the plane along +x at y = 1 from x = -0.75: enters at x = 0, t = 0.75 / 0.5. */
+    assert_true(oracle_ray_tri_first_t(pt(-0.75, 1, 0), pt(0.5, 0, 0), 0, INFINITY, tri) == 1.5);
+    /* Backwards with tmin = -20: the interval x in [0, 2] is t in [-2.75, -0.75] * 2. */
+    assert_true(oracle_ray_tri_first_t(pt(-0.75, 1, 0), pt(-0.5, 0, 0), -20, INFINITY, tri) == -5.5);
+    /* tmin inside the interval: tmin itself. */
+    assert_true(oracle_ray_tri_first_t(pt(-0.75, 1, 0), pt(0.5, 0, 0), 2, 3, tri) == 2);
+    /* Only the vertex (0, 3, 0), along y = 3. */
+    assert_true(oracle_ray_tri_first_t(pt(-1, 3, 0), pt(1, 0, 0), 0, INFINITY, tri) == 1);
+    /* Above the hypotenuse: nothing. */
+    assert_true(isnan(oracle_ray_tri_first_t(pt(-1, up(3), 0), pt(1, 0, 0), 0, INFINITY, tri)));
+    assert_int_equal(oracle_ray_tri_first_t_compare(pt(-1, up(3), 0), pt(1, 0, 0), 0, INFINITY, tri, 1),
+                     ORACLE_NO_CONTACT);
+    /* Two triangles along one in-plane ray: the nearer entry first. */
+    const vec3 far_tri[3] = {pt(5, 0, 0), pt(8, 0, 0), pt(5, 3, 0)};
+    assert_int_equal(oracle_ray_tri_first_t_order(pt(-0.75, 1, 0), pt(0.5, 0, 0), 0, INFINITY, tri, far_tri), -1);
+    assert_int_equal(oracle_ray_tri_first_t_order(pt(-0.75, 1, 0), pt(0.5, 0, 0), 0, INFINITY, far_tri, tri), 1);
+    assert_int_equal(oracle_ray_tri_first_t_order(pt(-0.75, 1, 0), pt(0.5, 0, 0), 0, INFINITY, tri, tri), 0);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -549,6 +579,7 @@ int main(void)
         cmocka_unit_test(test_point_in_box_agrees_with_coordinate_comparison),
         cmocka_unit_test(test_segment_hull_agrees_with_ray_segment),
         cmocka_unit_test(test_triangle_pairs_symmetric_and_invariant_under_relabelling),
+        cmocka_unit_test(test_first_t_known_by_construction),
     };
     return cmocka_run_group_tests_name("oracle", tests, NULL, NULL);
 }

@@ -364,6 +364,8 @@ static const log_case cases[] = {
      {18}},
     {"stopping", "scene.ini", "requests 21 (1 malformed), replies 19: 19 matched, 0 mismatched, 0 missing, 0 extra (0 to nobody)",
      {7, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 12}},
+    {"touch", "scene.ini", "requests 10 (0 malformed), replies 10: 10 matched, 0 mismatched, 0 missing, 0 extra (0 to nobody)",
+     {8, 2}},
 };
 #define CASES (sizeof cases / sizeof cases[0])
 
@@ -447,6 +449,50 @@ static void test_goldens_hold_the_statuses_meant(void **state)
             fail_msg("no log provokes %s", trioct_status_name(st));
 }
 
+/* The touch log's golden answers say what the contact rule promises (tools/replay/
+ * logs_touch.c): rays 0-2 graze a crate (slide along its top, a corner, an edge) and ray 3
+ * goes straight through two. As crossings (requests 1-3; 1 in ray_request_v1_t) the first
+ * two are clear; as touches (4-6) all four are blocked, at t = 3, 0.5, 1 and 2, and ALL
+ * lists at least the crossings; ray 4 misses either way. */
+static void test_touch_golden_blocks_grazing_rays(void **state)
+{
+    (void)state;
+    char err[512];
+    replay_proto p;
+    replay_log log;
+    replay_book b;
+    assert_int_equal(replay_proto_from_scene(&p, LOGS "/scene.ini", err, sizeof err), 0);
+    assert_int_equal(replay_log_read(LOGS "/touch.golden.lcmlog", &log, err, sizeof err), 0);
+    assert_int_equal(replay_book_build(&b, &log, &p, err, sizeof err), 0);
+    const replay_reply *r[8];
+    for (int id = 1; id <= 7; id++) {
+        size_t n;
+        r[id] = replay_book_replies(&b, 0x70, id, &n);
+        assert_non_null(r[id]);
+        assert_int_equal(n, 1);
+        assert_int_equal(r[id]->header->status, TRIOCT_OK);
+        assert_int_equal(r[id]->num_items, 5);
+    }
+    assert_int_equal(replay_book_request(&b, 0x70, 1)->type, WIRE_RAY_REQUEST_V1);
+    assert_int_equal(replay_book_request(&b, 0x70, 2)->type, WIRE_RAY_REQUEST);
+    for (int ray = 0; ray < 5; ray++) {
+        assert_int_equal(r[1]->found[ray], r[2]->found[ray]); /* the old type is CROSSING */
+        assert_int_equal(r[4]->found[ray], ray < 4);           /* touch ANY: blocked */
+        assert_true(r[6]->found[ray] >= r[2]->found[ray]);     /* touch ALL covers crossings */
+    }
+    assert_int_equal(r[3]->found[0], 0);
+    assert_int_equal(r[3]->found[1], 0);
+    static const double first_t[4] = {3, 0.5, 1, 2};
+    for (size_t k = 0; k < r[5]->num_records; k++) {
+        const trioct_ray_hit_t *h = r[5]->records[k];
+        assert_true(h->t == first_t[h->ray]);
+    }
+    assert_int_equal(r[5]->num_records, 4);
+    assert_int_equal(r[7]->found[0], 0); /* tmax one ulp before the first contact */
+    replay_book_free(&b);
+    replay_log_free(&log);
+}
+
 /* Logs recorded from a live system and kept as regression tests (docs/replay.md): every
  * tests/logs/recorded/NAME.lcmlog, against NAME.golden.lcmlog when there is one (else its
  * own replies), with NAME.ini or scene.ini and the meshes there. */
@@ -528,7 +574,7 @@ static void test_changed_answer_fails(void **state)
     replay_format_double(now, a, sizeof a);
     replay_format_double(was, b, sizeof b);
     snprintf(line, sizeof line,
-             "request 1 (client 0x51, ray_request_t on TRIOCT_RAY_yard): ray 3: t expected %s got %s", a, b);
+             "request 1 (client 0x51, ray_request_v1_t on TRIOCT_RAY_yard): ray 3: t expected %s got %s", a, b);
     for (int threads = 1; threads <= 4; threads += 3) {
         run_result r = check(&cases[0], path, threads, "--max-lines 5");
         expect_status(&r, 1);
@@ -556,7 +602,7 @@ static void test_changed_world_fails(void **state)
             "%s/queries.golden.lcmlog %s/queries.lcmlog", build_dir, build_dir, dir, dir, dir);
     expect_status(&r, 1);
     /* Straight down from z = 12 onto a crate's top at z = 1, now 1.001. */
-    expect_line(&r, "request 3 (client 0x51, ray_request_t on TRIOCT_RAY_yard): ray 8: t expected 11 got 10.999");
+    expect_line(&r, "request 3 (client 0x51, ray_request_v1_t on TRIOCT_RAY_yard): ray 8: t expected 11 got 10.999");
     expect_line(&r, "requests 29 (0 malformed), replies 29: 16 matched, 13 mismatched, 0 missing, 0 extra (0 to nobody)");
     expect_line(&r, "FAIL");
     free(r.out);
@@ -612,7 +658,7 @@ static void test_dropped_and_invented_replies_fail(void **state)
 
     run_result r = check(&cases[0], path, 4, "");
     expect_status(&r, 1);
-    expect_line(&r, "request 2 (client 0x51, ray_request_t on TRIOCT_RAY_yard): a reply (OK, 32 items, 32 records "
+    expect_line(&r, "request 2 (client 0x51, ray_request_v1_t on TRIOCT_RAY_yard): a reply (OK, 32 items, 32 records "
                     "in 1 chunk, on REPLAY_QUERIES) where the golden log has none");
     expect_line(&r, "reply to request 99 (client 0x51), which no request of the log asked: no reply; expected OK, "
                     "0 items, 0 records in 1 chunk, on REPLAY_QUERIES");
@@ -744,6 +790,7 @@ int main(int argc, char **argv)
         cmocka_unit_test(test_logs_reproducible),
         cmocka_unit_test(test_replay_every_log_at_1_and_4_threads),
         cmocka_unit_test(test_goldens_hold_the_statuses_meant),
+        cmocka_unit_test(test_touch_golden_blocks_grazing_rays),
         cmocka_unit_test(test_recorded_logs),
         cmocka_unit_test(test_changed_answer_fails),
         cmocka_unit_test(test_changed_world_fails),

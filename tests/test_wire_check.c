@@ -13,6 +13,8 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include <lcm/eventlog.h>
+
 #include "support/meshgen.h"
 #include "wire_check.h"
 
@@ -22,6 +24,7 @@
 #include "trioct_mesh_request_t.h"
 #include "trioct_ray_reply_t.h"
 #include "trioct_ray_request_t.h"
+#include "trioct_ray_request_v1_t.h"
 #include "trioct_status_t.h"
 #include "trioct_triangle_reply_t.h"
 #include "trioct_triangle_request_t.h"
@@ -176,6 +179,24 @@ static trioct_world_info_t *random_worlds(rng *r, variant v, int32_t count)
 }
 
 static void make_ray_request(rng *r, variant v, trioct_ray_request_t *m)
+{
+    fill_request_header(r, v, &m->header);
+    m->detail = (int8_t)random_i32(r);
+    m->accuracy = (int8_t)random_i32(r);
+    m->tmin = random_double(r);
+    m->tmax = random_double(r);
+    m->max_hits = random_i32(r);
+    m->num_rays = pick_count(r, v);
+    m->origin = array_of(m->num_rays, sizeof *m->origin);
+    m->direction = array_of(m->num_rays, sizeof *m->direction);
+    for (int32_t i = 0; i < m->num_rays; i++) {
+        m->origin[i] = random_vec3(r);
+        m->direction[i] = random_vec3(r);
+    }
+    m->contact = (int8_t)random_i32(r);
+}
+
+static void make_ray_request_v1(rng *r, variant v, trioct_ray_request_v1_t *m)
 {
     fill_request_header(r, v, &m->header);
     m->detail = (int8_t)random_i32(r);
@@ -434,6 +455,15 @@ static void lay_ray_request(layout *l, const trioct_ray_request_t *m)
     lay_bytes(l, 1 + 1 + 8 + 8 + 4);
     lay_count(l, "num_rays", m->num_rays);
     lay_bytes(l, 2 * __trioct_vec3_t_encoded_array_size(m->origin, m->num_rays));
+    lay_bytes(l, 1); /* contact */
+}
+
+static void lay_ray_request_v1(layout *l, const trioct_ray_request_v1_t *m)
+{
+    lay_request_header(l, &m->header);
+    lay_bytes(l, 1 + 1 + 8 + 8 + 4);
+    lay_count(l, "num_rays", m->num_rays);
+    lay_bytes(l, 2 * __trioct_vec3_t_encoded_array_size(m->origin, m->num_rays));
 }
 
 static void lay_triangle_request(layout *l, const trioct_triangle_request_t *m)
@@ -514,7 +544,7 @@ static void lay_status(layout *l, const trioct_status_t *m)
     lay_worlds(l, m->num_worlds, m->worlds);
 }
 
-/* ---------- one table over the nine types ---------- */
+/* ---------- one table over the ten types ---------- */
 
 typedef union any_message {
     trioct_ray_request_t ray_request;
@@ -526,6 +556,7 @@ typedef union any_message {
     trioct_mesh_reply_t mesh_reply;
     trioct_admin_reply_t admin_reply;
     trioct_status_t status;
+    trioct_ray_request_v1_t ray_request_v1;
 } any_message;
 
 typedef struct codec {
@@ -564,6 +595,7 @@ CODEC_FUNCTIONS(triangle_reply)
 CODEC_FUNCTIONS(mesh_reply)
 CODEC_FUNCTIONS(admin_reply)
 CODEC_FUNCTIONS(status)
+CODEC_FUNCTIONS(ray_request_v1)
 
 #define CODEC_ENTRY(type, member)                                                                     \
     {type, #member "_t", codec_make_##member, codec_lay_##member, codec_encode_##member,              \
@@ -574,7 +606,7 @@ static const codec codecs[WIRE_TYPE_COUNT] = {
     CODEC_ENTRY(WIRE_MESH_REQUEST, mesh_request),   CODEC_ENTRY(WIRE_ADMIN_REQUEST, admin_request),
     CODEC_ENTRY(WIRE_RAY_REPLY, ray_reply),         CODEC_ENTRY(WIRE_TRIANGLE_REPLY, triangle_reply),
     CODEC_ENTRY(WIRE_MESH_REPLY, mesh_reply),       CODEC_ENTRY(WIRE_ADMIN_REPLY, admin_reply),
-    CODEC_ENTRY(WIRE_STATUS, status),
+    CODEC_ENTRY(WIRE_STATUS, status),               CODEC_ENTRY(WIRE_RAY_REQUEST_V1, ray_request_v1),
 };
 
 /* ---------- samples: encoded messages with their layout ---------- */
@@ -987,7 +1019,7 @@ static void test_ray_request_errors_name_field_and_byte(void **state)
     (void)state;
     char channel[] = "R", world[] = "W";
     trioct_vec3_t origin = {0, 0, 0}, direction = {1, 0, 0};
-    trioct_ray_request_t m = {
+    trioct_ray_request_v1_t m = {
         .header = {.client_id = 1, .request_id = 2, .reply_channel = channel, .world = world},
         .detail = TRIOCT_RAY_REQUEST_T_ALL,
         .tmax = INFINITY,
@@ -997,32 +1029,97 @@ static void test_ray_request_errors_name_field_and_byte(void **state)
         .direction = &direction,
     };
     uint8_t bytes[256];
-    int size = trioct_ray_request_t_encode(bytes, 0, sizeof bytes, &m);
+    int size = trioct_ray_request_v1_t_encode(bytes, 0, sizeof bytes, &m);
     assert_int_equal(size, 66 + 4 + 48);
-    assert_int_equal(wire_check(WIRE_RAY_REQUEST, bytes, (size_t)size, NULL), 0);
+    assert_int_equal(wire_check(WIRE_RAY_REQUEST_V1, bytes, (size_t)size, NULL), 0);
     wire_error err;
 
     store_i32(bytes + 66, -5);
-    assert_int_equal(wire_check(WIRE_RAY_REQUEST, bytes, (size_t)size, &err), -1);
-    assert_string_equal(err.what, "ray_request_t: num_rays -5 is negative at byte 66");
+    assert_int_equal(wire_check(WIRE_RAY_REQUEST_V1, bytes, (size_t)size, &err), -1);
+    assert_string_equal(err.what, "ray_request_v1_t: num_rays -5 is negative at byte 66");
     assert_int_equal(err.offset, 66);
 
     store_i32(bytes + 66, 2);
-    assert_int_equal(wire_check(WIRE_RAY_REQUEST, bytes, (size_t)size, &err), -1);
-    assert_string_equal(err.what, "ray_request_t: num_rays 2 needs at least 48 bytes per element, 48 remain at byte 66");
+    assert_int_equal(wire_check(WIRE_RAY_REQUEST_V1, bytes, (size_t)size, &err), -1);
+    assert_string_equal(err.what, "ray_request_v1_t: num_rays 2 needs at least 48 bytes per element, 48 remain at byte 66");
     store_i32(bytes + 66, 1);
 
     bytes[35] = 'x'; /* world's NUL: 8 + 16 + 6 + 4 + 1 */
-    assert_int_equal(wire_check(WIRE_RAY_REQUEST, bytes, (size_t)size, &err), -1);
-    assert_string_equal(err.what, "ray_request_t: header.world does not end in NUL at byte 35");
+    assert_int_equal(wire_check(WIRE_RAY_REQUEST_V1, bytes, (size_t)size, &err), -1);
+    assert_string_equal(err.what, "ray_request_v1_t: header.world does not end in NUL at byte 35");
     bytes[35] = '\0';
 
-    assert_int_equal(wire_check(WIRE_RAY_REQUEST, bytes, 50, &err), -1);
-    assert_string_equal(err.what, "ray_request_t: tmin needs 8 bytes, 4 remain at byte 46");
-    assert_int_equal(wire_check(WIRE_RAY_REQUEST, bytes, (size_t)size - 1, &err), -1);
+    assert_int_equal(wire_check(WIRE_RAY_REQUEST_V1, bytes, 50, &err), -1);
+    assert_string_equal(err.what, "ray_request_v1_t: tmin needs 8 bytes, 4 remain at byte 46");
+    assert_int_equal(wire_check(WIRE_RAY_REQUEST_V1, bytes, (size_t)size - 1, &err), -1);
     /* Both arrays are counted before either is walked. */
-    assert_string_equal(err.what, "ray_request_t: num_rays 1 needs at least 48 bytes per element, 47 remain at byte 66");
-    assert_int_equal(wire_check(WIRE_RAY_REQUEST, bytes, (size_t)size, &err), 0);
+    assert_string_equal(err.what, "ray_request_v1_t: num_rays 1 needs at least 48 bytes per element, 47 remain at byte 66");
+    assert_int_equal(wire_check(WIRE_RAY_REQUEST_V1, bytes, (size_t)size, &err), 0);
+}
+
+/* ray_request_t is ray_request_v1_t and one more byte, contact: the same offsets, one byte
+ * longer; each type's bytes are refused as the other, naming it, and the RAY channel's
+ * type follows the fingerprint. */
+static void test_ray_request_contact_byte_and_the_old_type(void **state)
+{
+    (void)state;
+    char channel[] = "R", world[] = "W";
+    trioct_vec3_t origin = {0, 0, 0}, direction = {1, 0, 0};
+    trioct_ray_request_t m = {
+        .header = {.client_id = 1, .request_id = 2, .reply_channel = channel, .world = world},
+        .detail = TRIOCT_RAY_REQUEST_T_ANY,
+        .tmax = INFINITY,
+        .num_rays = 1,
+        .origin = &origin,
+        .direction = &direction,
+        .contact = TRIOCT_RAY_REQUEST_T_TOUCH,
+    };
+    trioct_ray_request_v1_t old = {
+        .header = m.header,
+        .detail = m.detail,
+        .tmax = m.tmax,
+        .num_rays = 1,
+        .origin = &origin,
+        .direction = &direction,
+    };
+    uint8_t bytes[256], old_bytes[256];
+    int size = trioct_ray_request_t_encode(bytes, 0, sizeof bytes, &m);
+    int old_size = trioct_ray_request_v1_t_encode(old_bytes, 0, sizeof old_bytes, &old);
+    assert_int_equal(size, 66 + 4 + 48 + 1);
+    assert_int_equal(old_size, size - 1);
+    assert_memory_equal(bytes + 8, old_bytes + 8, (size_t)old_size - 8); /* all but fingerprint and contact */
+    assert_int_equal(bytes[size - 1], TRIOCT_RAY_REQUEST_T_TOUCH);
+    assert_int_equal(wire_check(WIRE_RAY_REQUEST, bytes, (size_t)size, NULL), 0);
+    assert_int_equal(wire_check(WIRE_RAY_REQUEST_V1, old_bytes, (size_t)old_size, NULL), 0);
+    wire_error err;
+    assert_int_equal(wire_check(WIRE_RAY_REQUEST, bytes, (size_t)size - 1, &err), -1);
+    assert_string_equal(err.what, "ray_request_t: contact needs 1 bytes, 0 remain at byte 118");
+    assert_int_equal(wire_check(WIRE_RAY_REQUEST, old_bytes, (size_t)old_size, &err), -1);
+    assert_string_equal(err.what, "ray_request_t: the fingerprint is that of ray_request_v1_t");
+    assert_int_equal(wire_check(WIRE_RAY_REQUEST_V1, bytes, (size_t)size, &err), -1);
+    assert_string_equal(err.what, "ray_request_v1_t: the fingerprint is that of ray_request_t");
+
+    assert_int_equal(wire_ray_request_type(old_bytes, (size_t)old_size), WIRE_RAY_REQUEST_V1);
+    assert_int_equal(wire_ray_request_type(bytes, (size_t)size), WIRE_RAY_REQUEST);
+    assert_int_equal(wire_ray_request_type(old_bytes, 7), WIRE_RAY_REQUEST); /* too short to tell */
+    assert_int_equal(wire_ray_request_type(NULL, 100), WIRE_RAY_REQUEST);
+    assert_int_equal(wire_ray_request_type("garbage!", 8), WIRE_RAY_REQUEST);
+    /* The old fingerprint is the one the checked-in logs carry (LCM hashes the members,
+     * not the type's name, so ray_request_v1_t kept it): the first ray request of a log
+     * recorded before contact existed starts with it. */
+    lcm_eventlog_t *log = lcm_eventlog_create("tests/logs/queries.lcmlog", "r");
+    assert_non_null(log);
+    int rays_seen = 0;
+    for (lcm_eventlog_event_t *ev; (ev = lcm_eventlog_read_next_event(log)) != NULL;) {
+        if (strncmp(ev->channel, "TRIOCT_RAY_", 11) == 0 && ev->datalen >= 8) {
+            assert_int_equal(wire_ray_request_type(ev->data, (size_t)ev->datalen), WIRE_RAY_REQUEST_V1);
+            assert_int_equal(wire_check(WIRE_RAY_REQUEST_V1, ev->data, (size_t)ev->datalen, NULL), 0);
+            rays_seen++;
+        }
+        lcm_eventlog_free_event(ev);
+    }
+    lcm_eventlog_destroy(log);
+    assert_true(rays_seen >= 10);
 }
 
 /* Errors inside a world and a shape name the element they are in. */
@@ -1079,7 +1176,7 @@ static void test_short_absent_and_oversized_input_is_rejected(void **state)
         assert_non_null(strstr(err.what, "more than LCM can encode"));
     }
     assert_int_equal(wire_check(WIRE_TYPE_COUNT, fingerprint, 8, &err), -1);
-    assert_string_equal(err.what, "wire type 9 is unknown");
+    assert_string_equal(err.what, "wire type 10 is unknown");
     assert_int_equal(wire_check((wire_type)-3, fingerprint, 8, NULL), -1);
 }
 
@@ -1236,6 +1333,7 @@ int main(void)
         cmocka_unit_test(test_bad_counts_are_rejected),
         cmocka_unit_test(test_bad_strings_are_rejected),
         cmocka_unit_test(test_ray_request_errors_name_field_and_byte),
+        cmocka_unit_test(test_ray_request_contact_byte_and_the_old_type),
         cmocka_unit_test(test_world_errors_name_the_element),
         cmocka_unit_test(test_short_absent_and_oversized_input_is_rejected),
         cmocka_unit_test(test_mutations_agree_with_generated_decoder),

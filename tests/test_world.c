@@ -126,7 +126,7 @@ static void assert_vec_equal(vec3 got, double x, double y, double z)
 /* Closest hit t of a ray, or -1. */
 static double closest_t(const octree *tree, vec3 origin, vec3 direction)
 {
-    ray_input ray = {origin, direction, 0.0, INFINITY};
+    ray_input ray = {origin, direction, 0.0, INFINITY, RAY_CROSSING};
     ray_hit hit;
     ray_output out = {0, 0, &hit, 1};
     assert_int_equal(octree_ray(tree, &ray, RAY_CLOSEST, ACCURACY_EXACT, &out, NULL), OCTREE_OK);
@@ -743,7 +743,7 @@ static void *stress_reader(void *p)
         } else {
             last_version = w->version;
             /* Use the world while the installer may be replacing it. */
-            ray_input ray = {vec3_make(0.5, 0.5, -1), vec3_make(0, 0, 1), 0.0, INFINITY};
+            ray_input ray = {vec3_make(0.5, 0.5, -1), vec3_make(0, 0, 1), 0.0, INFINITY, RAY_CROSSING};
             ray_hit hit;
             ray_output out = {0, 0, &hit, 1};
             if (octree_ray(w->tree, &ray, RAY_CLOSEST, ACCURACY_EXACT, &out, NULL) != OCTREE_OK ||

@@ -13,10 +13,11 @@
 #include "cli_progress.h"
 #include "cli_text.h"
 
-enum { OPT_ANY, OPT_ALL, OPT_MAX_HITS, OPT_TMIN, OPT_TMAX, OPT_ACCURACY };
+enum { OPT_ANY, OPT_ALL, OPT_MAX_HITS, OPT_TMIN, OPT_TMAX, OPT_ACCURACY, OPT_TOUCH };
 
 typedef struct ray_args {
     int any, all;
+    int touch; /* --touch: TRIOCT_CONTACT_TOUCH */
     int max_hits; /* 0: not given */
     int accuracy;
     double tmin, tmax;
@@ -29,6 +30,7 @@ static const cli_option ray_options[] = {
     {"tmin", 0, 1, OPT_TMIN},
     {"tmax", 0, 1, OPT_TMAX},
     {"accuracy", 0, 1, OPT_ACCURACY},
+    {"touch", 0, 0, OPT_TOUCH},
     {NULL, 0, 0, 0},
 };
 
@@ -42,6 +44,9 @@ static int ray_option(void *user, int id, const char *value, char *err, size_t e
         return 0;
     case OPT_ALL:
         a->all = 1;
+        return 0;
+    case OPT_TOUCH:
+        a->touch = 1;
         return 0;
     case OPT_MAX_HITS:
         if (cli_parse_int(value, 1, TRIOCT_MAX_HITS_PER_RAY, &v) != 0) {
@@ -82,6 +87,8 @@ static int ray_args_check(cli_context *ctx, const ray_args *a)
         return cli_usage_error(ctx, "--max-hits counts the hits of --all; add --all");
     if (a->tmin > a->tmax)
         return cli_usage_error(ctx, "--tmin is greater than --tmax");
+    if (a->touch && (a->accuracy == TRIOCT_ACCURACY_SEED || a->accuracy == TRIOCT_ACCURACY_FAST))
+        return cli_usage_error(ctx, "--touch is decided exactly: use --accuracy exact or world");
     return -1;
 }
 
@@ -153,7 +160,8 @@ static int cast_rays(cli_context *ctx, const char *world, const ray_args *args,
         q.origins = origins + done;
         q.directions = directions + done;
         trioct_ray_result res;
-        int status = trioct_rays(ctx->client, &q, timeout, &res);
+        int contact = args->touch ? TRIOCT_CONTACT_TOUCH : TRIOCT_CONTACT_CROSSING;
+        int status = trioct_rays_contact(ctx->client, &q, contact, timeout, &res);
         if (status != TRIOCT_OK) {
             char part[96] = "";
             if (n < count)
@@ -310,7 +318,7 @@ const cli_command cli_command_ray = {
     "ray",
     "cast one ray: the closest hit, any hit or all hits",
     "Usage: trioct ray WORLD ox oy oz dx dy dz [--any | --all [--max-hits N]]\n"
-    "                  [--tmin T] [--tmax T] [--accuracy MODE] [global options]\n"
+    "                  [--tmin T] [--tmax T] [--accuracy MODE] [--touch] [global options]\n"
     "\n"
     "Casts the ray origin + t * direction, t in [tmin, tmax], into WORLD and prints what it\n"
     "hits: t, the world triangle, the barycentric weights u and v of the triangle's second\n"
@@ -324,11 +332,15 @@ const cli_command cli_command_ray = {
     "  --tmin T        start of the interval (default 0)\n"
     "  --tmax T        end of the interval (default inf)\n"
     "  --accuracy MODE exact, seed, fast, or world (the world's own mode; default)\n"
+    "  --touch         count every triangle the segment touches (edges, vertices, faces\n"
+    "                  it slides along), not only crossings: --any is then a safe\n"
+    "                  line-of-sight test; decided exactly (not with seed or fast)\n"
     "\n"
     "Examples:\n"
     "  trioct ray yard 0 0 50 0 0 -1\n"
     "  trioct ray yard 0 0 50 0 0 -1 --all --json\n"
-    "  trioct ray yard -5 2 1 1 0 0 --any --tmax 10\n",
+    "  trioct ray yard -5 2 1 1 0 0 --any --tmax 10\n"
+    "  trioct ray yard -5 2 1 1 0 0 --any --tmax 10 --touch\n",
     run_ray,
 };
 
@@ -371,7 +383,7 @@ const cli_command cli_command_rays = {
     "rays",
     "cast a batch of rays read from a CSV file",
     "Usage: trioct rays WORLD FILE|- [--any | --all [--max-hits N]] [--tmin T] [--tmax T]\n"
-    "                   [--accuracy MODE] [global options]\n"
+    "                   [--accuracy MODE] [--touch] [global options]\n"
     "\n"
     "Reads one ray a line, \"ox,oy,oz,dx,dy,dz\" (commas or blanks between the numbers),\n"
     "from FILE or, with -, from standard input; blank lines and lines starting with # are\n"

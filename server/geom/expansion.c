@@ -143,3 +143,28 @@ double expansion_estimate(size_t en, const double *e)
         sum += e[i];
     return sum;
 }
+
+/* Shewchuk's Compress: the same value in as few non-adjacent components as it takes, so
+ * products of it (ray_tri_compare_t's degree-6 ones) stay small and the largest component
+ * is within an ulp of the value (which makes estimates trustworthy). In place. */
+size_t expansion_compress(size_t n, double *e)
+{
+    double q = e[n - 1], lo;
+    size_t bottom = n - 1;
+    for (size_t i = n - 1; i-- > 0;) {
+        two_sum(q, e[i], &q, &lo);
+        if (lo != 0.0) {
+            e[bottom--] = q;
+            q = lo;
+        }
+    }
+    e[bottom] = q;
+    size_t top = 0;
+    for (size_t i = bottom + 1; i < n; i++) {
+        two_sum(e[i], q, &q, &lo);
+        if (lo != 0.0)
+            e[top++] = lo;
+    }
+    e[top++] = q;
+    return top;
+}

@@ -53,6 +53,9 @@ size_t expansion_product(size_t en, const double *e, size_t fn, const double *f,
 void expansion_negate(size_t en, double *e);
 /* Sign of the exact value: -1, 0 or +1. */
 int expansion_sign(size_t en, const double *e);
+/* Shewchuk's Compress, in place: the same value in as few non-adjacent components as it
+ * takes, the largest within an ulp of the value; returns the new length (n >= 1). */
+size_t expansion_compress(size_t n, double *e);
 /* The value rounded roughly to double (for reporting, not for decisions). */
 double expansion_estimate(size_t en, const double *e);
 

@@ -153,31 +153,6 @@ static size_t minor_expansion(size_t a1n, const double *a1, size_t b2n, const do
     return nonempty(expansion_sum(ln, left, rn, right, out), out);
 }
 
-/* Shewchuk's Compress: the same value in as few non-adjacent components as it takes, so
- * the degree-6 products of ray_tri_compare_t stay small and the largest component is
- * within an ulp of the value (which makes estimates trustworthy). In place. */
-static size_t compress_expansion(size_t n, double *e)
-{
-    double q = e[n - 1], lo;
-    size_t bottom = n - 1;
-    for (size_t i = n - 1; i-- > 0;) {
-        two_sum(q, e[i], &q, &lo);
-        if (lo != 0.0) {
-            e[bottom--] = q;
-            q = lo;
-        }
-    }
-    e[bottom] = q;
-    size_t top = 0;
-    for (size_t i = bottom + 1; i < n; i++) {
-        two_sum(e[i], q, &q, &lo);
-        if (lo != 0.0)
-            e[top++] = lo;
-    }
-    e[top++] = q;
-    return top;
-}
-
 /* The exact num and den of plane_param_of, compressed. */
 typedef struct plane_exact {
     size_t num_len, den_len;
@@ -242,8 +217,8 @@ static void plane_exact_of_scaled(vec3 o, vec3 d, const vec3 tri_in[3], int shif
     size_t d01 =
         nonempty(expansion_sum(den_n[0], den_terms[0], den_n[1], den_terms[1], den01), den01);
     pe->den_len = nonempty(expansion_sum(d01, den01, den_n[2], den_terms[2], pe->den), pe->den);
-    pe->num_len = compress_expansion(pe->num_len, pe->num);
-    pe->den_len = compress_expansion(pe->den_len, pe->den);
+    pe->num_len = expansion_compress(pe->num_len, pe->num);
+    pe->den_len = expansion_compress(pe->den_len, pe->den);
 }
 
 /* Out of line: the exact stage is rare, and inlined its frame costs every candidate. */
@@ -399,7 +374,13 @@ static void report_barycentrics(int s, double w01, double w12, double w20, ray_t
     }
 }
 
-int ray_tri_exact(vec3 o, vec3 d, double tmin, double tmax, const vec3 tri[3], ray_tri_hit *hit)
+/* The exact test under either edge rule. closed = 0 is ray_tri_exact's watertight rule;
+ * closed = 1 counts an exactly zero edge function as on the triangle (the closed triangle
+ * of ray_tri_touch) and returns RAY_TRI_DEN_ZERO where den == 0 exactly, which that rule
+ * decides elsewhere. Both are constants at the call sites, so each rule compiles to its
+ * own code and the watertight one keeps exactly its arithmetic. */
+static inline __attribute__((always_inline)) int ray_tri_exact_rule(vec3 o, vec3 d, double tmin, double tmax,
+                                                                    const vec3 tri[3], int closed, ray_tri_hit *hit)
 {
     if (!(tmin <= tmax) || tmin == INFINITY || tmax == -INFINITY)
         return 0;
@@ -407,7 +388,7 @@ int ray_tri_exact(vec3 o, vec3 d, double tmin, double tmax, const vec3 tri[3], r
     /* A triangle with a repeated vertex has den == 0 exactly and is never hit; saying so
      * here keeps its zero-length edge from sending every ray through the exact stage. */
     if (vec3_equal(v0, v1) || vec3_equal(v1, v2) || vec3_equal(v2, v0))
-        return 0;
+        return closed ? RAY_TRI_DEN_ZERO : 0;
 
     double err01, err12, err20;
     double w01 = edge_function(vec3_sub(v0, o), vec3_sub(v1, v0), d, &err01);
@@ -420,21 +401,39 @@ int ray_tri_exact(vec3 o, vec3 d, double tmin, double tmax, const vec3 tri[3], r
     if (s20 * s01 < 0 || s20 * s12 < 0)
         return 0;
 
-    /* Only edges the filter could not settle go to the exact predicate. */
-    int z01 = 0, z12 = 0, z20 = 0;
-    if (s01 == 0)
-        s01 = edge_sign_exact(v0, v1, o, d, &z01);
-    if (s12 == 0)
-        s12 = edge_sign_exact(v1, v2, o, d, &z12);
-    if (s20 == 0)
-        s20 = edge_sign_exact(v2, v0, o, d, &z20);
-    if (s01 != s12 || s12 != s20)
-        return 0;
-    /* The three edge functions sum to den; all zero means den == 0 (parallel ray or
-     * degenerate triangle). Otherwise den has the common sign s. */
-    if (z01 && z12 && z20)
-        return 0;
-    const int s = s01;
+    int s;
+    if (closed) {
+        /* Exact signs, zeros kept: a zero edge function puts the plane point on that edge's
+         * line, which the closed triangle holds when the other signs agree. */
+        if (s01 == 0)
+            s01 = ray_edge_sign(v0, v1, o, d);
+        if (s12 == 0)
+            s12 = ray_edge_sign(v1, v2, o, d);
+        if (s20 == 0)
+            s20 = ray_edge_sign(v2, v0, o, d);
+        if (s01 * s12 < 0 || s12 * s20 < 0 || s20 * s01 < 0)
+            return 0;
+        /* All three zero: den == 0 (the sum), in-plane ray or zero-area triangle. */
+        s = s01 != 0 ? s01 : s12 != 0 ? s12 : s20;
+        if (s == 0)
+            return RAY_TRI_DEN_ZERO;
+    } else {
+        /* Only edges the filter could not settle go to the exact predicate. */
+        int z01 = 0, z12 = 0, z20 = 0;
+        if (s01 == 0)
+            s01 = edge_sign_exact(v0, v1, o, d, &z01);
+        if (s12 == 0)
+            s12 = edge_sign_exact(v1, v2, o, d, &z12);
+        if (s20 == 0)
+            s20 = edge_sign_exact(v2, v0, o, d, &z20);
+        if (s01 != s12 || s12 != s20)
+            return 0;
+        /* The three edge functions sum to den; all zero means den == 0 (parallel ray or
+         * degenerate triangle). Otherwise den has the common sign s. */
+        if (z01 && z12 && z20)
+            return 0;
+        s = s01;
+    }
 
     /* tmin <= num / den <= tmax, i.e. s * (num - tmin den) >= 0 and s * (num - tmax den) <= 0. */
     plane_param pp = plane_param_of(o, d, tri);
@@ -482,6 +481,16 @@ int ray_tri_exact(vec3 o, vec3 d, double tmin, double tmax, const vec3 tri[3], r
         report_barycentrics(s, w01, w12, w20, hit);
     }
     return 1;
+}
+
+int ray_tri_exact(vec3 o, vec3 d, double tmin, double tmax, const vec3 tri[3], ray_tri_hit *hit)
+{
+    return ray_tri_exact_rule(o, d, tmin, tmax, tri, 0, hit);
+}
+
+int ray_tri_exact_closed(vec3 o, vec3 d, double tmin, double tmax, const vec3 tri[3], ray_tri_hit *hit)
+{
+    return ray_tri_exact_rule(o, d, tmin, tmax, tri, 1, hit);
 }
 
 /* ---------------------------------------------------------------- exact ordering */

@@ -56,6 +56,45 @@ int ray_tri_exact(vec3 o, vec3 d, double tmin, double tmax, const vec3 tri[3], r
  * parallel to, hit or not; 0 when either den is 0. */
 int ray_tri_compare_t(vec3 o, vec3 d, const vec3 a[3], const vec3 b[3]);
 
+/* ---- The touch rule (ray_touch.c): the closed segment against the closed triangle ----
+ *
+ * 1 when the segment {o + t d : tmin <= t <= tmax} and the closed triangle share a point,
+ * exactly, with no tie-breaking: boundary contacts count, a ray lying in the triangle's
+ * plane hits when it meets the triangle there, a zero-area triangle is the segment or the
+ * point it is, and an origin on the triangle hits at t = tmin. tmin must be finite (0
+ * otherwise), tmax may be INFINITY; tmin > tmax or NaN never hits; d must not be zero.
+ *
+ * The cases, for den = ((v1 - v0) x (v2 - v0)) . d:
+ *  - den != 0: the line meets the plane in one point, t = num / den as in ray_tri_exact;
+ *    a hit when that point is in the closed triangle (the three edge functions' exact
+ *    signs, zeros included, do not disagree) and tmin <= t <= tmax;
+ *  - den == 0 with a nonzero-area triangle: a miss unless the line lies in the plane
+ *    (orient3d of o is 0); then the line meets the triangle in an interval [ta, tb], where
+ *    ta is the largest of the edges' entry parameters, and the hit is at max(ta, tmin) when
+ *    that is <= min(tb, tmax);
+ *  - a zero-area triangle: the segment between its two extreme vertices (collinear
+ *    vertices) or its one point, against the ray: crossing it at one point, lying along it
+ *    (an interval again), or missing it.
+ * hit (may be NULL) gets the smallest common t, within a few ulps (the exact value is a
+ * ratio of exact expansions, rounded from their compressed forms), clamped to
+ * [tmin, tmax], and u, v the barycentric weights of v1, v2 at that point, in [0, 1]: for a
+ * den != 0 hit those of ray_tri_exact, in the plane those of the rounded point, on a
+ * zero-area triangle the position along its segment (all weight on v0 for a point).
+ * Exact (scaled expansions) within the range ray_tri_exact states. */
+int ray_tri_touch(vec3 o, vec3 d, double tmin, double tmax, const vec3 tri[3], ray_tri_hit *hit);
+
+/* Compares the smallest common t of two triangles that ray_tri_touch hits with the same
+ * ray and limits: -1, 0, +1 for t_a <, =, > t_b, exactly. Two hits with den != 0 compare
+ * as ray_tri_compare_t; otherwise the two values (each the plane parameter, an edge's
+ * entry parameter, a vertex's parameter or tmin itself) compare as exact rationals. */
+int ray_tri_touch_compare(vec3 o, vec3 d, double tmin, double tmax, const vec3 a[3], const vec3 b[3]);
+
+/* ray_tri_exact with the closed rule, for ray_tri_touch: zero edge functions are not
+ * tie-broken but count as on the triangle, and den == 0 exactly (all three zero, or a
+ * repeated vertex) returns RAY_TRI_DEN_ZERO, which ray_tri_touch decides on its own. */
+#define RAY_TRI_DEN_ZERO 2
+int ray_tri_exact_closed(vec3 o, vec3 d, double tmin, double tmax, const vec3 tri[3], ray_tri_hit *hit);
+
 /* The seed's plane + point-in-triangle test with epsilon, and Moller-Trumbore.
  * ray_tri_seed: t = n.(v0 - o) / (n.d + eps) with the unit normal n, accepted when
  * tmin - eps < t < tmax + eps, then the hit point's signed distance along each edge's

@@ -43,6 +43,7 @@ typedef struct ray_setup {
      * x, y, z" is front to back. */
     unsigned char upper[8];
     unsigned char octant[8];
+    int touch; /* RAY_TOUCH: the closed rule (set by walk_begin; exact mode only) */
 } ray_setup;
 
 static void setup_ray(ray_setup *r, const octree *tree, const ray_input *in, accuracy_mode mode)
@@ -170,6 +171,14 @@ static inline void slab(const ray_setup *r, box3 b, double *tnear, double *tfar)
     *tfar = tf;
 }
 
+/* The smallest common t of a touch hit is within a few ulps of its reported t (ray_tri.h),
+ * so this bounds it from above when exact_t_upper_bound cannot: a touch hit with den == 0
+ * (in the plane, a zero-area triangle) or one too close to parallel for the bound. */
+static double touch_t_upper_bound(double t)
+{
+    return t + fabs(t) * 0x1p-40 + TINY;
+}
+
 /* An upper bound on the exact t = N / D of a hit, N = det[v0-o, v1-o, v2-o] and
  * D = ((v1-v0) x (v2-v0)) . d. Each is a sum of products of rounded differences, whose
  * error is below 8 eps times its permanent (the orient3d bound is 7 eps + 56 eps^2). */
@@ -210,6 +219,8 @@ static int test_triangle(const octree *tree, const ray_setup *r, accuracy_mode m
     case ACCURACY_EXACT:
         break;
     }
+    if (r->touch)
+        return ray_tri_touch(r->o, r->d, r->tmin, r->tmax, tri, hit);
     return ray_tri_exact(r->o, r->d, r->tmin, r->tmax, tri, hit);
 }
 
@@ -218,7 +229,10 @@ static int hit_order(const octree *tree, const ray_setup *r, accuracy_mode mode,
                      const ray_hit *b)
 {
     int c;
-    if (mode == ACCURACY_EXACT) {
+    if (mode == ACCURACY_EXACT && r->touch) {
+        c = ray_tri_touch_compare(r->o, r->d, r->tmin, r->tmax, octree_triangle_at(tree, a->triangle),
+                                  octree_triangle_at(tree, b->triangle));
+    } else if (mode == ACCURACY_EXACT) {
         c = ray_tri_compare_t(r->o, r->d, octree_triangle_at(tree, a->triangle), octree_triangle_at(tree, b->triangle));
     } else {
         c = (a->t > b->t) - (a->t < b->t);
@@ -349,6 +363,9 @@ static octree_status check_query(const ray_input *ray, ray_detail detail, accura
         return OCTREE_ERR_INVALID;
     if (mode != ACCURACY_EXACT && mode != ACCURACY_SEED && mode != ACCURACY_FAST)
         return OCTREE_ERR_INVALID;
+    /* The touch rule promises every common point, which only the exact tests can keep. */
+    if (ray->contact != RAY_CROSSING && (ray->contact != RAY_TOUCH || mode != ACCURACY_EXACT))
+        return OCTREE_ERR_INVALID;
     return OCTREE_OK;
 }
 
@@ -359,6 +376,7 @@ static void walk_begin(ray_walk *w, const octree *tree, const ray_input *ray, ra
                        accuracy_mode mode, ray_output *out)
 {
     setup_ray(&w->r, tree, ray, mode);
+    w->r.touch = ray->contact == RAY_TOUCH;
     w->detail = detail;
     w->mode = mode;
     w->st = OCTREE_OK;
@@ -433,6 +451,8 @@ static inline __attribute__((always_inline)) int walk_test_candidate(ray_walk *w
             w->have_best = 1;
             if (w->mode == ACCURACY_EXACT) {
                 double ub = exact_t_upper_bound(r, octree_triangle_at(tree, id));
+                if (r->touch && ub == INFINITY)
+                    ub = touch_t_upper_bound(hit.t);
                 w->bound = ub < w->bound ? ub : w->bound;
             } else {
                 /* A fast or seed hit reports the t at which the ray passes within the

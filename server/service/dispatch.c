@@ -107,7 +107,9 @@ static dispatch_peek_result peek(const dispatch_ctx *ctx, const char *channel, c
         return PEEK_NOT_MINE; /* STATUS: another daemon's heartbeat */
     }
     /* The generated decoders count in int; LCM's own cap (256 MiB) is far below. */
-    if (!bytes || size > INT_MAX || wire_check(wire_of[type], bytes, size, NULL) != 0)
+    /* A RAY channel takes ray_request_t and the older ray_request_v1_t alike. */
+    wire_type wire = type == REQUEST_RAY ? wire_ray_request_type(bytes, size) : wire_of[type];
+    if (!bytes || size > INT_MAX || wire_check(wire, bytes, size, NULL) != 0)
         return PEEK_MALFORMED;
 
     int len = __trioct_request_header_t_decode_array(bytes, 8, (int)size - 8, hdr, 1);
@@ -309,6 +311,27 @@ static int run_request(job *j, const void *bytes, size_t size)
     int len = (int)size;
     switch (j->req.type) {
     case REQUEST_RAY: {
+        if (wire_ray_request_type(bytes, size) == WIRE_RAY_REQUEST_V1) {
+            /* The layout before contact: the same request, each crossing once. */
+            trioct_ray_request_v1_t old;
+            if (trioct_ray_request_v1_t_decode(bytes, 0, len, &old) < 0)
+                break;
+            trioct_ray_request_t m = {
+                .header = old.header,
+                .detail = old.detail,
+                .accuracy = old.accuracy,
+                .tmin = old.tmin,
+                .tmax = old.tmax,
+                .max_hits = old.max_hits,
+                .num_rays = old.num_rays,
+                .origin = old.origin,
+                .direction = old.direction,
+                .contact = TRIOCT_RAY_REQUEST_T_CROSSING,
+            };
+            status = dispatch_ray(j, &m);
+            trioct_ray_request_v1_t_decode_cleanup(&old);
+            return status;
+        }
         trioct_ray_request_t m;
         if (trioct_ray_request_t_decode(bytes, 0, len, &m) < 0)
             break;

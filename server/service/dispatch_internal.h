@@ -19,6 +19,7 @@
 #include "trioct_mesh_request_t.h"
 #include "trioct_ray_reply_t.h"
 #include "trioct_ray_request_t.h"
+#include "trioct_ray_request_v1_t.h"
 #include "trioct_request_header_t.h"
 #include "trioct_triangle_reply_t.h"
 #include "trioct_triangle_request_t.h"

@@ -108,6 +108,19 @@ static int check_rays(job *j, const trioct_ray_request_t *m, accuracy_mode *mode
                         m->detail);
     if (request_mode(j, m->accuracy, mode) != TRIOCT_OK)
         return j->status;
+    if (m->contact != TRIOCT_RAY_REQUEST_T_CROSSING && m->contact != TRIOCT_RAY_REQUEST_T_TOUCH)
+        return job_fail(j, TRIOCT_ERR_BAD_REQUEST, "contact %d is not CROSSING (0) or TOUCH (1)", m->contact);
+    if (m->contact == TRIOCT_RAY_REQUEST_T_TOUCH) {
+        /* Touch is decided exactly or not at all: the world's mode means exact here, an
+         * explicit seed or fast mode is refused rather than silently upgraded. */
+        if (m->accuracy == TRIOCT_RAY_REQUEST_T_SEED || m->accuracy == TRIOCT_RAY_REQUEST_T_FAST)
+            return job_fail(j, TRIOCT_ERR_BAD_REQUEST,
+                            "contact TOUCH is decided exactly only: send accuracy EXACT (0) or "
+                            "ACCURACY_WORLD (-1), not %s",
+                            m->accuracy == TRIOCT_RAY_REQUEST_T_SEED ? "SEED (1)" : "FAST (2)");
+        if (m->accuracy == TRIOCT_RAY_REQUEST_T_ACCURACY_WORLD)
+            *mode = ACCURACY_EXACT;
+    }
     if (m->detail == TRIOCT_RAY_REQUEST_T_ALL) {
         if (m->max_hits > TRIOCT_MAX_HITS_PER_RAY)
             return job_fail(j, TRIOCT_ERR_OVER_CAP, "max_hits %d is over TRIOCT_MAX_HITS_PER_RAY=%d",
@@ -148,7 +161,8 @@ static int ray_work(job *j, const trioct_ray_request_t *m, accuracy_mode mode, r
     if (!pool)
         return out_of_memory(j, "the rays' hits");
     for (size_t i = 0; i < n; i++) {
-        in[i] = (ray_input){vec_in(&m->origin[i]), vec_in(&m->direction[i]), m->tmin, m->tmax};
+        in[i] = (ray_input){vec_in(&m->origin[i]), vec_in(&m->direction[i]), m->tmin, m->tmax,
+                            m->contact == TRIOCT_RAY_REQUEST_T_TOUCH ? RAY_TOUCH : RAY_CROSSING};
         outs[i] = (ray_output){.hits = pool + i * room, .max_hits = room};
     }
     int status = TRIOCT_OK;

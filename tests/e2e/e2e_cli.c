@@ -785,6 +785,84 @@ static void test_ray(void **state)
     run_free(&r);
 }
 
+/* --touch on a ray sliding along the top z = 2 at y = 1, from x = -1: as crossings it
+ * passes (the perturbed ray runs just above the top), as a touch it is blocked at t = 1
+ * where it reaches the top's edge (0, 1, 2): the top's triangle 1 (u = 0, v = 1/4) and the
+ * side x = 0's triangle 11 there, the top's triangle 0 from the diagonal x = y at t = 2,
+ * and the side x = 4's triangle 7 at t = 5. */
+static void test_ray_touch(void **state)
+{
+    (void)state;
+    jv *v = JSON(0, "ray", "box", "-1", "1", "2", "1", "0", "0", "--any");
+    assert_int_equal((int)jnum(v, "found.0"), 0);
+    jfree(v);
+    v = JSON(0, "ray", "box", "-1", "1", "2", "1", "0", "0", "--all");
+    assert_int_equal((int)jnum(v, "found.0"), 0);
+    jfree(v);
+    v = JSON(0, "ray", "box", "-1", "1", "2", "1", "0", "0", "--any", "--touch");
+    assert_string_equal(jstr(v, "detail"), "any");
+    assert_int_equal((int)jnum(v, "found.0"), 1);
+    jfree(v);
+    v = JSON(0, "ray", "box", "-1", "1", "2", "1", "0", "0", "--touch");
+    assert_int_equal((int)jnum(v, "found.0"), 1);
+    check_hit(v, 0, 0, 1, 1, 0, 0.25);
+    jfree(v);
+    v = JSON(0, "ray", "box", "-1", "1", "2", "1", "0", "0", "--touch", "--all", "--accuracy", "world");
+    assert_int_equal((int)jnum(v, "found.0"), 4);
+    static const int ids[4] = {1, 11, 0, 7};
+    static const double ts[4] = {1, 1, 2, 5};
+    for (int k = 0; k < 4; k++) {
+        char p[32];
+        snprintf(p, sizeof p, "hits.%d.triangle", k);
+        assert_int_equal((int)jnum(v, p), ids[k]);
+        snprintf(p, sizeof p, "hits.%d.t", k);
+        assert_true(jnum(v, p) == ts[k]);
+    }
+    jfree(v);
+    /* A ray straight down crosses as it touches: the same answer either way. */
+    v = JSON(0, "ray", "box", "1", "3", "10", "0", "0", "-1", "--touch");
+    check_hit(v, 0, 0, 8, 1, 0.25, 0.5);
+    jfree(v);
+
+    /* rays: the same rule for every line of the file. */
+    char path[320];
+    path_in_dir(path, sizeof path, "touch.csv");
+    FILE *f = fopen(path, "w");
+    assert_non_null(f);
+    fprintf(f, "-1, 1, 2, 1, 0, 0\n1, 3, 10, 0, 0, -1\n-1, 1, 2.5, 1, 0, 0\n");
+    assert_int_equal(fclose(f), 0);
+    cli_run r = CLI("rays", "box", path, "--any", "--touch", "--json");
+    expect_code(&r, 0);
+    v = jparse_line(r.out);
+    assert_int_equal((int)jnum(v, "found.0"), 1);
+    assert_int_equal((int)jnum(v, "found.1"), 1);
+    assert_int_equal((int)jnum(v, "found.2"), 0); /* above the box */
+    jfree(v);
+    run_free(&r);
+    r = CLI("rays", "box", path, "--any", "--json");
+    expect_code(&r, 0);
+    v = jparse_line(r.out);
+    assert_int_equal((int)jnum(v, "found.0"), 0);
+    assert_int_equal((int)jnum(v, "found.1"), 1);
+    jfree(v);
+    run_free(&r);
+
+    /* The human table is the one without --touch. */
+    r = CLI("ray", "box", "-1", "1", "2", "1", "0", "0", "--touch");
+    expect_code(&r, 0);
+    expect_text(r.out, "world box (version 1, daemon " DAEMON "), closest hit: 1 of 1 ray hit");
+    expect_text(r.out, "RAY  FOUND  T  TRIANGLE  U     V  NORMAL\n"
+                       "  0      1  1         1  0  0.25  0 0 1\n");
+    run_free(&r);
+
+    /* Touch is exact-only: seed or fast with it is a usage error. */
+    const char *seed[] = {"ray", "box", "-1", "1", "2", "1", "0", "0", "--touch", "--accuracy", "seed", NULL};
+    r = run_cli(NULL, seed);
+    expect_code(&r, 2);
+    expect_text(r.err, "--touch is decided exactly: use --accuracy exact or world");
+    run_free(&r);
+}
+
 /* (x, y) of ray i of the batch: off the diagonal, so which top triangle is never a tie. */
 static void batch_xy(int i, double *x, double *y)
 {
@@ -1279,6 +1357,7 @@ int main(int argc, char **argv)
         cmocka_unit_test(test_worlds),
         cmocka_unit_test(test_info),
         cmocka_unit_test(test_ray),
+        cmocka_unit_test(test_ray_touch),
         cmocka_unit_test(test_rays_batch),
         cmocka_unit_test(test_tri),
         cmocka_unit_test(test_mesh),

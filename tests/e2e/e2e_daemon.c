@@ -173,7 +173,7 @@ static int rays_match(const trioct_ray_result *res, const world *w, const trioct
         return 0;
     size_t next_hit = 0;
     for (size_t i = 0; i < n; i++) {
-        ray_input ray = {{o[i].x, o[i].y, o[i].z}, {d[i].x, d[i].y, d[i].z}, 0, INFINITY};
+        ray_input ray = {{o[i].x, o[i].y, o[i].z}, {d[i].x, d[i].y, d[i].z}, 0, INFINITY, RAY_CROSSING};
         ray_hit hit;
         ray_output out = {.hits = &hit, .max_hits = 1};
         if (octree_ray(w->tree, &ray, RAY_CLOSEST, ACCURACY_EXACT, &out, NULL) != OCTREE_OK)

@@ -18,7 +18,10 @@ static int ray_test(const ray_input *r, const vec3 t[3], accuracy_mode mode, dou
     switch (mode) {
     case ACCURACY_SEED: return ray_tri_seed(r->origin, r->direction, r->tmin, r->tmax, t, eps, h);
     case ACCURACY_FAST: return ray_tri_fast(r->origin, r->direction, r->tmin, r->tmax, t, h);
-    default: return ray_tri_exact(r->origin, r->direction, r->tmin, r->tmax, t, h);
+    default:
+        if (r->contact == RAY_TOUCH)
+            return ray_tri_touch(r->origin, r->direction, r->tmin, r->tmax, t, h);
+        return ray_tri_exact(r->origin, r->direction, r->tmin, r->tmax, t, h);
     }
 }
 
@@ -30,7 +33,8 @@ static int before(const mesh_view *m, const ray_input *r, accuracy_mode mode, co
         vec3 ta[3], tb[3];
         tri_of(m, a->triangle, ta);
         tri_of(m, b->triangle, tb);
-        c = ray_tri_compare_t(r->origin, r->direction, ta, tb);
+        c = r->contact == RAY_TOUCH ? ray_tri_touch_compare(r->origin, r->direction, r->tmin, r->tmax, ta, tb)
+                                    : ray_tri_compare_t(r->origin, r->direction, ta, tb);
     } else {
         c = (a->t > b->t) - (a->t < b->t);
     }

@@ -8,7 +8,8 @@
 #include "engine.h"
 
 /* hits: capacity max_hits; returns the number of hits (RAY_ALL: all, sorted by exact t then
- * id; RAY_CLOSEST: 0 or 1; RAY_ANY: 0 or 1, the smallest id that hits). */
+ * id; RAY_CLOSEST: 0 or 1; RAY_ANY: 0 or 1, the smallest id that hits). ray->contact picks
+ * the exact rule (ray_tri_exact or ray_tri_touch) in ACCURACY_EXACT. */
 size_t brute_ray(const mesh_view *mesh, const ray_input *ray, ray_detail detail, accuracy_mode mode,
                  double seed_eps, ray_hit *hits, size_t max_hits);
 /* ids (capacity cap) of touched triangles, ascending; returns the count. */

@@ -180,7 +180,10 @@ static void lp_set_ray_column(exact_lp *lp, int col, int sign, vec3 d)
     }
 }
 
-int oracle_ray_tri(vec3 o, vec3 d, double tmin, double tmax, const vec3 tri[3])
+/* The ray-triangle question as a system: columns 0-2 the triangle's weights, column 3 the
+ * s that moves t away from the finite end (t = tmin + s when tmin is finite), column 4 the
+ * slack of a bounded interval or, for a line, the second half of t = s_plus - s_minus. */
+static void ray_lp_build(exact_lp *lp, vec3 o, vec3 d, double tmin, double tmax, const vec3 tri[3])
 {
     assert_finite_point(o);
     assert_finite_point(d);
@@ -197,21 +200,20 @@ int oracle_ray_tri(vec3 o, vec3 d, double tmin, double tmax, const vec3 tri[3])
     const int rows = bounded ? 5 : 4;
     const int cols = 3 + 1 + (bounded || line ? 1 : 0);
 
-    exact_lp lp;
-    lp_init(&lp, rows, cols);
+    lp_init(lp, rows, cols);
     for (int i = 0; i < 3; i++) {
         assert_finite_point(tri[i]);
         for (int axis = 0; axis < 3; axis++)
-            mpq_set_d(lp.coef[axis][i], coord(tri[i], axis));
-        mpq_set_ui(lp.coef[3][i], 1, 1);
+            mpq_set_d(lp->coef[axis][i], coord(tri[i], axis));
+        mpq_set_ui(lp->coef[3][i], 1, 1);
     }
-    mpq_set_ui(lp.rhs[3], 1, 1);
+    mpq_set_ui(lp->rhs[3], 1, 1);
 
     if (line) {
-        lp_set_ray_column(&lp, 3, +1, d);
-        lp_set_ray_column(&lp, 4, -1, d);
+        lp_set_ray_column(lp, 3, +1, d);
+        lp_set_ray_column(lp, 4, -1, d);
     } else {
-        lp_set_ray_column(&lp, 3, lower_finite ? +1 : -1, d);
+        lp_set_ray_column(lp, 3, lower_finite ? +1 : -1, d);
     }
 
     mpq_t q_anchor, q_term;
@@ -221,22 +223,131 @@ int oracle_ray_tri(vec3 o, vec3 d, double tmin, double tmax, const vec3 tri[3])
     for (int axis = 0; axis < 3; axis++) { /* rhs = o + anchor * d */
         mpq_set_d(q_term, coord(d, axis));
         mpq_mul(q_term, q_term, q_anchor);
-        mpq_set_d(lp.rhs[axis], coord(o, axis));
-        mpq_add(lp.rhs[axis], lp.rhs[axis], q_term);
+        mpq_set_d(lp->rhs[axis], coord(o, axis));
+        mpq_add(lp->rhs[axis], lp->rhs[axis], q_term);
     }
     if (bounded) { /* s + slack = tmax - tmin; negative when the interval is empty */
-        mpq_set_ui(lp.coef[4][3], 1, 1);
-        mpq_set_ui(lp.coef[4][4], 1, 1);
+        mpq_set_ui(lp->coef[4][3], 1, 1);
+        mpq_set_ui(lp->coef[4][4], 1, 1);
         mpq_set_d(q_term, tmin);
-        mpq_set_d(lp.rhs[4], tmax);
-        mpq_sub(lp.rhs[4], lp.rhs[4], q_term);
+        mpq_set_d(lp->rhs[4], tmax);
+        mpq_sub(lp->rhs[4], lp->rhs[4], q_term);
     }
     mpq_clear(q_term);
     mpq_clear(q_anchor);
+}
 
+int oracle_ray_tri(vec3 o, vec3 d, double tmin, double tmax, const vec3 tri[3])
+{
+    exact_lp lp;
+    ray_lp_build(&lp, o, d, tmin, tmax, tri);
     int result = lp_has_nonnegative_solution(&lp);
     lp_clear(&lp);
     return result;
+}
+
+/* The smallest x_col over the nonnegative solutions of A x = b: a linear function bounded
+ * below on a polyhedron in x >= 0 takes its minimum at a vertex, and the vertices are the
+ * nonnegative basic solutions, which the same enumeration as above visits. Returns 0 when
+ * there is no solution. */
+static int lp_min_of_column(const exact_lp *lp, int col, mpq_t best)
+{
+    mpq_t w[LP_MAX_ROWS][LP_MAX_ROWS + 1];
+    mpq_t factor, product;
+    for (int r = 0; r < LP_MAX_ROWS; r++)
+        for (int j = 0; j <= LP_MAX_ROWS; j++)
+            mpq_init(w[r][j]);
+    mpq_init(factor);
+    mpq_init(product);
+    int found = 0;
+    const unsigned long subsets = 1ul << lp->cols;
+    for (unsigned long mask = 0; mask < subsets; mask++) {
+        int support[LP_MAX_COLS];
+        int k = 0, at = -1;
+        for (int c = 0; c < lp->cols; c++) {
+            if (mask & (1ul << c)) {
+                if (c == col)
+                    at = k;
+                support[k++] = c;
+            }
+        }
+        if (k > lp->rows || !support_gives_nonnegative_solution(lp, support, k, w, factor, product))
+            continue;
+        /* The solution of support column j is w[j][k]; a column left out is 0. */
+        if (at < 0)
+            mpq_set_ui(product, 0, 1);
+        else
+            mpq_set(product, w[at][k]);
+        if (!found || mpq_cmp(product, best) < 0)
+            mpq_set(best, product);
+        found = 1;
+    }
+    mpq_clear(factor);
+    mpq_clear(product);
+    for (int r = 0; r < LP_MAX_ROWS; r++)
+        for (int j = 0; j <= LP_MAX_ROWS; j++)
+            mpq_clear(w[r][j]);
+    return found;
+}
+
+/* The smallest common t, exactly: tmin + min s. */
+static int first_t(vec3 o, vec3 d, double tmin, double tmax, const vec3 tri[3], mpq_t t)
+{
+    assert(isfinite(tmin));
+    exact_lp lp;
+    ray_lp_build(&lp, o, d, tmin, tmax, tri);
+    int found = lp_min_of_column(&lp, 3, t);
+    lp_clear(&lp);
+    if (found) {
+        mpq_t q_tmin;
+        mpq_init(q_tmin);
+        mpq_set_d(q_tmin, tmin);
+        mpq_add(t, t, q_tmin);
+        mpq_clear(q_tmin);
+    }
+    return found;
+}
+
+int oracle_ray_tri_first_t_compare(vec3 o, vec3 d, double tmin, double tmax, const vec3 tri[3], double t)
+{
+    mpq_t exact, q;
+    mpq_init(exact);
+    mpq_init(q);
+    int result = ORACLE_NO_CONTACT;
+    if (first_t(o, d, tmin, tmax, tri, exact)) {
+        mpq_set_d(q, t);
+        int c = mpq_cmp(exact, q);
+        result = (c > 0) - (c < 0);
+    }
+    mpq_clear(exact);
+    mpq_clear(q);
+    return result;
+}
+
+double oracle_ray_tri_first_t(vec3 o, vec3 d, double tmin, double tmax, const vec3 tri[3])
+{
+    mpq_t exact;
+    mpq_init(exact);
+    double t = NAN;
+    if (first_t(o, d, tmin, tmax, tri, exact))
+        t = mpq_get_d(exact);
+    mpq_clear(exact);
+    return t;
+}
+
+int oracle_ray_tri_first_t_order(vec3 o, vec3 d, double tmin, double tmax, const vec3 a[3], const vec3 b[3])
+{
+    mpq_t ta, tb;
+    mpq_init(ta);
+    mpq_init(tb);
+    int ha = first_t(o, d, tmin, tmax, a, ta), hb = first_t(o, d, tmin, tmax, b, tb);
+    assert(ha && hb && "both triangles must share a point with the ray");
+    (void)ha;
+    (void)hb;
+    int c = mpq_cmp(ta, tb);
+    mpq_clear(ta);
+    mpq_clear(tb);
+    return (c > 0) - (c < 0);
 }
 
 /* t = n.(v0 - o) / n.d with n = (v1 - v0) x (v2 - v0), all in rationals. */

@@ -18,6 +18,16 @@ int oracle_tri_box(const vec3 tri[3], box3 box);
  * boundary contacts count). */
 int oracle_ray_tri(vec3 o, vec3 d, double tmin, double tmax, const vec3 tri[3]);
 
+/* The smallest t of the closed segment's common points with the closed triangle (tmin
+ * finite), exactly: oracle_ray_tri_first_t_compare gives sign(t_exact - t), or
+ * ORACLE_NO_CONTACT when they share no point; oracle_ray_tri_first_t the value rounded
+ * toward zero (mpq_get_d), NaN for no contact; oracle_ray_tri_first_t_order compares two
+ * triangles' values (both must have contact). */
+#define ORACLE_NO_CONTACT 2
+int oracle_ray_tri_first_t_compare(vec3 o, vec3 d, double tmin, double tmax, const vec3 tri[3], double t);
+double oracle_ray_tri_first_t(vec3 o, vec3 d, double tmin, double tmax, const vec3 tri[3]);
+int oracle_ray_tri_first_t_order(vec3 o, vec3 d, double tmin, double tmax, const vec3 a[3], const vec3 b[3]);
+
 /* For a ray meeting the triangle's plane at a single point: compares the exact t at which
  * the ray meets planes of a and b (-1, 0, +1). */
 int oracle_compare_plane_t(vec3 o, vec3 d, const vec3 a[3], const vec3 b[3]);

@@ -277,7 +277,7 @@ int logs_write_hostile(const char *dir)
     /* Random bytes on every request channel, some behind the right fingerprint. */
     static const int kinds[] = {TRIOCT_CHANNEL_RAY, TRIOCT_CHANNEL_TRI, TRIOCT_CHANNEL_MESH,
                                 TRIOCT_CHANNEL_ADMIN, TRIOCT_CHANNEL_LOAD, TRIOCT_CHANNEL_LIST};
-    static const wire_type types[] = {WIRE_RAY_REQUEST, WIRE_TRIANGLE_REQUEST, WIRE_MESH_REQUEST,
+    static const wire_type types[] = {WIRE_RAY_REQUEST_V1, WIRE_TRIANGLE_REQUEST, WIRE_MESH_REQUEST,
                                       WIRE_ADMIN_REQUEST, WIRE_ADMIN_REQUEST, WIRE_ADMIN_REQUEST};
     for (int k = 0; k < 18; k++) {
         int kind = k % 6;

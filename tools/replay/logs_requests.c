@@ -17,11 +17,13 @@ static const char *channel_of(const lr_req *q, int kind)
     return q->channel != NULL ? q->channel : lw_channel(kind, q->world);
 }
 
-static trioct_ray_request_t ray_message(const lr_req *q, int8_t detail, int8_t accuracy, double tmin,
-                                        double tmax, int32_t max_hits, int n, const trioct_vec3_t *origin,
-                                        const trioct_vec3_t *direction)
+/* The old layout (ray_request_v1_t): every log made before contact existed was written in
+ * it, and writing it still keeps those logs byte for byte. */
+static trioct_ray_request_v1_t ray_message_v1(const lr_req *q, int8_t detail, int8_t accuracy, double tmin,
+                                              double tmax, int32_t max_hits, int n, const trioct_vec3_t *origin,
+                                              const trioct_vec3_t *direction)
 {
-    trioct_ray_request_t m;
+    trioct_ray_request_v1_t m;
     memset(&m, 0, sizeof m);
     m.header = header_of(q);
     m.detail = detail;
@@ -38,16 +40,35 @@ static trioct_ray_request_t ray_message(const lr_req *q, int8_t detail, int8_t a
 void lr_rays(logs_writer *w, const lr_req *q, int8_t detail, int8_t accuracy, double tmin, double tmax,
              int32_t max_hits, int n, const trioct_vec3_t *origin, const trioct_vec3_t *direction)
 {
-    trioct_ray_request_t m = ray_message(q, detail, accuracy, tmin, tmax, max_hits, n, origin, direction);
+    trioct_ray_request_v1_t m = ray_message_v1(q, detail, accuracy, tmin, tmax, max_hits, n, origin, direction);
+    lw_ray_v1(w, channel_of(q, TRIOCT_CHANNEL_RAY), &m);
+}
+
+void lr_rays_contact(logs_writer *w, const lr_req *q, int8_t detail, int8_t accuracy, int8_t contact, double tmin,
+                     double tmax, int32_t max_hits, int n, const trioct_vec3_t *origin,
+                     const trioct_vec3_t *direction)
+{
+    trioct_ray_request_t m;
+    memset(&m, 0, sizeof m);
+    m.header = header_of(q);
+    m.detail = detail;
+    m.accuracy = accuracy;
+    m.tmin = tmin;
+    m.tmax = tmax;
+    m.max_hits = max_hits;
+    m.num_rays = n;
+    m.origin = (trioct_vec3_t *)origin;
+    m.direction = (trioct_vec3_t *)direction;
+    m.contact = contact;
     lw_ray(w, channel_of(q, TRIOCT_CHANNEL_RAY), &m);
 }
 
 uint8_t *lr_encode_rays(const lr_req *q, int n, const trioct_vec3_t *origin, const trioct_vec3_t *direction,
                         size_t *size)
 {
-    trioct_ray_request_t m = ray_message(q, TRIOCT_RAY_REQUEST_T_CLOSEST, TRIOCT_RAY_REQUEST_T_ACCURACY_WORLD,
-                                         0, INFINITY, 1, n, origin, direction);
-    return lw_encode_ray(&m, size);
+    trioct_ray_request_v1_t m = ray_message_v1(q, TRIOCT_RAY_REQUEST_T_CLOSEST, TRIOCT_RAY_REQUEST_T_ACCURACY_WORLD,
+                                               0, INFINITY, 1, n, origin, direction);
+    return lw_encode_ray_v1(&m, size);
 }
 
 void lr_triangles(logs_writer *w, const lr_req *q, int8_t detail, int8_t accuracy, int n,

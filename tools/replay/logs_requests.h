@@ -15,8 +15,14 @@ typedef struct lr_req {
     int64_t deadline;    /* 0: none */
 } lr_req;
 
+/* A ray request in ray_request_v1_t, the layout every log before the contact field was
+ * made with (so those logs regenerate byte for byte); lr_rays_contact writes ray_request_t
+ * with its contact. */
 void lr_rays(logs_writer *w, const lr_req *q, int8_t detail, int8_t accuracy, double tmin, double tmax,
              int32_t max_hits, int n, const trioct_vec3_t *origin, const trioct_vec3_t *direction);
+void lr_rays_contact(logs_writer *w, const lr_req *q, int8_t detail, int8_t accuracy, int8_t contact, double tmin,
+                     double tmax, int32_t max_hits, int n, const trioct_vec3_t *origin,
+                     const trioct_vec3_t *direction);
 void lr_triangles(logs_writer *w, const lr_req *q, int8_t detail, int8_t accuracy, int n,
                   const trioct_triangle_t *triangles);
 /* shape: a named shape, or NULL for the n_shape inline triangles. */
@@ -32,7 +38,8 @@ void lr_reload(logs_writer *w);
 /* The mark at which an ordered daemon begins stopping (TRIOCT_STOP_replayd). */
 void lr_stop(logs_writer *w);
 
-/* The ray request as lr_rays would write it, encoded, for hostile variations (caller frees). */
+/* The ray request as lr_rays would write it (ray_request_v1_t), encoded, for hostile
+ * variations (caller frees). */
 uint8_t *lr_encode_rays(const lr_req *q, int n, const trioct_vec3_t *origin, const trioct_vec3_t *direction,
                         size_t *size);
 

@@ -66,6 +66,11 @@ uint8_t *lw_encode_ray(const trioct_ray_request_t *m, size_t *size)
     ENCODE(trioct_ray_request_t, m, size);
 }
 
+uint8_t *lw_encode_ray_v1(const trioct_ray_request_v1_t *m, size_t *size)
+{
+    ENCODE(trioct_ray_request_v1_t, m, size);
+}
+
 static uint8_t *encode_triangle(const trioct_triangle_request_t *m, size_t *size)
 {
     ENCODE(trioct_triangle_request_t, m, size);
@@ -85,6 +90,13 @@ void lw_ray(logs_writer *w, const char *channel, const trioct_ray_request_t *m)
 {
     size_t n;
     uint8_t *b = lw_encode_ray(m, &n);
+    push(w, channel, b, n);
+}
+
+void lw_ray_v1(logs_writer *w, const char *channel, const trioct_ray_request_v1_t *m)
+{
+    size_t n;
+    uint8_t *b = lw_encode_ray_v1(m, &n);
     push(w, channel, b, n);
 }
 

@@ -15,6 +15,7 @@
 #include "trioct_admin_request_t.h"
 #include "trioct_mesh_request_t.h"
 #include "trioct_ray_request_t.h"
+#include "trioct_ray_request_v1_t.h"
 #include "trioct_triangle_request_t.h"
 
 #define LOGS_PREFIX "TRIOCT"
@@ -38,14 +39,16 @@ void lw_init(logs_writer *w);
 /* Bytes as they are, copied. */
 void lw_raw(logs_writer *w, const char *channel, const void *data, size_t size);
 
-/* Encoded requests. */
+/* Encoded requests. lw_ray_v1: the ray request of clients before contact existed. */
 void lw_ray(logs_writer *w, const char *channel, const trioct_ray_request_t *m);
+void lw_ray_v1(logs_writer *w, const char *channel, const trioct_ray_request_v1_t *m);
 void lw_triangle(logs_writer *w, const char *channel, const trioct_triangle_request_t *m);
 void lw_mesh(logs_writer *w, const char *channel, const trioct_mesh_request_t *m);
 void lw_admin(logs_writer *w, const char *channel, const trioct_admin_request_t *m);
 
 /* The encoding of a request, for hostile variations of it (caller frees); NULL on failure. */
 uint8_t *lw_encode_ray(const trioct_ray_request_t *m, size_t *size);
+uint8_t *lw_encode_ray_v1(const trioct_ray_request_v1_t *m, size_t *size);
 
 /* Writes dir/name.lcmlog and empties the writer. 0, or -1 with the reason printed. */
 int lw_save(logs_writer *w, const char *dir, const char *name);

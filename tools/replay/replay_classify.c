@@ -103,6 +103,9 @@ void replay_classify(const replay_proto *p, const replay_event *ev, replay_class
     trioct_channel_kind kind;
     char name[TRIOCT_MAX_NAME_LEN + 1];
     if (trioct_channel_parse(ev->channel, p->prefix, &kind, name) == 0 && request_type_of(kind, &c->type)) {
+        /* A RAY channel carries either ray request type; both are paired and compared. */
+        if (c->type == WIRE_RAY_REQUEST)
+            c->type = wire_ray_request_type(ev->data, ev->size);
         if (wire_check(c->type, ev->data, ev->size, NULL) != 0) {
             c->kind = KIND_MALFORMED;
             return;
