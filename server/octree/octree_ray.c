@@ -22,7 +22,10 @@ typedef struct ray_setup {
     vec3 o, d;
     double inv[3];
     /* Per axis: 0 = ordinary, 1 = direction exactly zero (the ray keeps that coordinate),
-     * 2 = unconstrained (1/d is not a normal double, so the slab is not trusted at all). */
+     * 2 = unconstrained (1/d is not a normal double, so the slab is not trusted at all),
+     * 3 = far: ordinary, but a face of the world minus the origin overflows a double (an
+     * origin near one end of the double range, the world near the other), so the crossings
+     * take far_split_crossing. */
     int kind[3];
     double tmin, tmax;
     int widen; /* exact mode: widen every interval by its rounding error */
@@ -40,8 +43,9 @@ typedef struct ray_setup {
     unsigned char octant[8];
 } ray_setup;
 
-static void setup_ray(ray_setup *r, const ray_input *in, accuracy_mode mode)
+static void setup_ray(ray_setup *r, const ray_input *in, accuracy_mode mode, box3 world)
 {
+    const double world_lo[3] = {world.lo.x, world.lo.y, world.lo.z}, world_hi[3] = {world.hi.x, world.hi.y, world.hi.z};
     r->o = in->origin;
     r->d = in->direction;
     r->tmin = in->tmin;
@@ -59,11 +63,14 @@ static void setup_ray(ray_setup *r, const ray_input *in, accuracy_mode mode)
             r->kind[a] = 2;
             continue;
         }
-        r->kind[a] = 0;
+        /* Every face and split plane c of the tree lies between the world's faces, and a
+         * rounded difference is monotone in c, so no c - o overflows unless these do. */
+        double o = vec3_get(in->origin, a);
+        r->kind[a] = isinf(world_lo[a] - o) || isinf(world_hi[a] - o) ? 3 : 0;
         r->inv[a] = inv;
     }
     for (int a = 0; a < 3; a++)
-        r->near_upper[a] = r->kind[a] == 0 && r->inv[a] < 0.0;
+        r->near_upper[a] = (r->kind[a] == 0 || r->kind[a] == 3) && r->inv[a] < 0.0;
     r->ordinary = r->kind[0] == 0 && r->kind[1] == 0 && r->kind[2] == 0;
     r->slack_rel = r->widen ? 4 * EPS : 0.0;
     r->slack_abs = r->widen ? TINY : 0.0;
@@ -93,12 +100,42 @@ static inline void ordinary_split_crossing(const ray_setup *r, double o, double 
     *near_exit = tc + slack;
 }
 
+/* (c - o) * inv, the crossing parameter of the plane x_a = c, for an axis of kind 0 or 3.
+ * When c - o overflows (kind 3 only: an origin near one end of the double range and a
+ * plane near the other), the parameter may still be finite, even small for a long
+ * direction, and an infinite difference would put the plane beyond every node. Then it is
+ * computed from the halves, (c/2 - o/2) * inv * 2: the halving is exact but for a subnormal
+ * operand, whose error of at most 2^-1075 is nothing beside a difference of about 2^1024,
+ * and the doubling is exact unless it overflows, so the result has the same three
+ * relative roundings as (c - o) * inv and takes the same slack. */
+static inline double plane_crossing(double o, double inv, double c)
+{
+    double diff = c - o;
+    if (isinf(diff))
+        return ((0.5 * c - 0.5 * o) * inv) * 2.0;
+    return diff * inv;
+}
+
+/* ordinary_split_crossing for an axis of kind 3. Such rays are rare, and take the path
+ * that branches on each axis's kind. */
+static void far_split_crossing(const ray_setup *r, double o, double inv, double c, double *far_enter,
+                               double *near_exit)
+{
+    double tc = plane_crossing(o, inv, c);
+    double size = fabs(tc) < DBL_MAX ? fabs(tc) : DBL_MAX;
+    double slack = size * r->slack_rel + r->slack_abs;
+    *far_enter = tc - slack;
+    *near_exit = tc + slack;
+}
+
 /* The crossing along axis a, whatever its kind. */
 static inline void axis_split_crossing(const ray_setup *r, int a, double c, double *far_enter, double *near_exit)
 {
     double o = a == 0 ? r->o.x : a == 1 ? r->o.y : r->o.z;
     if (r->kind[a] == 0) {
         ordinary_split_crossing(r, o, r->inv[a], c, far_enter, near_exit);
+    } else if (r->kind[a] == 3) {
+        far_split_crossing(r, o, r->inv[a], c, far_enter, near_exit);
     } else if (r->kind[a] == 1) {
         /* The ray keeps this coordinate: a half either always holds it or never. Such an
          * axis has near_upper 0, so near is the lower half. */
@@ -120,8 +157,8 @@ static inline void slab(const ray_setup *r, box3 b, double *tnear, double *tfar)
     double o[3] = {r->o.x, r->o.y, r->o.z};
     double tn = -INFINITY, tf = INFINITY;
     for (int a = 0; a < 3; a++) {
-        if (r->kind[a] == 0) {
-            double t0 = (lo[a] - o[a]) * r->inv[a], t1 = (hi[a] - o[a]) * r->inv[a];
+        if (r->kind[a] == 0 || r->kind[a] == 3) {
+            double t0 = plane_crossing(o[a], r->inv[a], lo[a]), t1 = plane_crossing(o[a], r->inv[a], hi[a]);
             if (t0 > t1) {
                 double s = t0;
                 t0 = t1;
@@ -328,7 +365,7 @@ static octree_status check_query(const ray_input *ray, ray_detail detail, accura
 static void walk_begin(ray_walk *w, const octree *tree, const ray_input *ray, ray_detail detail,
                        accuracy_mode mode, ray_output *out)
 {
-    setup_ray(&w->r, ray, mode);
+    setup_ray(&w->r, ray, mode, tree->world);
     w->detail = detail;
     w->mode = mode;
     w->st = OCTREE_OK;
