@@ -43,9 +43,8 @@ typedef struct ray_setup {
     unsigned char octant[8];
 } ray_setup;
 
-static void setup_ray(ray_setup *r, const ray_input *in, accuracy_mode mode, box3 world)
+static void setup_ray(ray_setup *r, const ray_input *in, accuracy_mode mode, const octree *tree)
 {
-    const double world_lo[3] = {world.lo.x, world.lo.y, world.lo.z}, world_hi[3] = {world.hi.x, world.hi.y, world.hi.z};
     r->o = in->origin;
     r->d = in->direction;
     r->tmin = in->tmin;
@@ -64,9 +63,13 @@ static void setup_ray(ray_setup *r, const ray_input *in, accuracy_mode mode, box
             continue;
         }
         /* Every face and split plane c of the tree lies between the world's faces, and a
-         * rounded difference is monotone in c, so no c - o overflows unless these do. */
+         * rounded difference is monotone in c, so no c - o overflows unless one of theirs
+         * does; none can when the world and the origin are within DBL_MAX / 2. */
         double o = vec3_get(in->origin, a);
-        r->kind[a] = isinf(world_lo[a] - o) || isinf(world_hi[a] - o) ? 3 : 0;
+        r->kind[a] = 0;
+        if (!(tree->splits_in_range && fabs(o) <= DBL_MAX / 2) &&
+            (isinf(vec3_get(tree->world.lo, a) - o) || isinf(vec3_get(tree->world.hi, a) - o)))
+            r->kind[a] = 3;
         r->inv[a] = inv;
     }
     for (int a = 0; a < 3; a++)
@@ -158,7 +161,14 @@ static inline void slab(const ray_setup *r, box3 b, double *tnear, double *tfar)
     double tn = -INFINITY, tf = INFINITY;
     for (int a = 0; a < 3; a++) {
         if (r->kind[a] == 0 || r->kind[a] == 3) {
-            double t0 = plane_crossing(o[a], r->inv[a], lo[a]), t1 = plane_crossing(o[a], r->inv[a], hi[a]);
+            double t0, t1;
+            if (r->kind[a] == 0) {
+                t0 = (lo[a] - o[a]) * r->inv[a];
+                t1 = (hi[a] - o[a]) * r->inv[a];
+            } else {
+                t0 = plane_crossing(o[a], r->inv[a], lo[a]);
+                t1 = plane_crossing(o[a], r->inv[a], hi[a]);
+            }
             if (t0 > t1) {
                 double s = t0;
                 t0 = t1;
@@ -365,7 +375,7 @@ static octree_status check_query(const ray_input *ray, ray_detail detail, accura
 static void walk_begin(ray_walk *w, const octree *tree, const ray_input *ray, ray_detail detail,
                        accuracy_mode mode, ray_output *out)
 {
-    setup_ray(&w->r, ray, mode, tree->world);
+    setup_ray(&w->r, ray, mode, tree);
     w->detail = detail;
     w->mode = mode;
     w->st = OCTREE_OK;
