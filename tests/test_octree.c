@@ -1,5 +1,6 @@
 /* Octree tests: the seed's construction, conservative exact membership, and every query
  * answering exactly what brute force over all triangles answers. */
+#include <float.h>
 #include <math.h>
 #include <pthread.h>
 #include <setjmp.h>
@@ -609,6 +610,74 @@ static void test_queries_from_the_far_end_of_the_double_range_equal_brute_force(
     mesh_data_free(&soup);
 }
 
+/* A world as wide as a double allows: its extent 1.6e308 is below DBL_MAX, but the cube's
+ * side, a power of two times d, is not, so the world's upper corner is clamped to DBL_MAX.
+ * Rays from anywhere in the double range, and triangles reaching across it, answer as
+ * brute force does. A mesh whose extent itself overflows is refused by name. */
+static void test_world_spanning_the_double_range(void **state)
+{
+    (void)state;
+    uint64_t seed = base_seed + 14;
+    box3 unit = {{-1, -1, -1}, {1, 1, 1}};
+    mesh_data soup = meshgen_soup(seed, 200, unit, 0.3);
+    mesh_data m = meshgen_transformed(&soup, 0.8e308, (vec3){0, 0, 0});
+    box3 b = mesh_data_bounds(&m);
+    double extent = fmax(b.hi.x - b.lo.x, fmax(b.hi.y - b.lo.y, b.hi.z - b.lo.z));
+    printf("range-wide world: extent %g\n", extent);
+    assert_true(extent > 1.2e308);
+    /* d = 3/64 of the extent: five levels, and a cube of side 1.5 extent, beyond DBL_MAX. */
+    octree *t = build_or_fail(&m, 0.75 * extent / 16, ACCURACY_EXACT);
+    assert_int_equal(t->info.max_level, 5);
+    assert_true(t->world.hi.x == DBL_MAX && t->world.hi.y == DBL_MAX && t->world.hi.z == DBL_MAX);
+    mesh_view v = mesh_data_view(&m);
+    box3 whole = {{-DBL_MAX, -DBL_MAX, -DBL_MAX}, {DBL_MAX, DBL_MAX, DBL_MAX}};
+    rng r = rng_seeded(seed);
+    ray_hit got[64], want[64];
+    int hits = 0;
+    for (int i = 0; i < 300; i++) {
+        vec3 o = rng_point_in_box(&r, (box3){vec3_scale(whole.lo, 0.5), vec3_scale(whole.hi, 0.5)});
+        o = vec3_scale(o, 2.0); /* anywhere in the range; the box's own extent would overflow */
+        vec3 target = triangle_centroid(&m, rng_next(&r) % m.triangle_count);
+        ray_input ray = {o, vec3_sub(vec3_scale(target, 0.5), vec3_scale(o, 0.5)), 0, INFINITY};
+        ray_output out = {.hits = got, .max_hits = 64};
+        assert_int_equal(octree_ray(t, &ray, RAY_ALL, ACCURACY_EXACT, &out, NULL), OCTREE_OK);
+        size_t n = brute_ray(&v, &ray, RAY_ALL, ACCURACY_EXACT, 0, want, 64);
+        if (out.hit_count != n)
+            fail_msg("ray %d: octree %zu hits, brute force %zu", i, out.hit_count, n);
+        for (size_t k = 0; k < n && k < 64; k++)
+            assert_int_equal(got[k].triangle, want[k].triangle);
+        hits += n > 0;
+    }
+    printf("range-wide world: %d of 300 rays hit\n", hits);
+    assert_true(hits > 250);
+    uint32_t ids[256];
+    tri_contact contacts[256];
+    for (int i = 0; i < 60; i++) {
+        vec3 q[3] = {vec3_scale(rng_point_in_box(&r, (box3){vec3_scale(whole.lo, 0.5), vec3_scale(whole.hi, 0.5)}), 2.0),
+                     triangle_centroid(&m, rng_next(&r) % m.triangle_count),
+                     triangle_centroid(&m, rng_next(&r) % m.triangle_count)};
+        size_t n = brute_triangle(&v, q, ACCURACY_EXACT, 0, ids, 256);
+        tri_output out = {.contacts = contacts, .capacity = 256};
+        assert_int_equal(octree_triangle(t, q, TRI_IDS, ACCURACY_EXACT, &out, NULL), OCTREE_OK);
+        assert_int_equal(out.count, n);
+        for (size_t k = 0; k < n; k++)
+            assert_int_equal(contacts[k].triangle, ids[k]);
+    }
+    octree_free(t);
+
+    /* Vertices at both ends of the range: an extent of 2 DBL_MAX has no double. */
+    vec3 wide[3] = {{-DBL_MAX, 0, 0}, {DBL_MAX, 0, 0}, {0, 1, 0}};
+    uint32_t tri[3] = {0, 1, 2};
+    mesh_view too_wide = {wide, 3, tri, 1};
+    octree_def def = octree_default_def();
+    octree_error err;
+    assert_null(octree_build(&too_wide, &def, &err));
+    assert_int_equal(err.status, OCTREE_ERR_INVALID);
+    assert_non_null(strstr(err.message, "extent"));
+    mesh_data_free(&m);
+    mesh_data_free(&soup);
+}
+
 static void test_real_meshes_equal_brute_force(void **state)
 {
     (void)state;
@@ -988,6 +1057,7 @@ int main(void)
         cmocka_unit_test(test_random_scenes_equal_brute_force),
         cmocka_unit_test(test_world_near_double_max_equals_brute_force),
         cmocka_unit_test(test_queries_from_the_far_end_of_the_double_range_equal_brute_force),
+        cmocka_unit_test(test_world_spanning_the_double_range),
         cmocka_unit_test(test_real_meshes_equal_brute_force),
         cmocka_unit_test(test_mesh_query_equals_per_triangle_brute_force),
         cmocka_unit_test(test_rays_cross_closed_meshes_an_even_number_of_times),
