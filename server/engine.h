@@ -92,7 +92,11 @@ typedef struct octree_error {
 } octree_error;
 
 /* Builds an immutable octree over a copy of the mesh. On failure returns NULL and fills
- * err (when not NULL). The result is safe for concurrent queries from many threads. */
+ * err (when not NULL). The result is safe for concurrent queries from many threads.
+ * Vertices may be any finite doubles, up to +-DBL_MAX, as long as the mesh's extent along
+ * each axis is itself a double (at most DBL_MAX: not vertices near both -DBL_MAX and
+ * +DBL_MAX), else OCTREE_ERR_INVALID ("the mesh extent overflows a double"). Queries take
+ * any finite coordinates, however far from the world. */
 octree *octree_build(const mesh_view *mesh, const octree_def *def, octree_error *err);
 void octree_free(octree *tree);
 

@@ -1,5 +1,6 @@
 /* Octree tests: the seed's construction, conservative exact membership, and every query
  * answering exactly what brute force over all triangles answers. */
+#include <float.h>
 #include <math.h>
 #include <pthread.h>
 #include <setjmp.h>
@@ -599,6 +600,197 @@ static void test_world_near_double_max_equals_brute_force(void **state)
     mesh_data_free(&soup);
 }
 
+/* A point near the corner of the double range opposite a world near (+, -, +) 1.5e308. */
+static vec3 random_point_at_far_end(rng *r)
+{
+    return vec3_make(-rng_uniform(r, 1.0, 1.79) * 1e308, rng_uniform(r, 1.0, 1.79) * 1e308,
+                     -rng_uniform(r, 1.0, 1.79) * 1e308);
+}
+
+/* A point near the centroid of world triangle k, well inside it. */
+static vec3 triangle_centroid(const mesh_data *m, size_t k)
+{
+    vec3 c = {0, 0, 0};
+    for (int j = 0; j < 3; j++)
+        c = vec3_add(c, vec3_scale(m->vertices[m->indices[3 * k + (size_t)j]], 1.0 / 3.0));
+    return c;
+}
+
+/* Queries from the far end of the double range into a world near the other end: from there
+ * every difference of a query coordinate and a node's face overflows a double (about 3e308),
+ * though the crossing parameters themselves are finite and ordinary. The walk must still
+ * visit every node the exact ray meets, so the octree answers what brute force answers.
+ * Before the walk computed those crossings without the overflow, every such ray missed the
+ * world. The world's features (1e300) and the queries' coordinates are within the exact
+ * stages' span, so brute force is exact here too. */
+static void test_queries_from_the_far_end_of_the_double_range_equal_brute_force(void **state)
+{
+    (void)state;
+    uint64_t seed = base_seed + 13;
+    box3 unit = {{-1, -1, -1}, {1, 1, 1}};
+    mesh_data soup = meshgen_soup(seed, 300, unit, 0.3);
+    mesh_data m = meshgen_transformed(&soup, 1e300, (vec3){1.5e308, -1.5e308, 1.5e308});
+    octree *t = build_or_fail(&m, 2e300 / 32, ACCURACY_EXACT);
+    mesh_view v = mesh_data_view(&m);
+    box3 b = mesh_data_bounds(&m);
+    rng r = rng_seeded(seed);
+    ray_hit got[64], want[64];
+    int hits = 0;
+    for (int i = 0; i < 400; i++) {
+        vec3 o = random_point_at_far_end(&r), target;
+        if (i % 3 == 0)
+            target = m.vertices[rng_next(&r) % m.vertex_count];
+        else if (i % 3 == 1)
+            target = triangle_centroid(&m, rng_next(&r) % m.triangle_count);
+        else
+            target = rng_point_in_box(&r, b);
+        /* Half of target - o, which would overflow; a ray's direction may have any length.
+         * Scaled down further, t grows from about 2 to about 2^101. */
+        ray_input ray = {o, vec3_scale(vec3_sub(vec3_scale(target, 0.5), vec3_scale(o, 0.5)), ldexp(1.0, -(i % 101))),
+                         0, INFINITY, RAY_CROSSING};
+        if (i % 5 == 0)
+            ray.tmax = ldexp(1.0, i % 101) * rng_uniform(&r, 1.0, 3.0);
+        for (int detail = RAY_ANY; detail <= RAY_ALL; detail++) {
+            ray_output out = {.hits = got, .max_hits = 64};
+            assert_int_equal(octree_ray(t, &ray, (ray_detail)detail, ACCURACY_EXACT, &out, NULL), OCTREE_OK);
+            size_t n = brute_ray(&v, &ray, (ray_detail)detail, ACCURACY_EXACT, 0, want, 64);
+            if (out.hit_count != n)
+                fail_msg("ray %d detail %d from (%a, %a, %a) along (%a, %a, %a): octree %zu hits, brute force %zu",
+                         i, detail, o.x, o.y, o.z, ray.direction.x, ray.direction.y, ray.direction.z,
+                         out.hit_count, n);
+            for (size_t k = 0; detail != RAY_ANY && k < n && k < 64; k++) {
+                assert_int_equal(got[k].triangle, want[k].triangle);
+                assert_true(got[k].t == want[k].t);
+            }
+            hits += detail == RAY_CLOSEST && n > 0;
+        }
+    }
+    printf("far-end rays: %d of 400 hit\n", hits);
+    assert_true(hits > 150);
+
+    /* The batch walks, on rays from scattered far origins (interleaved walks) and from one
+     * far origin (packets), answer as brute force does too. */
+    enum { BATCH = 64 };
+    ray_input rays[BATCH];
+    ray_hit batch_hits[BATCH];
+    ray_output outs[BATCH];
+    octree_status statuses[BATCH];
+    vec3 shared = random_point_at_far_end(&r);
+    for (int pass = 0; pass < 2; pass++) {
+        int batch_hit_count = 0;
+        for (int i = 0; i < BATCH; i++) {
+            vec3 o = pass == 0 ? random_point_at_far_end(&r) : shared;
+            vec3 target = triangle_centroid(&m, rng_next(&r) % m.triangle_count);
+            rays[i] = (ray_input){o, vec3_sub(vec3_scale(target, 0.5), vec3_scale(o, 0.5)), 0, INFINITY, RAY_CROSSING};
+            outs[i] = (ray_output){.hits = &batch_hits[i], .max_hits = 1};
+        }
+        assert_int_equal(octree_ray_batch(t, rays, BATCH, RAY_CLOSEST, ACCURACY_EXACT, outs, statuses, NULL),
+                         OCTREE_OK);
+        for (int i = 0; i < BATCH; i++) {
+            assert_int_equal(statuses[i], OCTREE_OK);
+            size_t n = brute_ray(&v, &rays[i], RAY_CLOSEST, ACCURACY_EXACT, 0, want, 64);
+            assert_int_equal(outs[i].hit_count, n);
+            if (n > 0) {
+                assert_int_equal(batch_hits[i].triangle, want[0].triangle);
+                batch_hit_count++;
+            }
+        }
+        printf("far-end batch %s: %d of %d hit\n", pass == 0 ? "of scattered origins" : "from one origin",
+               batch_hit_count, BATCH);
+        assert_true(batch_hit_count > BATCH * 3 / 4);
+    }
+
+    /* Long triangles reaching from the far end to a world vertex. */
+    uint32_t ids[512];
+    tri_contact contacts[512];
+    int touching = 0;
+    for (int i = 0; i < 100; i++) {
+        vec3 w = m.vertices[rng_next(&r) % m.vertex_count];
+        vec3 q[3] = {random_point_at_far_end(&r), i % 2 ? w : rng_point_in_box(&r, b), rng_point_in_box(&r, b)};
+        size_t n = brute_triangle(&v, q, ACCURACY_EXACT, 0, ids, 512);
+        tri_output out = {.contacts = contacts, .capacity = 512};
+        assert_int_equal(octree_triangle(t, q, TRI_IDS, ACCURACY_EXACT, &out, NULL), OCTREE_OK);
+        if (out.count != n)
+            fail_msg("triangle %d: octree %zu ids, brute force %zu", i, out.count, n);
+        for (size_t k = 0; k < n; k++)
+            assert_int_equal(contacts[k].triangle, ids[k]);
+        touching += n > 0;
+    }
+    printf("far-end triangles: %d of 100 touch\n", touching);
+    assert_true(touching > 50);
+    octree_free(t);
+    mesh_data_free(&m);
+    mesh_data_free(&soup);
+}
+
+/* A world as wide as a double allows: its extent 1.6e308 is below DBL_MAX, but the cube's
+ * side, a power of two times d, is not, so the world's upper corner is clamped to DBL_MAX.
+ * Rays from anywhere in the double range, and triangles reaching across it, answer as
+ * brute force does. A mesh whose extent itself overflows is refused by name. */
+static void test_world_spanning_the_double_range(void **state)
+{
+    (void)state;
+    uint64_t seed = base_seed + 14;
+    box3 unit = {{-1, -1, -1}, {1, 1, 1}};
+    mesh_data soup = meshgen_soup(seed, 200, unit, 0.3);
+    mesh_data m = meshgen_transformed(&soup, 0.8e308, (vec3){0, 0, 0});
+    box3 b = mesh_data_bounds(&m);
+    double extent = fmax(b.hi.x - b.lo.x, fmax(b.hi.y - b.lo.y, b.hi.z - b.lo.z));
+    printf("range-wide world: extent %g\n", extent);
+    assert_true(extent > 1.2e308);
+    /* d = 3/64 of the extent: five levels, and a cube of side 1.5 extent, beyond DBL_MAX. */
+    octree *t = build_or_fail(&m, 0.75 * extent / 16, ACCURACY_EXACT);
+    assert_int_equal(t->info.max_level, 5);
+    assert_true(t->world.hi.x == DBL_MAX && t->world.hi.y == DBL_MAX && t->world.hi.z == DBL_MAX);
+    mesh_view v = mesh_data_view(&m);
+    box3 whole = {{-DBL_MAX, -DBL_MAX, -DBL_MAX}, {DBL_MAX, DBL_MAX, DBL_MAX}};
+    rng r = rng_seeded(seed);
+    ray_hit got[64], want[64];
+    int hits = 0;
+    for (int i = 0; i < 300; i++) {
+        vec3 o = rng_point_in_box(&r, (box3){vec3_scale(whole.lo, 0.5), vec3_scale(whole.hi, 0.5)});
+        o = vec3_scale(o, 2.0); /* anywhere in the range; the box's own extent would overflow */
+        vec3 target = triangle_centroid(&m, rng_next(&r) % m.triangle_count);
+        ray_input ray = {o, vec3_sub(vec3_scale(target, 0.5), vec3_scale(o, 0.5)), 0, INFINITY, RAY_CROSSING};
+        ray_output out = {.hits = got, .max_hits = 64};
+        assert_int_equal(octree_ray(t, &ray, RAY_ALL, ACCURACY_EXACT, &out, NULL), OCTREE_OK);
+        size_t n = brute_ray(&v, &ray, RAY_ALL, ACCURACY_EXACT, 0, want, 64);
+        if (out.hit_count != n)
+            fail_msg("ray %d: octree %zu hits, brute force %zu", i, out.hit_count, n);
+        for (size_t k = 0; k < n && k < 64; k++)
+            assert_int_equal(got[k].triangle, want[k].triangle);
+        hits += n > 0;
+    }
+    printf("range-wide world: %d of 300 rays hit\n", hits);
+    assert_true(hits > 250);
+    uint32_t ids[256];
+    tri_contact contacts[256];
+    for (int i = 0; i < 60; i++) {
+        vec3 q[3] = {vec3_scale(rng_point_in_box(&r, (box3){vec3_scale(whole.lo, 0.5), vec3_scale(whole.hi, 0.5)}), 2.0),
+                     triangle_centroid(&m, rng_next(&r) % m.triangle_count),
+                     triangle_centroid(&m, rng_next(&r) % m.triangle_count)};
+        size_t n = brute_triangle(&v, q, ACCURACY_EXACT, 0, ids, 256);
+        tri_output out = {.contacts = contacts, .capacity = 256};
+        assert_int_equal(octree_triangle(t, q, TRI_IDS, ACCURACY_EXACT, &out, NULL), OCTREE_OK);
+        assert_int_equal(out.count, n);
+        for (size_t k = 0; k < n; k++)
+            assert_int_equal(contacts[k].triangle, ids[k]);
+    }
+    octree_free(t);
+
+    /* Vertices at both ends of the range: an extent of 2 DBL_MAX has no double. */
+    vec3 wide[3] = {{-DBL_MAX, 0, 0}, {DBL_MAX, 0, 0}, {0, 1, 0}};
+    uint32_t tri[3] = {0, 1, 2};
+    mesh_view too_wide = {wide, 3, tri, 1};
+    octree_def def = octree_default_def();
+    octree_error err;
+    assert_null(octree_build(&too_wide, &def, &err));
+    assert_int_equal(err.status, OCTREE_ERR_INVALID);
+    assert_non_null(strstr(err.message, "extent"));
+    mesh_data_free(&m);
+    mesh_data_free(&soup);
+}
+
 static void test_real_meshes_equal_brute_force(void **state)
 {
     (void)state;
@@ -1147,6 +1339,8 @@ int main(void)
         cmocka_unit_test(test_triangles_on_node_faces_are_in_both_neighbours),
         cmocka_unit_test(test_random_scenes_equal_brute_force),
         cmocka_unit_test(test_world_near_double_max_equals_brute_force),
+        cmocka_unit_test(test_queries_from_the_far_end_of_the_double_range_equal_brute_force),
+        cmocka_unit_test(test_world_spanning_the_double_range),
         cmocka_unit_test(test_real_meshes_equal_brute_force),
         cmocka_unit_test(test_mesh_query_equals_per_triangle_brute_force),
         cmocka_unit_test(test_rays_cross_closed_meshes_an_even_number_of_times),

@@ -7,7 +7,9 @@
 #include <stdint.h>
 #include <cmocka.h>
 
+#include <float.h>
 #include <gmp.h>
+#include <limits.h>
 #include <math.h>
 #include <pthread.h>
 #include <stdio.h>
@@ -995,13 +997,15 @@ static void test_predicates_extreme_magnitudes_match_gmp(void **state)
         498,   /* about 1e150: three-factor products overflow */
         997,   /* about 1e300: two-factor products overflow */
         1019,  /* coordinates near 1e307: differences overflow */
+        1020,  /* up to 9 * 2^1020, in the top binade: the range's two ends at once */
     };
+    const size_t scale_count = sizeof scales / sizeof scales[0];
     ref_ctx c;
     ref_init(&c);
     for (int kind = 0; kind < PRED_KIND_COUNT; kind++) {
         tally t = {0};
         pred_case pc;
-        for (size_t s = 0; s < sizeof scales / sizeof scales[0]; s++)
+        for (size_t s = 0; s < scale_count; s++)
             for (int i = 0; i < 2000; i++) {
                 if (i % 2)
                     gen_near_degenerate(&r, (pred_kind)kind, 0.0, 1.0, &pc);
@@ -1012,7 +1016,7 @@ static void test_predicates_extreme_magnitudes_match_gmp(void **state)
                     pc.v[k] = ldexp(pc.v[k], scales[s]);
                 if (kind == PRED_RAY_EDGE) /* the direction at its own, varying scale */
                     for (int k = 9; k < 12; k++)
-                        pc.v[k] = ldexp(pc.v[k], scales[(s + (size_t)i) % 8]);
+                        pc.v[k] = ldexp(pc.v[k], scales[(s + (size_t)i) % scale_count]);
                 for (int k = 0; k < pred_arity[kind]; k++)
                     assert_true(isfinite(pc.v[k]));
                 check_case(&c, &pc, &t, "extreme magnitudes");
@@ -1193,6 +1197,113 @@ static void test_axis_aligned_degeneracies_need_no_fallback(void **state)
     assert_int_equal(predicates_fallback_count(), before);
 }
 
+/* 1 when v scaled by 2^k and back is v again: no bit was lost and nothing overflowed. */
+static int scaling_keeps_every_bit(const double *v, size_t n, int k)
+{
+    for (size_t i = 0; i < n; i++) {
+        double scaled = scalbn(v[i], k);
+        if (!isfinite(scaled) || scalbn(scaled, -k) != v[i])
+            return 0;
+    }
+    return 1;
+}
+
+/* The largest binary exponent of the nonzero finite v[i], and the lowest bit any of them
+ * may have set as the exact stage counts it (ilogb(x) - 52, at least -1074). */
+static void exponent_range(const double *v, size_t n, int *top, int *low)
+{
+    *top = INT_MIN;
+    *low = INT_MAX;
+    for (size_t i = 0; i < n; i++) {
+        if (v[i] == 0.0 || !isfinite(v[i]))
+            continue;
+        int e = ilogb(v[i]), bit = e - 52 < -1074 ? -1074 : e - 52;
+        *top = e > *top ? e : *top;
+        *low = bit < *low ? bit : *low;
+    }
+}
+
+/* The exact stage's scaling at the ends of the double range: near DBL_MAX, among the
+ * subnormals, both at once, and with infinities or NaNs among the values (which a
+ * rounded difference of coordinates near DBL_MAX gives). The shift must be defined for
+ * every input, keep every finite value finite, and lose no bit when the nonzero values'
+ * exponents fit the range; a non-finite value has no bits to keep and is passed over.
+ * ilogb(inf) is INT_MAX and ilogb(NaN) INT_MIN on glibc, so arithmetic on them overflows
+ * an int unless they are kept out. */
+static void test_exact_scale_exponent_is_defined_at_the_ends_of_the_range(void **state)
+{
+    (void)state;
+    const int max2 = PREDICATES_DEGREE2_MAX_EXP, lsb2 = PREDICATES_DEGREE2_MIN_LSB;
+    const int max3 = PREDICATES_DEGREE3_MAX_EXP, lsb3 = PREDICATES_DEGREE3_MIN_LSB;
+    const double top_only[] = {DBL_MAX, -0x1p1023};
+    assert_int_equal(predicates_exact_scale_exponent(top_only, 2, max2, lsb2), max2 - 1023);
+    assert_int_equal(predicates_exact_scale_exponent(top_only, 2, max3, lsb3), max3 - 1023);
+    const double bottom_only[] = {0x1p-1074, -0x1p-1070};
+    assert_int_equal(predicates_exact_scale_exponent(bottom_only, 2, max2, lsb2), lsb2 + 1074);
+    const double zeros[] = {0.0, -0.0};
+    assert_int_equal(predicates_exact_scale_exponent(zeros, 2, max2, lsb2), 0);
+    /* Both ends at once: too wide for both, so the shift that cannot overflow. */
+    const double both[] = {-DBL_MAX, 0x1p-1074};
+    assert_int_equal(predicates_exact_scale_exponent(both, 2, max3, lsb3), max3 - 1023);
+
+    /* Non-finite values are passed over: the shift is the finite values' own. */
+    const double inf_and_one[] = {INFINITY, 1.0}, one[] = {1.0};
+    assert_int_equal(predicates_exact_scale_exponent(inf_and_one, 2, max2, lsb2),
+                     predicates_exact_scale_exponent(one, 1, max2, lsb2));
+    const double nan_and_big[] = {NAN, 0x1p1000, -INFINITY}, big[] = {0x1p1000};
+    assert_int_equal(predicates_exact_scale_exponent(nan_and_big, 3, max3, lsb3),
+                     predicates_exact_scale_exponent(big, 1, max3, lsb3));
+    assert_int_equal(predicates_exact_scale_exponent(big, 1, max3, lsb3), max3 - 1000);
+    const double nothing_finite[] = {INFINITY, -INFINITY, NAN};
+    assert_int_equal(predicates_exact_scale_exponent(nothing_finite, 3, max2, lsb2), 0);
+
+    /* Random groups drawn from the whole range, its ends included. */
+    rng r = rng_for(41);
+    int exact_groups = 0, wide_groups = 0;
+    for (int i = 0; i < 20000; i++) {
+        double v[12];
+        size_t n = (size_t)rng_int(&r, 1, 12);
+        int lo_exp = rng_int(&r, -1074, 1023), hi_exp = rng_int(&r, lo_exp, 1023);
+        for (size_t k = 0; k < n; k++) {
+            switch (rng_int(&r, 0, 9)) {
+            case 0: v[k] = rng_next(&r) & 1 ? DBL_MAX : -DBL_MAX; break;
+            case 1: v[k] = rng_next(&r) & 1 ? 0x1p-1074 : -0x1p-1074; break;
+            case 2: v[k] = 0.0; break;
+            case 3: v[k] = i % 4 == 0 ? (rng_next(&r) & 1 ? INFINITY : NAN) : rng_wide(&r, lo_exp, hi_exp); break;
+            default: v[k] = rng_wide(&r, lo_exp, hi_exp); break;
+            }
+        }
+        int degree3 = i & 1, max_exp = degree3 ? max3 : max2, min_lsb = degree3 ? lsb3 : lsb2;
+        int k = predicates_exact_scale_exponent(v, n, max_exp, min_lsb);
+        double finite[12];
+        size_t m = 0;
+        for (size_t j = 0; j < n; j++)
+            if (isfinite(v[j]))
+                finite[m++] = v[j];
+        int top, low;
+        exponent_range(finite, m, &top, &low);
+        if (top == INT_MIN) {
+            assert_int_equal(k, 0);
+            continue;
+        }
+        /* Never an overflow, and the largest value lands at or below 2^max_exp. */
+        assert_true(top + k <= max_exp);
+        for (size_t j = 0; j < m; j++)
+            assert_true(isfinite(scalbn(finite[j], k)));
+        if (top - low <= max_exp - min_lsb) {
+            /* Fits: every bit is kept, and the lowest lands at or above 2^min_lsb. */
+            assert_true(scaling_keeps_every_bit(finite, m, k));
+            assert_true(low + k >= min_lsb);
+            exact_groups++;
+        } else {
+            assert_int_equal(k, max_exp - top);
+            wide_groups++;
+        }
+    }
+    printf("  scale exponent: %d groups kept exactly, %d too wide\n", exact_groups, wide_groups);
+    assert_true(exact_groups > 2000 && wide_groups > 2000);
+}
+
 static void *count_one_fallback(void *arg)
 {
     uint64_t *seen = arg;
@@ -1304,6 +1415,7 @@ int main(void)
         cmocka_unit_test(test_axis_aligned_degeneracies_need_no_fallback),
         cmocka_unit_test(test_ray_edge_aimed_at_endpoint_is_exact),
         cmocka_unit_test(test_fallback_counter_is_per_thread),
+        cmocka_unit_test(test_exact_scale_exponent_is_defined_at_the_ends_of_the_range),
     };
     return cmocka_run_group_tests_name("predicates", tests, NULL, NULL);
 }

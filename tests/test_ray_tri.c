@@ -10,6 +10,7 @@
 
 #include <float.h>
 #include <gmp.h>
+#include <limits.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -1407,6 +1408,147 @@ static void test_rays_near_the_top_of_the_double_range(void **state)
     assert_int_equal(ray_tri_compare_t(o, d, ahead, ahead), 0);
 }
 
+/* A coordinate at the ends of the double range: anywhere in [-DBL_MAX, DBL_MAX] (nearly
+ * always within a few binades of the top), a top-binade value, DBL_MAX itself, 2^1000 and
+ * up, or zero. Any mix of these spans at most 24 binary exponents, well inside the exact
+ * stages' span, and differences of opposite ends overflow a double. */
+static double range_end_coordinate(rng *r)
+{
+    double sign = rng_u64(r) & 1 ? -1.0 : 1.0;
+    switch (rng_int(r, 0, 5)) {
+    case 0: return DBL_MAX * (2.0 * rng_unit(r) - 1.0);
+    case 1: return sign * DBL_MAX * (0.5 + 0.5 * rng_unit(r));
+    case 2: return sign * DBL_MAX;
+    case 3: return sign * ldexp(1.0 + rng_unit(r), rng_int(r, 1000, 1022));
+    case 4: return 0.0;
+    default: return DBL_MAX * (2.0 * rng_unit(r) - 1.0);
+    }
+}
+
+static vec3 range_end_point(rng *r)
+{
+    return vec3_make(range_end_coordinate(r), range_end_coordinate(r), range_end_coordinate(r));
+}
+
+/* The largest minus the smallest binary exponent of the nonzero components. */
+static int exponent_span(const vec3 *p, int n)
+{
+    int lo = INT_MAX, hi = INT_MIN;
+    for (int i = 0; i < n; i++)
+        for (int k = 0; k < 3; k++) {
+            double x = vec3_get(p[i], k);
+            if (x != 0.0) {
+                lo = ilogb(x) < lo ? ilogb(x) : lo;
+                hi = ilogb(x) > hi ? ilogb(x) : hi;
+            }
+        }
+    return hi - lo;
+}
+
+/* Random rays and triangles at the ends of the double range (triangles spanning
+ * -DBL_MAX..DBL_MAX, rays from one end to the other, shared coordinates and exact zeros
+ * that put rays through edges and vertices), against the rational reference. Every edge
+ * function, num and den overflows in double here, so every answer comes from the exact
+ * stage's scaling. Hits are ordered against a second triangle the same way. */
+static void test_random_rays_at_the_ends_of_the_double_range_match_reference(void **state)
+{
+    (void)state;
+    ref_scratch rs;
+    ref_scratch_init(&rs);
+    rng r = rng_for(50);
+    int hits = 0, misses = 0, boundary = 0, ordered = 0;
+    for (int i = 0; i < 6000; i++) {
+        vec3 tri[3] = {range_end_point(&r), range_end_point(&r), range_end_point(&r)};
+        vec3 o = range_end_point(&r);
+        /* Aim at a point of the triangle's plane (barycentrics in [-0.3, 1.3]) or a vertex,
+         * a quarter of the way, so that nothing overflows. */
+        double b1 = rng_range(&r, -0.3, 1.3), b2 = rng_range(&r, -0.3, 1.3), b0 = 1.0 - b1 - b2;
+        vec3 target = vec3_add(vec3_scale(tri[0], 0.25 * b0),
+                               vec3_add(vec3_scale(tri[1], 0.25 * b1), vec3_scale(tri[2], 0.25 * b2)));
+        if (i % 4 == 0)
+            target = vec3_scale(tri[i % 3], 0.25);
+        vec3 d = vec3_sub(target, vec3_scale(o, 0.25));
+        if (!vec3_is_finite(d) || (d.x == 0.0 && d.y == 0.0 && d.z == 0.0))
+            continue;
+        double tmin = i % 3 == 0 ? -INFINITY : 0.0, tmax = i % 5 == 0 ? rng_range(&r, 1.0, 8.0) : INFINITY;
+        vec3 all[5] = {tri[0], tri[1], tri[2], o, d};
+        assert_true(exponent_span(all, 5) <= 633);
+        ray_tri_hit hit = {NAN, NAN, NAN};
+        int got = ray_tri_exact(o, d, tmin, tmax, tri, &hit);
+        ref_answer ref;
+        ref_ray_tri(&rs, o, d, tmin, tmax, tri, &ref);
+        int want = ref_expect(&ref);
+        if (want >= 0 && got != want)
+            fail_msg("case %d: exact test says %d, reference %d: o (%a %a %a) d (%a %a %a) tri (%a %a %a) "
+                     "(%a %a %a) (%a %a %a) t in [%a, %a]",
+                     i, got, want, o.x, o.y, o.z, d.x, d.y, d.z, tri[0].x, tri[0].y, tri[0].z, tri[1].x,
+                     tri[1].y, tri[1].z, tri[2].x, tri[2].y, tri[2].z, tmin, tmax);
+        boundary += !ref.parallel && ref.strict == 0;
+        if (got) {
+            hits++;
+            assert_true(hit.t >= tmin && hit.t <= tmax);
+            /* t within a few ulps of the exact value, unless that is beyond DBL_MAX. */
+            if (fabs(ref.t) < DBL_MAX)
+                assert_true(ulps_between(hit.t, ref.t) <= T_ULPS_ALLOWED);
+            assert_true(hit.u >= 0 && hit.v >= 0 && hit.u + hit.v <= 1 + 1e-12);
+        } else {
+            misses++;
+        }
+        /* Ordering two planes takes degree-6 products: its span of 283 holds here too. */
+        vec3 other[3] = {range_end_point(&r), range_end_point(&r), range_end_point(&r)};
+        if (!ref.parallel && plane_not_parallel(&rs, d, other)) {
+            assert_int_equal(compare_checked(o, d, tri, other), ref_compare_t(&rs, o, d, tri, other));
+            ordered++;
+        }
+    }
+    ref_scratch_clear(&rs);
+    printf("  ends of the range: %d hits, %d misses, %d on a boundary, %d pairs ordered\n", hits, misses, boundary,
+           ordered);
+    assert_true(hits > 500 && misses > 500 && boundary > 50 && ordered > 3000);
+}
+
+/* Hand-made rays across the whole double range. */
+static void test_rays_across_the_whole_double_range(void **state)
+{
+    (void)state;
+    const double M = DBL_MAX;
+    /* A triangle spanning the range in the plane z = 0, containing the origin. */
+    vec3 span[3] = {{-M, -M, 0}, {M, -M, 0}, {0, M, 0}};
+    ray_tri_hit hit;
+    /* From the top of the range straight down: t = DBL_MAX exactly, closed range. */
+    vec3 top = {0, 0, M}, down = {0, 0, -1};
+    assert_int_equal(ray_tri_exact(top, down, 0, INFINITY, span, &hit), 1);
+    assert_true(hit.t == M);
+    assert_int_equal(ray_tri_exact(top, down, 0, M, span, NULL), 1);
+    assert_int_equal(ray_tri_exact(top, down, 0, nextafter(M, 0), span, NULL), 0);
+    assert_int_equal(ray_tri_exact(top, (vec3){0, 0, 1}, 0, INFINITY, span, NULL), 0);
+    /* From one corner of the range to the other: through (0, 0, 0) at t = 1. */
+    vec3 corner = {-M, -M, -M}, across = {M, M, M};
+    assert_int_equal(ray_tri_exact(corner, across, 0, INFINITY, span, &hit), 1);
+    assert_true(hit.t == 1.0);
+    assert_int_equal(ray_tri_exact(corner, across, nextafter(1.0, 2.0), INFINITY, span, NULL), 0);
+    assert_int_equal(ray_tri_exact(corner, across, 0, nextafter(1.0, 0.0), span, NULL), 0);
+    /* The same ray against the same triangle shifted one unit of 2^971 (an ulp of
+     * DBL_MAX) up or down: the hit moves off t = 1 by exactly that much of the way. */
+    vec3 up[3] = {{-M, -M, 0x1p971}, {M, -M, 0x1p971}, {0, M, 0x1p971}};
+    assert_int_equal(ray_tri_compare_t(corner, across, span, up), -1);
+    assert_int_equal(ray_tri_compare_t(corner, across, up, span), 1);
+    /* Through the middle of the edge from (M, -M) to (0, M), shared with the neighbour on
+     * its other side (wound the same way): exactly one of the two claims the crossing. */
+    vec3 neighbour[3] = {{0, M, 0}, {M, -M, 0}, {M, M, 0}};
+    vec3 above = {0.5 * M, 0, M};
+    int first = ray_tri_exact(above, down, 0, INFINITY, span, NULL);
+    int second = ray_tri_exact(above, down, 0, INFINITY, neighbour, NULL);
+    assert_int_equal(first + second, 1);
+    first = ray_tri_exact(above, (vec3){0, 0, -0x1p400}, 0, INFINITY, span, NULL);
+    second = ray_tri_exact(above, (vec3){0, 0, -0x1p400}, 0, INFINITY, neighbour, NULL);
+    assert_int_equal(first + second, 1);
+    /* A ray in the triangle's plane, from one end of the range to the other, never hits. */
+    assert_int_equal(ray_tri_exact((vec3){-M, 0, 0}, (vec3){M, 0, 0}, -INFINITY, INFINITY, span, NULL), 0);
+    /* Parallel to the plane just above it: no hit either. */
+    assert_int_equal(ray_tri_exact((vec3){-M, 0, 0x1p-1074}, (vec3){1, 0, 0}, -INFINITY, INFINITY, span, NULL), 0);
+}
+
 static void test_seed_and_fast_agree_on_clear_cases(void **state)
 {
     (void)state;
@@ -1542,6 +1684,8 @@ int main(void)
         cmocka_unit_test(test_compare_t_ties_and_near_ties),
         cmocka_unit_test(test_compare_t_orders_a_stack_of_hits),
         cmocka_unit_test(test_rays_near_the_top_of_the_double_range),
+        cmocka_unit_test(test_random_rays_at_the_ends_of_the_double_range_match_reference),
+        cmocka_unit_test(test_rays_across_the_whole_double_range),
         cmocka_unit_test(test_seed_and_fast_agree_on_clear_cases),
         cmocka_unit_test(test_seed_and_fast_reject_parallel_and_degenerate),
         cmocka_unit_test(test_filter_decides_generic_cases),

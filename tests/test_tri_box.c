@@ -16,6 +16,7 @@
 #include "geom/box_geometry.h"
 #include "geom/predicates.h"
 #include "geom/tri_box.h"
+#include "support/oracle.h"
 
 /* The seed's epsilon for the seed mode, and the margin that makes a random case "clearly"
  * overlapping or separate for the modes that are not exact (a thousand epsilons). */
@@ -617,6 +618,50 @@ static void test_exact_huge_offsets(void **state)
     }
 }
 
+/* The unit-box configurations at the ends of the double range: x -> (x - 2) 2^1021 maps
+ * the unit box to [-2^1022, -2^1021] on each axis and the triangles across zero to near
+ * +-2^1023, exactly (the coordinates are small dyadics); the symmetric copies mirror them
+ * onto the other end too. Differences across the range overflow, and one-ulp steps are
+ * steps of 2^969 to 2^971. */
+static double far_end(double x) { return ldexp(x - 2.0, 1021); }
+static vec3 far3(double x, double y, double z) { return v3(far_end(x), far_end(y), far_end(z)); }
+
+static void test_exact_at_the_ends_of_the_double_range(void **state)
+{
+    (void)state;
+    box3 box = {far3(0, 0, 0), far3(1, 1, 1)};
+    expect_exact("far edge on face", far3(-1, 0.5, 1), far3(2, 0.5, 1), far3(0.5, 0.5, 3), box, 1);
+    expect_exact("far edge above face", v3(far_end(-1), far_end(0.5), up(far_end(1))),
+                 v3(far_end(2), far_end(0.5), up(far_end(1))), far3(0.5, 0.5, 3), box, 0);
+    expect_exact("far vertex on face", far3(0.5, 0.5, 1), far3(0, 0, 2), far3(1, 0, 2), box, 1);
+    expect_exact("far plane on box edge", far3(3, -1, -1), far3(3, 2, -1), far3(-1, 0.5, 3), box, 1);
+    expect_exact("far edge across box edge", far3(0.5, 0.25, 1.5), far3(1.5, 0.75, 0.5), far3(2, 2, 2), box, 1);
+    expect_exact("far edge past box edge", v3(up(far_end(0.5)), far_end(0.25), far_end(1.5)),
+                 v3(up(far_end(1.5)), far_end(0.75), far_end(0.5)), far3(2, 2, 2), box, 0);
+    expect_exact("far plane on corner", far3(3, 0, 0), far3(0, 3, 0), far3(0, 0, 3), box, 1);
+    expect_exact("far plane past corner", v3(up(far_end(3)), far_end(0), far_end(0)),
+                 v3(far_end(0), up(far_end(3)), far_end(0)), v3(far_end(0), far_end(0), up(far_end(3))), box, 0);
+    expect_exact("far edge through corner", far3(0, 2, 1), far3(2, 0, 1), far3(2, 2, 1), box, 1);
+    expect_exact("far vertex on corner", far3(1, 1, 1), far3(2, 3, 4), far3(3, 2, 5), box, 1);
+    /* A triangle spanning the range against a small box at its middle (2^400: inside the
+     * exact span with DBL_MAX) and a box of one ulp at its end. */
+    const double M = DBL_MAX;
+    box3 small_box = box_make(0, 0, 0, 0x1p400, 0x1p400, 0x1p400);
+    expect_exact("range-wide triangle through a small box", v3(-M, -M, 0), v3(M, -M, 0), v3(0, M, 0), small_box, 1);
+    box3 lifted = box_make(0, 0, 0x1p400, 0x1p400, 0x1p400, 0x1p401);
+    expect_exact("range-wide triangle below a small box", v3(-M, -M, 0), v3(M, -M, 0), v3(0, M, 0), lifted, 0);
+    /* The plane z = y, from one end of the range to the other, touches that box along its
+     * edge y = z = 2^400; one ulp higher the box is clear of it. */
+    expect_exact("range-wide tilted triangle on a small box's edge", v3(-M, -M, -M), v3(M, -M, -M), v3(0, M, M),
+                 lifted, 1);
+    box3 higher = box_make(0, 0, up(0x1p400), 0x1p400, 0x1p400, 0x1p401);
+    expect_exact("range-wide tilted triangle below a small box", v3(-M, -M, -M), v3(M, -M, -M), v3(0, M, M),
+                 higher, 0);
+    box3 top_ulp = box_make(nextafter(M, 0), nextafter(M, 0), 0, M, M, 0);
+    expect_exact("range-wide triangle beside the top corner", v3(-M, -M, 0), v3(M, -M, 0), v3(0, M, 0), top_ulp, 0);
+    expect_exact("range-wide triangle on the top corner", v3(-M, -M, 0), v3(M, -M, 0), v3(M, M, 0), top_ulp, 1);
+}
+
 static void test_exact_tiny_triangles(void **state)
 {
     (void)state;
@@ -779,6 +824,51 @@ static void test_exact_equals_reference_on_near_degenerate_cases(void **state)
     /* Both answers must be well represented, or the comparison proves little. */
     assert_true(overlaps > cases / 5 && overlaps < cases * 4 / 5);
     assert_true(zero_area > cases / 10);
+}
+
+/* near_degenerate_case moved to the ends of the double range: centred on its box (the
+ * centre is rounded, so a few degeneracies become near ones) and scaled by a power of two
+ * that puts its largest coordinate in the top binade, so the triangle and the box reach
+ * both ends and their differences overflow. */
+static void test_exact_equals_reference_at_the_ends_of_the_double_range(void **state)
+{
+    rng r = test_rng(state, 11);
+    int cases = 8000, overlaps = 0, mismatches = 0;
+    for (int n = 0; n < cases; n++) {
+        vec3 tri[3];
+        box3 box;
+        near_degenerate_case(&r, tri, &box);
+        vec3 centre = n % 2 ? vec3_scale(vec3_add(box.lo, box.hi), 0.5) : v3(0, 0, 0);
+        double top = 0.0;
+        for (int t = 0; t < 3; t++)
+            tri[t] = vec3_sub(tri[t], centre);
+        box.lo = vec3_sub(box.lo, centre);
+        box.hi = vec3_sub(box.hi, centre);
+        for (int k = 0; k < 3; k++) {
+            for (int t = 0; t < 3; t++)
+                top = fmax(top, fabs(coord(tri[t], k)));
+            top = fmax(top, fmax(fabs(coord(box.lo, k)), fabs(coord(box.hi, k))));
+        }
+        if (top == 0.0)
+            continue;
+        int shift = 1023 - ilogb(top);
+        for (int t = 0; t < 3; t++)
+            tri[t] = v3(ldexp(tri[t].x, shift), ldexp(tri[t].y, shift), ldexp(tri[t].z, shift));
+        box.lo = v3(ldexp(box.lo.x, shift), ldexp(box.lo.y, shift), ldexp(box.lo.z, shift));
+        box.hi = v3(ldexp(box.hi.x, shift), ldexp(box.hi.y, shift), ldexp(box.hi.z, shift));
+        int expected = reference_tri_box(tri, box);
+        int got = tri_box_overlap_exact(tri, box);
+        overlaps += expected;
+        if (got != expected && mismatches++ < 5) {
+            printf("exact %d, reference %d: ", got, expected);
+            print_case("mismatch at the ends of the range", tri, box);
+        }
+        if (n % 8 == 0)
+            assert_int_equal(oracle_tri_box(tri, box), expected);
+    }
+    printf("ends of the range: %d cases, %d overlapping, %d mismatches\n", cases, overlaps, mismatches);
+    assert_int_equal(mismatches, 0);
+    assert_true(overlaps > cases / 5 && overlaps < cases * 4 / 5);
 }
 
 static void test_exact_equals_reference_on_uniform_cases(void **state)
@@ -1034,6 +1124,8 @@ int main(void)
         cmocka_unit_test(test_exact_triangle_crossing_only_a_box_edge),
         cmocka_unit_test(test_exact_huge_offsets),
         cmocka_unit_test(test_exact_tiny_triangles),
+        cmocka_unit_test(test_exact_at_the_ends_of_the_double_range),
+        cmocka_unit_test(test_exact_equals_reference_at_the_ends_of_the_double_range),
         cmocka_unit_test(test_exact_equals_reference_on_near_degenerate_cases),
         cmocka_unit_test(test_exact_equals_reference_on_uniform_cases),
         cmocka_unit_test(test_prepared_triangle_against_a_node_and_its_children),

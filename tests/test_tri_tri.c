@@ -16,6 +16,7 @@
 
 #include "geom/predicates.h"
 #include "geom/tri_tri.h"
+#include "support/oracle.h"
 
 /* ------------------------------------------------------------------------------------
  * Reference: closed triangles meet iff convex weights l (of a) and m (of b) exist with
@@ -780,6 +781,46 @@ static void test_degenerate_triangles_match_reference(void **state)
     assert_true(tally.hits > tally.cases / 10 && tally.hits < tally.cases * 9 / 10);
 }
 
+/* Lattice, snapped and ulp-nudged pairs moved to the ends of the double range: scaled by
+ * the power of two that puts their largest coordinate in the top binade (exact: only
+ * exponents change), then nudged there by an ulp of up to 2^971. The lattices are centred
+ * on zero, so the triangles reach from near -DBL_MAX to near DBL_MAX and every difference
+ * across them overflows a double. */
+static void test_pairs_at_the_ends_of_the_double_range_match_reference(void **state)
+{
+    (void)state;
+    rng r = rng_for_test("ends of the double range", 6);
+    agreement tally = {0, 0};
+    for (long n = 0; n < 12000; n++) {
+        vec3 a[3], b[3];
+        if (n % 3 == 0) {
+            for (int i = 0; i < 3; i++) {
+                a[i] = random_grid_point(&r, -2, 2);
+                b[i] = random_grid_point(&r, -2, 2);
+            }
+        } else {
+            random_snapped_pair(&r, a, b);
+        }
+        double top = max_abs_coord(a, b);
+        if (top == 0.0)
+            continue;
+        int shift = 1023 - ilogb(top);
+        for (int i = 0; i < 3; i++) {
+            a[i] = v3(ldexp(a[i].x, shift), ldexp(a[i].y, shift), ldexp(a[i].z, shift));
+            b[i] = v3(ldexp(b[i].x, shift), ldexp(b[i].y, shift), ldexp(b[i].z, shift));
+        }
+        if (n % 3 == 2)
+            nudge_one_coordinate(&r, rng_int(&r, 0, 1) ? a : b);
+        assert_true(vec3_is_finite(a[0]) && vec3_is_finite(a[1]) && vec3_is_finite(a[2]));
+        assert_true(vec3_is_finite(b[0]) && vec3_is_finite(b[1]) && vec3_is_finite(b[2]));
+        expect_exact_equals_reference(a, b, &tally, "pair at the ends of the range", n);
+        if (n % 16 == 0)
+            assert_int_equal(oracle_tri_tri(a, b), reference_tri_tri(a, b));
+    }
+    printf("[ info     ] ends of the double range: %ld cases, %ld touching\n", tally.cases, tally.hits);
+    assert_true(tally.hits > tally.cases / 10 && tally.hits < tally.cases * 9 / 10);
+}
+
 /* ------------------------------------------------------------------------------------
  * Contact segment.
  * ------------------------------------------------------------------------------------ */
@@ -1167,6 +1208,7 @@ int main(void)
         cmocka_unit_test(test_ulp_nudged_pairs_match_reference),
         cmocka_unit_test(test_degenerate_triangles_match_reference),
         cmocka_unit_test(test_lattice_pairs_match_reference),
+        cmocka_unit_test(test_pairs_at_the_ends_of_the_double_range_match_reference),
         cmocka_unit_test(test_contact_segment_hand_cases),
         cmocka_unit_test(test_contact_segment_on_random_crossings),
         cmocka_unit_test(test_contact_segment_finite_on_any_input),

@@ -102,12 +102,15 @@ uint64_t predicates_fallback_count(void) { return fallback_count; }
 
 void predicates_note_fallback(void) { fallback_count++; }
 
-/* Power of two putting v[0..n) into the exact range; 0 when already inside. */
+/* Power of two putting v[0..n) into the exact range; 0 when already inside. Zeros and
+ * non-finite values are passed over: neither has bits to keep, and ilogb gives INT_MAX
+ * for an infinity and FP_ILOGBNAN (INT_MIN on glibc) for a NaN, on which the exponent
+ * arithmetic below would overflow an int. */
 int predicates_exact_scale_exponent(const double *v, size_t n, int max_exp, int min_lsb)
 {
     int top = INT_MIN, lowest_bit = INT_MAX;
     for (size_t i = 0; i < n; i++) {
-        if (v[i] == 0.0)
+        if (v[i] == 0.0 || !isfinite(v[i]))
             continue;
         int exponent = ilogb(v[i]);
         int low = exponent - 52 < -1074 ? -1074 : exponent - 52;
@@ -123,6 +126,16 @@ int predicates_exact_scale_exponent(const double *v, size_t n, int max_exp, int 
     if (k_min > 0)
         return k_min;
     return k_max < 0 ? k_max : 0;
+}
+
+/* The exact stages' inputs are finite doubles: a rounded difference that overflowed must
+ * never stand in for one (the exact stage takes the operands of every difference). */
+static inline int all_finite(const double *v, size_t n)
+{
+    for (size_t i = 0; i < n; i++)
+        if (!isfinite(v[i]))
+            return 0;
+    return 1;
 }
 
 static void scale_into_exact_range(double *v, size_t n, int max_exp, int min_lsb)
@@ -273,6 +286,7 @@ PREDICATES_COLD int sign_diff_products_undecided(double a, double b, double c, d
         }
     }
     double first[4] = {a, b, e, f}, second[4] = {c, d, g, h};
+    assert(all_finite(first, 4) && all_finite(second, 4));
     scale_into_exact_range(first, 4, PREDICATES_DEGREE2_MAX_EXP, PREDICATES_DEGREE2_MIN_LSB);
     scale_into_exact_range(second, 4, PREDICATES_DEGREE2_MAX_EXP, PREDICATES_DEGREE2_MIN_LSB);
     exact_diff ab = exact_difference(first[0], first[1]);
@@ -312,6 +326,7 @@ PREDICATES_COLD int orient3d_undecided(vec3 a, vec3 b, vec3 c, vec3 d)
             return triple_product_sign_exact(cols, cols + 3, cols + 6);
     }
     double v[12] = {a.x, a.y, a.z, b.x, b.y, b.z, c.x, c.y, c.z, d.x, d.y, d.z};
+    assert(all_finite(v, 12));
     scale_into_exact_range(v, 12, PREDICATES_DEGREE3_MAX_EXP, PREDICATES_DEGREE3_MIN_LSB);
     exact_diff ax = exact_difference(v[9], v[0]), ay = exact_difference(v[10], v[1]),
                az = exact_difference(v[11], v[2]);
@@ -362,6 +377,7 @@ PREDICATES_COLD int ray_edge_sign_undecided(vec3 p, vec3 q, vec3 o, vec3 dir)
     }
     double points[9] = {p.x, p.y, p.z, q.x, q.y, q.z, o.x, o.y, o.z};
     double direction[3] = {dir.x, dir.y, dir.z};
+    assert(all_finite(points, 9) && all_finite(direction, 3));
     scale_into_exact_range(points, 9, PREDICATES_DEGREE3_MAX_EXP, PREDICATES_DEGREE3_MIN_LSB);
     scale_into_exact_range(direction, 3, PREDICATES_DEGREE3_MAX_EXP, PREDICATES_DEGREE3_MIN_LSB);
     exact_diff px = exact_difference(points[0], points[6]),

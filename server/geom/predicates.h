@@ -1,6 +1,9 @@
 /* Exact geometric predicates on double inputs: a floating-point filter decides the sign
  * when it can, and exact expansion arithmetic decides when it cannot. Every function
- * returns the sign (-1, 0, +1) of an exact real-number expression of its inputs. */
+ * returns the sign (-1, 0, +1) of an exact real-number expression of its inputs, which
+ * must be finite (the engine refuses NaN and infinities at its boundary; the exact stages
+ * assert it). Differences of inputs may overflow: the filters then leave the sign to the
+ * exact stage, which scales the inputs themselves, never a rounded difference. */
 #ifndef TRIOCT_GEOM_PREDICATES_H
 #define TRIOCT_GEOM_PREDICATES_H
 
@@ -218,7 +221,9 @@ enum {
 /* The power of two that brings every nonzero v[i] below 2^(max_exp + 1) while keeping its
  * lowest set bit at or above 2^min_lsb (0 when they already are), as the exact stage scales
  * a homogeneous group of inputs; when the values span too wide for both, the largest
- * shift that cannot overflow. For exact fallbacks outside predicates.c. */
+ * shift that cannot overflow. Defined for any doubles: infinities and NaNs, which have no
+ * bits to keep, are passed over like zeros (0 when no value is finite and nonzero). For
+ * exact fallbacks outside predicates.c. */
 int predicates_exact_scale_exponent(const double *v, size_t n, int max_exp, int min_lsb);
 
 #endif

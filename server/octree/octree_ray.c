@@ -23,7 +23,10 @@ typedef struct ray_setup {
     vec3 o, d;
     double inv[3];
     /* Per axis: 0 = ordinary, 1 = direction exactly zero (the ray keeps that coordinate),
-     * 2 = unconstrained (1/d is not a normal double, so the slab is not trusted at all). */
+     * 2 = unconstrained (1/d is not a normal double, so the slab is not trusted at all),
+     * 3 = far: ordinary, but a face of the world minus the origin overflows a double (an
+     * origin near one end of the double range, the world near the other), so the crossings
+     * take far_split_crossing. */
     int kind[3];
     double tmin, tmax;
     /* Every interval is widened by its rounding error, 4 eps |t| + TINY, and in fast and
@@ -67,7 +70,14 @@ static void setup_ray(ray_setup *r, const octree *tree, const ray_input *in, acc
             r->kind[a] = 2;
             continue;
         }
+        /* Every face and split plane c of the tree lies between the world's faces, and a
+         * rounded difference is monotone in c, so no c - o overflows unless one of theirs
+         * does; none can when the world and the origin are within DBL_MAX / 2. */
+        double o = vec3_get(in->origin, a);
         r->kind[a] = 0;
+        if (!(tree->splits_in_range && fabs(o) <= DBL_MAX / 2) &&
+            (isinf(vec3_get(tree->world.lo, a) - o) || isinf(vec3_get(tree->world.hi, a) - o)))
+            r->kind[a] = 3;
         r->inv[a] = inv;
     }
     /* An infinite slack (octree_modes.c: inputs outside the range its bound covers) trusts
@@ -89,7 +99,7 @@ static void setup_ray(ray_setup *r, const octree *tree, const ray_input *in, acc
         }
     }
     for (int a = 0; a < 3; a++)
-        r->near_upper[a] = r->kind[a] == 0 && r->inv[a] < 0.0;
+        r->near_upper[a] = (r->kind[a] == 0 || r->kind[a] == 3) && r->inv[a] < 0.0;
     r->ordinary = r->kind[0] == 0 && r->kind[1] == 0 && r->kind[2] == 0;
     for (int j = 0; j < 8; j++) {
         int hx = r->near_upper[0] ^ ((j >> 2) & 1), hy = r->near_upper[1] ^ ((j >> 1) & 1),
@@ -119,12 +129,42 @@ static inline void ordinary_split_crossing(const ray_setup *r, int a, double o, 
     *near_exit = tc + slack;
 }
 
+/* (c - o) * inv, the crossing parameter of the plane x_a = c, for an axis of kind 0 or 3.
+ * When c - o overflows (kind 3 only: an origin near one end of the double range and a
+ * plane near the other), the parameter may still be finite, even small for a long
+ * direction, and an infinite difference would put the plane beyond every node. Then it is
+ * computed from the halves, (c/2 - o/2) * inv * 2: the halving is exact but for a subnormal
+ * operand, whose error of at most 2^-1075 is nothing beside a difference of about 2^1024,
+ * and the doubling is exact unless it overflows, so the result has the same three
+ * relative roundings as (c - o) * inv and takes the same slack. */
+static inline double plane_crossing(double o, double inv, double c)
+{
+    double diff = c - o;
+    if (isinf(diff))
+        return ((0.5 * c - 0.5 * o) * inv) * 2.0;
+    return diff * inv;
+}
+
+/* ordinary_split_crossing for an axis of kind 3. Such rays are rare, and take the path
+ * that branches on each axis's kind. */
+static void far_split_crossing(const ray_setup *r, int a, double o, double inv, double c, double *far_enter,
+                               double *near_exit)
+{
+    double tc = plane_crossing(o, inv, c);
+    double size = fabs(tc) < DBL_MAX ? fabs(tc) : DBL_MAX;
+    double slack = size * r->slack_rel + r->slack_abs[a];
+    *far_enter = tc - slack;
+    *near_exit = tc + slack;
+}
+
 /* The crossing along axis a, whatever its kind. */
 static inline void axis_split_crossing(const ray_setup *r, int a, double c, double *far_enter, double *near_exit)
 {
     double o = a == 0 ? r->o.x : a == 1 ? r->o.y : r->o.z;
     if (r->kind[a] == 0) {
         ordinary_split_crossing(r, a, o, r->inv[a], c, far_enter, near_exit);
+    } else if (r->kind[a] == 3) {
+        far_split_crossing(r, a, o, r->inv[a], c, far_enter, near_exit);
     } else if (r->kind[a] == 1) {
         /* The ray keeps this coordinate: a half either always holds it or never (grown by
          * the mode's slack: [lo, c + grow] and [c - grow, hi]; c -/+ grow rounds, but o is
@@ -148,8 +188,15 @@ static inline void slab(const ray_setup *r, box3 b, double *tnear, double *tfar)
     double o[3] = {r->o.x, r->o.y, r->o.z};
     double tn = -INFINITY, tf = INFINITY;
     for (int a = 0; a < 3; a++) {
-        if (r->kind[a] == 0) {
-            double t0 = (lo[a] - o[a]) * r->inv[a], t1 = (hi[a] - o[a]) * r->inv[a];
+        if (r->kind[a] == 0 || r->kind[a] == 3) {
+            double t0, t1;
+            if (r->kind[a] == 0) {
+                t0 = (lo[a] - o[a]) * r->inv[a];
+                t1 = (hi[a] - o[a]) * r->inv[a];
+            } else {
+                t0 = plane_crossing(o[a], r->inv[a], lo[a]);
+                t1 = plane_crossing(o[a], r->inv[a], hi[a]);
+            }
             if (t0 > t1) {
                 double s = t0;
                 t0 = t1;
