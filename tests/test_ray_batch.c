@@ -221,7 +221,31 @@ static size_t check_set(const octree *t, const oracle_mesh *om, const ray_set *s
     reset(&stream, nm);
     for (size_t i = 0; i < s->count; i++)
         single.st[i] = octree_ray(t, &s->rays[i], detail, mode, &single.out[i], NULL);
-    assert_int_equal(octree_ray_batch(t, s->rays, s->count, detail, mode, packet.out, packet.st, NULL), OCTREE_OK);
+    /* One batch per origin: octree_ray_batch walks packets only when every ray of the
+     * batch shares its origin. */
+    static ray_input group[1024];
+    static ray_output group_out[1024];
+    static octree_status group_st[1024];
+    static size_t group_of[1024];
+    static unsigned char batched[1024];
+    memset(batched, 0, s->count);
+    for (size_t first = 0; first < s->count; first++) {
+        if (batched[first])
+            continue;
+        size_t n = 0;
+        for (size_t i = first; i < s->count; i++)
+            if (!batched[i] && vec3_equal(s->rays[i].origin, s->rays[first].origin)) {
+                group[n] = s->rays[i];
+                group_out[n] = packet.out[i];
+                group_of[n++] = i;
+                batched[i] = 1;
+            }
+        assert_int_equal(octree_ray_batch(t, group, n, detail, mode, group_out, group_st, NULL), OCTREE_OK);
+        for (size_t k = 0; k < n; k++) {
+            packet.out[group_of[k]] = group_out[k];
+            packet.st[group_of[k]] = group_st[k];
+        }
+    }
     assert_int_equal(octree_ray_batch(t, mixed, nm, detail, mode, stream.out, stream.st, NULL), OCTREE_OK);
     size_t wrong = 0;
     for (size_t i = 0; i < s->count; i++) {
