@@ -322,10 +322,13 @@ static void run_all(double resolution, const char *label)
                "%zu, on zero-length intervals %zu, duplicate ties %zu\n",
                label, accuracy_mode_name(modes[m]), ty.rays, ty.clean, ty.boundary, ty.hits_at_tmax, ty.hits_at_tmin,
                ty.zero_length_hits, ty.duplicate_ties);
-        if (modes[m] != ACCURACY_SEED) {
-            /* Exact and fast alike find the hits the cases aim at. */
-            assert_true(ty.hits_at_tmax > 0 && ty.hits_at_tmin > 0 && ty.zero_length_hits > 0 && ty.duplicate_ties > 0);
-            assert_true(ty.clean > 0 && (modes[m] != ACCURACY_EXACT || ty.boundary > 0));
+        /* Exact and fast alike find the hits the cases aim at (counted where all three ways
+         * agreed); every mode runs before the test fails, so each one's failures show. */
+        if (modes[m] != ACCURACY_SEED && !(ty.hits_at_tmax > 0 && ty.hits_at_tmin > 0 && ty.zero_length_hits > 0 &&
+                                          ty.duplicate_ties > 0 && ty.clean > 0 && ty.boundary > 0)) {
+            printf("    WRONG %s: a case that should hit found nothing where all three ways agreed\n",
+                   accuracy_mode_name(modes[m]));
+            wrong++;
         }
         octree_free(t);
     }
