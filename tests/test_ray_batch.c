@@ -20,6 +20,7 @@
 #include <cmocka.h>
 
 #include "engine.h"
+#include "support/brute_force.h"
 #include "support/meshgen.h"
 #include "support/oracle.h"
 #include "support/oracle_mesh.h"
@@ -103,13 +104,16 @@ enum ray_case {
     WALL_AT_TMAX,      /* along -x onto the wall x = 4 with tmax = t */
     WALL_AT_TMIN,      /* along -x leaving through the wall x = 0 with tmin = t */
     ONTO_DUPLICATES,   /* through a duplicated triangle: a tie at equal t */
+    IN_WORLD_FACE,     /* lying in the world's bottom face (z = 0, no z motion) */
+    GRAZING_WORLD,     /* touching the world's box only along its top edge y = 4 */
     CASE_COUNT
 };
 static const char *const CASE_NAMES[CASE_COUNT] = {
     "hit at tmax where the ray enters the world", "hit at tmin where the ray leaves the world",
     "zero-length interval on a node face",        "ending on a node face",
     "starting on a node face",                    "onto a wall with tmax at the hit",
-    "leaving through a wall with tmin at the hit", "through coincident duplicates"};
+    "leaving through a wall with tmin at the hit", "through coincident duplicates",
+    "lying in the world's bottom face",           "touching the world's box only at its edge"};
 
 typedef struct ray_set {
     ray_input rays[1024];
@@ -152,6 +156,13 @@ static void add_cases(ray_set *s, rng *r, vec3 above, vec3 beside, int per_case)
         double du = 0.125 + 0.25 * (double)(rng_next(r) % 2), dw = 0.125 + 0.25 * (double)(rng_next(r) % 2);
         vec3 dup = (k & 1) ? vec3_make(1 + du, 2 + dw, 3) : vec3_make(3 - du, 1 + dw, 3);
         push(s, ONTO_DUPLICATES, above, vec3_sub(dup, above), 0.0, (k & 2) ? 1.0 : INFINITY);
+        /* Boundary contacts on the world's own faces, which only the engine's crossing rule
+         * decides: compared with brute force over the same predicates (the walk must not
+         * lose them) rather than with the oracle. */
+        vec3 floor_o = {beside.x, u, 0.0};
+        push(s, IN_WORLD_FACE, floor_o, vec3_make(-1.0, 0.25 * (double)(k % 3), 0.0), 0.0, INFINITY);
+        vec3 edge_o = {u, 3.0, 5.0};
+        push(s, GRAZING_WORLD, edge_o, vec3_make(0.0, 1.0, -1.0), 0.0, INFINITY);
     }
 }
 
@@ -279,6 +290,20 @@ static size_t check_set(const octree *t, const oracle_mesh *om, const ray_set *s
                     printf("    WRONG mode %d detail %d: ray %zu against the oracle: %s\n", mode, detail, i, why);
                     describe(ray, kind);
                 }
+            }
+        }
+        /* The walk loses nothing the same predicate finds over every triangle. */
+        if (mode != ACCURACY_SEED) {
+            ray_hit want[HIT_CAP];
+            size_t nw = brute_ray(&om->mesh, ray, detail, mode, 0.0, want, HIT_CAP);
+            int same = detail == RAY_ANY ? (nw > 0) == (o->hit_count > 0) : nw == o->hit_count;
+            for (size_t k = 0; same && detail != RAY_ANY && k < nw && k < HIT_CAP; k++)
+                same = want[k].triangle == o->hits[k].triangle && bits_of(want[k].t) == bits_of(o->hits[k].t);
+            if (!same && wrong++ < 8) {
+                printf("    WRONG mode %d detail %d: ray %zu: %zu hits (first on %d), brute force %zu (first on %d)\n",
+                       mode, detail, i, o->hit_count, o->hit_count ? (int)o->hits[0].triangle : -1, nw,
+                       nw ? (int)want[0].triangle : -1);
+                describe(ray, kind);
             }
         }
         /* What each case is for happened: the hit at exactly the interval's end. */
