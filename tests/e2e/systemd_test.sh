@@ -135,6 +135,9 @@ if [ "$codes" -eq 6 ]; then ok "trioct.1 documents exit codes 0-5"; else not_ok 
 # Runs the built daemon on a scene over memq:// until it logs "ready:", then stops it;
 # prints its exit code. The scene's own udpm URL is overridden: nothing goes on a network.
 run_scene() {
+    # Emptied first: the daemon's own redirection happens after the fork, and a wait that
+    # read the previous run's "ready:" meanwhile would stop this one before it started.
+    : >"$2"
     "$daemon_abs" --scene "$1" --url memq:// >"$2" 2>&1 &
     pid=$!
     i=0
