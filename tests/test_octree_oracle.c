@@ -589,9 +589,10 @@ static void append_label(char *list, size_t cap, const char *label)
     list[used] = '\0';
 }
 
-/* Every configuration of one scene; fails naming the configurations that gave wrong
- * answers. The scene must hold what it is for: touching queries and rays of both kinds. */
-static void check_scene(scene *s)
+/* Every configuration of one scene; fills `failed` with the configurations that gave
+ * wrong answers (empty when none did), for the caller to fail with once the scene is
+ * freed. The scene must hold what it is for: touching queries and rays of both kinds. */
+static void check_scene(scene *s, char *failed, size_t failed_len)
 {
     truth tr;
     truth_compute(&tr, s);
@@ -603,13 +604,25 @@ static void check_scene(scene *s)
     assert_true(tr.clean_hits > 0 && tr.boundary_rays > 0);
     config configs[16];
     size_t nc = make_configs(s, configs);
-    char failed[1024] = "";
+    failed[0] = '\0';
     for (size_t k = 0; k < nc; k++)
         if (check_config(s, &tr, &configs[k]) > 0)
-            append_label(failed, sizeof failed, configs[k].label);
+            append_label(failed, failed_len, configs[k].label);
     truth_free(&tr, s);
+}
+
+/* One scene's test: built by make, checked at every configuration, freed, then failed
+ * naming the configurations with wrong answers. */
+static void run_scene_test(void (*make)(scene *, uint64_t), uint64_t seed)
+{
+    scene s = {0};
+    make(&s, seed);
+    char failed[1024], name[64];
+    check_scene(&s, failed, sizeof failed);
+    snprintf(name, sizeof name, "%s", s.name);
+    scene_free(&s);
     if (failed[0])
-        fail_msg("%s: wrong answers at %s", s->name, failed);
+        fail_msg("%s: wrong answers at %s", name, failed);
 }
 
 /* ---------- tests ---------- */
@@ -617,28 +630,19 @@ static void check_scene(scene *s)
 static void test_random_soup_equals_oracle(void **state)
 {
     (void)state;
-    scene s = {0};
-    make_soup(&s, base_seed);
-    check_scene(&s);
-    scene_free(&s);
+    run_scene_test(make_soup, base_seed);
 }
 
 static void test_touching_contacts_equal_oracle(void **state)
 {
     (void)state;
-    scene s = {0};
-    make_touching(&s, base_seed + 10);
-    check_scene(&s);
-    scene_free(&s);
+    run_scene_test(make_touching, base_seed + 10);
 }
 
 static void test_contacts_on_the_mesh_upper_bounds_equal_oracle(void **state)
 {
     (void)state;
-    scene s = {0};
-    make_upper_bounds(&s, base_seed + 20);
-    check_scene(&s);
-    scene_free(&s);
+    run_scene_test(make_upper_bounds, base_seed + 20);
 }
 
 /* The node faces depend on the world, so each resolution gets its own scene: the frame
