@@ -972,8 +972,9 @@ static void write_markdown(const char *path, const sweep *s, const char *date, i
             point_row(f, s, lead, &s->res[i][m][RES_DEFAULT_INDEX], 1);
         }
 
-    fprintf(f, "\n## Wrong answers by query category (heuristic resolution, scenes pooled)\n\n");
-    fprintf(f, "Wrong queries; in brackets, ray ties (same point, other triangle). Seed at epsilons other than "
+    fprintf(f, "\n## Disagreements with exact mode by query category (heuristic resolution, scenes pooled)\n\n");
+    fprintf(f, "Queries answered otherwise than exact mode at the heuristic resolution; in brackets, ray ties "
+               "(same point, other triangle). Seed at epsilons other than "
                "1e-9 covers only the fully swept scenes, so its column totals are not comparable with the "
                "others.\n\n");
     settings_table_header(f, "queries");
@@ -1014,7 +1015,8 @@ static void write_markdown(const char *path, const sweep *s, const char *date, i
             first = 0;
         }
     fprintf(f, "): time per query is the geometric mean of the scenes' times (so the slow CAD scene does not "
-               "set the curve alone), the error rate their wrong answers over their queries. Exact and fast are traced over the resolution factors f, seed over its epsilon "
+               "set the curve alone), the error rate their disagreements with exact mode at f = 1 over their "
+               "queries (so exact mode's own curve measures agreement across resolutions). Exact and fast are traced over the resolution factors f, seed over its epsilon "
                "at f = 1. An error rate of zero is drawn at the bottom of the axis (1e-6).\n\n");
 
     fprintf(f, "## Resolution\n\n");
