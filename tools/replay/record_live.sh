@@ -31,13 +31,14 @@ until "$build/trioct" --url "$url" --timeout 500 status 2>/dev/null | grep -q ':
     [ $tries -lt 40 ] || { echo "record_live: the daemon never answered" >&2; kill $daemon $logger; exit 1; }
     sleep 0.25
 done
+# Rays cross face interiors, off every edge: their answers do not hang on a crossing rule.
 cli worlds
 cli info yard
-cli ray yard -5 -5 10 0 0 -1
-cli ray yard 0 0 10 0 0 -1 --all
-cli ray yard -10 0 2 1 0 0 --any
-cli ray yard 0 0 10 0 0 -1 --tmax 6
-cli ray yard_fast -5 -5 10 0 0 -1
+cli ray yard -5.5 -5.25 10 0 0 -1
+cli ray yard 0.3 0.2 10 0 0 -1 --all
+cli ray yard -10 0.1 2.1 1 0 0 --any
+cli ray yard 0.3 0.2 10 0 0 -1 --tmax 6
+cli ray yard_fast -5.5 -5.25 10 0 0 -1
 cli tri yard -6 -6 1.5  -4 -6 1.5  -6 -4 1.5 --ids
 cli tri yard -0.5 -0.5 4  0.5 -0.5 4  0 0.5 5 --segments
 cli tri yard 20 20 20  21 20 20  20 21 20
