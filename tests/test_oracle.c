@@ -314,6 +314,32 @@ static void test_ray_through_triangle_edge_hits_and_one_ulp_outside_misses(void 
     assert_int_equal(oracle_ray_tri(pt(0.25, 0.5, 1), down_z, 0, INFINITY, floor_tri), 1);
 }
 
+/* The contact kind: the interior one ulp in from a vertex or an edge, the boundary on them,
+ * a ray in the plane, a zero-area triangle, and a miss one ulp outside. */
+static void test_ray_contact_kind_tells_interior_from_boundary(void **state)
+{
+    (void)state;
+    const vec3 down_z = pt(0, 0, -1);
+    const vec3 sliver[3] = {{0, 0, 0}, {1, 0, 0}, {2, 0, 0}};
+    assert_int_equal(oracle_ray_tri_contact(pt(0.25, 0.25, 1), down_z, 0, INFINITY, floor_tri), ORACLE_RAY_INTERIOR);
+    assert_int_equal(oracle_ray_tri_contact(pt(tiny(), tiny(), 1), down_z, 0, INFINITY, floor_tri), ORACLE_RAY_INTERIOR);
+    assert_int_equal(oracle_ray_tri_contact(pt(0, 0, 1), down_z, 0, INFINITY, floor_tri), ORACLE_RAY_BOUNDARY);
+    assert_int_equal(oracle_ray_tri_contact(pt(1, 0, 1), down_z, 0, INFINITY, floor_tri), ORACLE_RAY_BOUNDARY);
+    assert_int_equal(oracle_ray_tri_contact(pt(0.5, 0.5, 1), down_z, 0, INFINITY, floor_tri), ORACLE_RAY_BOUNDARY);
+    assert_int_equal(oracle_ray_tri_contact(pt(0.5, down(0.5), 1), down_z, 0, INFINITY, floor_tri),
+                     ORACLE_RAY_INTERIOR);
+    assert_int_equal(oracle_ray_tri_contact(pt(0.25, 0, 1), down_z, 0, INFINITY, floor_tri), ORACLE_RAY_BOUNDARY);
+    assert_int_equal(oracle_ray_tri_contact(pt(0.5, up(0.5), 1), down_z, 0, INFINITY, floor_tri), ORACLE_RAY_MISS);
+    /* In the plane, through the interior: not an interior crossing, whatever a rule says. */
+    assert_int_equal(oracle_ray_tri_contact(pt(-1, 0.25, 0), pt(1, 0, 0), 0, INFINITY, floor_tri), ORACLE_RAY_IN_PLANE);
+    assert_int_equal(oracle_ray_tri_contact(pt(-1, 0.25, tiny()), pt(1, 0, 0), 0, INFINITY, floor_tri), ORACLE_RAY_MISS);
+    assert_int_equal(oracle_ray_tri_contact(pt(0.5, 1, 1), pt(0, 0, -1), 0, INFINITY, sliver), ORACLE_RAY_MISS);
+    assert_int_equal(oracle_ray_tri_contact(pt(0.5, 0, 1), pt(0, 0, -1), 0, INFINITY, sliver), ORACLE_RAY_ZERO_AREA);
+    /* An interior crossing at exactly t = tmax, and the interval one ulp short of it. */
+    assert_int_equal(oracle_ray_tri_contact(pt(0.25, 0.25, 1), down_z, 0, 1, floor_tri), ORACLE_RAY_INTERIOR);
+    assert_int_equal(oracle_ray_tri_contact(pt(0.25, 0.25, 1), down_z, 0, down(1), floor_tri), ORACLE_RAY_MISS);
+}
+
 static void test_ray_interval_excluding_exact_t_by_one_ulp_misses(void **state)
 {
     (void)state;
@@ -569,6 +595,7 @@ int main(void)
         cmocka_unit_test(test_triangle_against_flat_box),
         cmocka_unit_test(test_ray_through_triangle_vertex_hits_and_one_ulp_beside_misses),
         cmocka_unit_test(test_ray_through_triangle_edge_hits_and_one_ulp_outside_misses),
+        cmocka_unit_test(test_ray_contact_kind_tells_interior_from_boundary),
         cmocka_unit_test(test_ray_interval_excluding_exact_t_by_one_ulp_misses),
         cmocka_unit_test(test_ray_interval_bounds_against_unrepresentable_t),
         cmocka_unit_test(test_ray_with_infinite_lower_bound),

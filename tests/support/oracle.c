@@ -402,3 +402,63 @@ int oracle_compare_plane_t(vec3 o, vec3 d, const vec3 a[3], const vec3 b[3])
     mpq_clear(tb);
     return (cmp > 0) - (cmp < 0);
 }
+
+/* The sign of n.d, n = (v1 - v0) x (v2 - v0), and whether n is zero, in rationals. */
+static void exact_normal_and_dot(vec3 d, const vec3 tri[3], int *normal_zero, int *dot_sign)
+{
+    mpq_t e1[3], e2[3], n[3], tmp, dot;
+    for (int i = 0; i < 3; i++)
+        mpq_inits(e1[i], e2[i], n[i], (mpq_ptr)0);
+    mpq_inits(tmp, dot, (mpq_ptr)0);
+    for (int axis = 0; axis < 3; axis++) {
+        mpq_set_d(e1[axis], coord(tri[1], axis));
+        mpq_set_d(tmp, coord(tri[0], axis));
+        mpq_sub(e1[axis], e1[axis], tmp);
+        mpq_set_d(e2[axis], coord(tri[2], axis));
+        mpq_sub(e2[axis], e2[axis], tmp);
+    }
+    *normal_zero = 1;
+    for (int axis = 0; axis < 3; axis++) {
+        const int p = (axis + 1) % 3, q = (axis + 2) % 3;
+        mpq_mul(n[axis], e1[p], e2[q]);
+        mpq_mul(tmp, e1[q], e2[p]);
+        mpq_sub(n[axis], n[axis], tmp);
+        *normal_zero &= mpq_sgn(n[axis]) == 0;
+        mpq_set_d(tmp, coord(d, axis));
+        mpq_mul(tmp, n[axis], tmp);
+        mpq_add(dot, dot, tmp);
+    }
+    *dot_sign = mpq_sgn(dot);
+    mpq_clears(tmp, dot, (mpq_ptr)0);
+    for (int i = 0; i < 3; i++)
+        mpq_clears(e1[i], e2[i], n[i], (mpq_ptr)0);
+}
+
+int oracle_ray_tri_contact(vec3 o, vec3 d, double tmin, double tmax, const vec3 tri[3])
+{
+    if (!oracle_ray_tri(o, d, tmin, tmax, tri))
+        return ORACLE_RAY_MISS;
+    int normal_zero, dot_sign;
+    exact_normal_and_dot(d, tri, &normal_zero, &dot_sign);
+    if (normal_zero)
+        return ORACLE_RAY_ZERO_AREA;
+    if (dot_sign == 0)
+        return ORACLE_RAY_IN_PLANE;
+    /* A triangle with a repeated corner is its edge: the same question for a segment. */
+    for (int k = 0; k < 3; k++) {
+        const vec3 edge[3] = {tri[k], tri[(k + 1) % 3], tri[(k + 1) % 3]};
+        if (oracle_ray_tri(o, d, tmin, tmax, edge))
+            return ORACLE_RAY_BOUNDARY;
+    }
+    return ORACLE_RAY_INTERIOR;
+}
+
+double oracle_plane_t(vec3 o, vec3 d, const vec3 tri[3])
+{
+    mpq_t t;
+    mpq_init(t);
+    exact_plane_t(t, o, d, tri);
+    const double r = mpq_get_d(t);
+    mpq_clear(t);
+    return r;
+}

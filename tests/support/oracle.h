@@ -28,8 +28,26 @@ int oracle_ray_tri_first_t_compare(vec3 o, vec3 d, double tmin, double tmax, con
 double oracle_ray_tri_first_t(vec3 o, vec3 d, double tmin, double tmax, const vec3 tri[3]);
 int oracle_ray_tri_first_t_order(vec3 o, vec3 d, double tmin, double tmax, const vec3 a[3], const vec3 b[3]);
 
+/* How the ray o + t d, t in [tmin, tmax], meets the closed triangle, in the same exact
+ * arithmetic: no contact; one point strictly inside a triangle of nonzero area, the ray
+ * crossing its plane; or a contact where crossing rules may differ: the ray meets an edge
+ * or a vertex (BOUNDARY), is parallel to the triangle's plane, so lies in it (IN_PLANE),
+ * or meets a triangle of no area (ZERO_AREA). */
+enum {
+    ORACLE_RAY_MISS = 0,
+    ORACLE_RAY_INTERIOR = 1,
+    ORACLE_RAY_BOUNDARY = 2,
+    ORACLE_RAY_IN_PLANE = 3,
+    ORACLE_RAY_ZERO_AREA = 4
+};
+int oracle_ray_tri_contact(vec3 o, vec3 d, double tmin, double tmax, const vec3 tri[3]);
+
 /* For a ray meeting the triangle's plane at a single point: compares the exact t at which
  * the ray meets planes of a and b (-1, 0, +1). */
 int oracle_compare_plane_t(vec3 o, vec3 d, const vec3 a[3], const vec3 b[3]);
+
+/* The exact t at which the ray meets the triangle's plane (not parallel to it), rounded
+ * toward zero to a double. */
+double oracle_plane_t(vec3 o, vec3 d, const vec3 tri[3]);
 
 #endif

@@ -14,8 +14,10 @@
 static const char readme[] =
     "# Replay logs\n"
     "\n"
-    "Generated: `make logs` rewrites every file here (tools/replay/make_logs.sh), and\n"
-    "tests/test_replay.c checks that doing so gives these very bytes. Do not edit them.\n"
+    "Generated: `make logs` rewrites every file here but `recorded/`\n"
+    "(tools/replay/make_logs.sh), and tests/test_replay.c checks that doing so gives these\n"
+    "very bytes. Do not edit them. `recorded/` holds a real recording of a live daemon\n"
+    "instead; its README says how it was made.\n"
     "\n"
     "- `NAME.lcmlog`: a request log, written by trioct-make-logs (tools/replay/logs_*.c).\n"
     "- `NAME.golden.lcmlog`: the same requests, each followed by the reply trioctd gave,\n"
