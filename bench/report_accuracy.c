@@ -622,26 +622,29 @@ static double us_per_tri(const point_result *p, const sweep *s)
 static const char *CONTRACTS =
     "## The three modes: what each promises\n"
     "\n"
-    "The mode is chosen per tree (`octree_def.mode`, used to build it) and per query (the `mode` argument). "
-    "Every figure here builds and queries in the same mode.\n\n"
+    "The mode is chosen per tree (`octree_def.mode`, the default for its queries) and per query (the `mode` "
+    "argument). Every mode builds the same tree, with exact closed-set membership; fast and seed queries widen "
+    "their walk by what their own final test can accept, so through the octree they answer what that test "
+    "answers over every triangle. Every figure here builds and queries in the same mode.\n\n"
     "| mode | promises | can get wrong |\n"
     "| --- | --- | --- |\n"
     "| `ACCURACY_EXACT` (default) | Every decision equals exact real arithmetic on the double inputs: "
     "closed-set node membership, closed triangle-triangle and triangle-box tests (touching at one point "
     "counts), watertight rays (a ray through an edge or vertex shared by triangles of a closed mesh crosses "
-    "exactly one of them), exact `t` ordering with ties to the smaller triangle id. The answers do not depend "
+    "exactly one of them) or, with the `touch` contact rule, every ray that shares a point with a closed "
+    "triangle, exact `t` ordering with ties to the smaller triangle id. The answers do not depend "
     "on the resolution. Details and the exponent ranges: [engine.md](engine.md). | "
     "Nothing inside the documented ranges. Reported numbers (`t`, `u`, `v`, normals, contact segments) are "
     "rounded results of exact decisions. |\n"
     "| `ACCURACY_SEED` | The seed document's epsilon tests as written, with the absolute epsilon "
-    "`octree_def.seed_epsilon` (default 1e-9), used both to build the tree and to query it. | Anything "
+    "`octree_def.seed_epsilon` (default 1e-9), as the final test of each query; hits lie in the closed "
+    "`[tmin, tmax]`. | Anything "
     "decided within about epsilon of a boundary: touching contacts, grazing rays, rays through edges and "
     "vertices can be missed or found twice, and a large epsilon turns near misses into hits. The epsilon is "
     "absolute, so what it does depends on the scene's scale. |\n"
-    "| `ACCURACY_FAST` | Plain double tests (Akenine-Moller triangle-box, Moller triangle-triangle, "
-    "Moller-Trumbore), used both to build and to query. | Exact boundary cases: rays through shared "
-    "edges and vertices (missed, or hitting the neighbour), touching and coplanar contacts, and triangles "
-    "that only touch a node's box. |\n\n";
+    "| `ACCURACY_FAST` | Plain double tests (Moller triangle-triangle, Moller-Trumbore) as the final test "
+    "of each query. | Exact boundary cases: rays through shared "
+    "edges and vertices (missed, or hitting the neighbour), touching and coplanar contacts. |\n\n";
 
 /* The head of a table with a category, a count column and one column per setting. */
 static void settings_table_header(FILE *f, const char *count_name)

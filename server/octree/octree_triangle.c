@@ -120,19 +120,34 @@ static tri_entry single_child_descent(const octree *tree, box3 qb, tri_entry e, 
  * insertion. Seed and fast mode never skip: their tests can say yes for triangles whose
  * boxes are apart (seed: within epsilon of each other, and a zero-area triangle touches
  * everything; fast: rounding at large offsets), so a skip would change their answers. */
-/* Tests candidate `id` unless tested already: 1 when it touches q, 0 when not (or tested
- * before), -1 when the tested set ran out of memory. Forced inline: it runs once per
+/* Tests candidate `id` unless tested already, and records a contact: in *any, and in hits
+ * unless the search stops at the first. Returns 1 when the search is over (that first
+ * contact, or out of memory, which *st then says), else 0. Forced inline: it runs once per
  * candidate, and as a call it cost exact triangle queries a fifth of their time. */
-static inline __attribute__((always_inline)) int test_candidate(const octree *tree, const vec3 q[3],
+static inline __attribute__((always_inline)) int take_candidate(const octree *tree, const vec3 q[3],
                                                               const tri_tri_query *prepared,
                                                               accuracy_mode mode, id_set *tested, uint32_t id,
-                                                              query_stats *stats)
+                                                              int stop_at_first, id_list *hits, int *any,
+                                                              octree_status *st, query_stats *stats)
 {
     int fresh = id_set_insert(tested, id);
-    if (fresh <= 0)
-        return fresh;
+    if (fresh == 0)
+        return 0;
+    if (fresh < 0) {
+        *st = OCTREE_ERR_NOMEM;
+        return 1;
+    }
     stats->candidates_tested++;
-    return triangles_touch(tree, q, prepared, octree_triangle_at(tree, id), mode);
+    if (!triangles_touch(tree, q, prepared, octree_triangle_at(tree, id), mode))
+        return 0;
+    *any = 1;
+    if (stop_at_first)
+        return 1;
+    if (id_list_push(hits, id) != 0) {
+        *st = OCTREE_ERR_NOMEM;
+        return 1;
+    }
+    return 0;
 }
 
 static octree_status triangle_search(const octree *tree, const vec3 q[3], accuracy_mode mode, int stop_at_first,
@@ -170,20 +185,8 @@ static octree_status triangle_search(const octree *tree, const vec3 q[3], accura
         extra = grow < INFINITY ? tree->seed_list_count : tree->triangle_count;
     for (size_t i = 0; i < extra; i++) {
         uint32_t id = grow < INFINITY ? octree_seed_list(tree)[i] : (uint32_t)i;
-        int touched = test_candidate(tree, q, &prepared, mode, &tested, id, stats);
-        if (touched < 0) {
-            st = OCTREE_ERR_NOMEM;
+        if (take_candidate(tree, q, &prepared, mode, &tested, id, stop_at_first, hits, any, &st, stats))
             goto done;
-        }
-        if (!touched)
-            continue;
-        *any = 1;
-        if (stop_at_first)
-            goto done;
-        if (id_list_push(hits, id) != 0) {
-            st = OCTREE_ERR_NOMEM;
-            goto done;
-        }
     }
     if (!(grow < INFINITY))
         goto done;
@@ -226,20 +229,8 @@ static octree_status triangle_search(const octree *tree, const vec3 q[3], accura
             uint32_t id = tree->leaf_items[node.first + i];
             if (boxes && triangle_boxes_apart(&boxes[id], &qbox))
                 continue;
-            int touched = test_candidate(tree, q, &prepared, mode, &tested, id, stats);
-            if (touched < 0) {
-                st = OCTREE_ERR_NOMEM;
+            if (take_candidate(tree, q, &prepared, mode, &tested, id, stop_at_first, hits, any, &st, stats))
                 goto done;
-            }
-            if (!touched)
-                continue;
-            *any = 1;
-            if (stop_at_first)
-                goto done;
-            if (id_list_push(hits, id) != 0) {
-                st = OCTREE_ERR_NOMEM;
-                goto done;
-            }
         }
     }
 done:
