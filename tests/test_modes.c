@@ -541,6 +541,60 @@ static void test_fast_rays_from_afar_past_edges_near_node_faces(void **state)
     mesh_data_free(&m);
 }
 
+/* A flat world: one triangle in each cell of a grid on a plane through a random point at a
+ * random angle (its vertices rounded off the plane, a third lifted by up to 1e-9 of a
+ * cell), and query triangles in the same plane (a quarter lifted so) over one cell, many cells from most of the others.
+ * Moller's intervals for such nearly coplanar pairs come from rounding, which accepted
+ * pairs cells apart, beyond any slack: the octree then missed what brute force over the
+ * same test found. */
+static void test_fast_nearly_coplanar_queries_equal_brute_force(void **state)
+{
+    (void)state;
+    uint64_t seed = base_seed + 900;
+    printf("nearly coplanar seed %llu\n", (unsigned long long)seed);
+    rng r = rng_seeded(seed);
+    enum { GRID = 12 };
+    mesh_data m = {0};
+    m.vertex_count = 3 * GRID * GRID;
+    m.triangle_count = GRID * GRID;
+    m.vertices = malloc(m.vertex_count * sizeof *m.vertices);
+    m.indices = malloc(3 * m.triangle_count * sizeof *m.indices);
+    vec3 n = rng_unit_vector(&r);
+    vec3 e1 = vec3_cross(n, fabs(n.x) < 0.5 ? (vec3){1, 0, 0} : (vec3){0, 1, 0});
+    e1 = vec3_scale(e1, 1 / vec3_length(e1));
+    vec3 e2 = vec3_cross(n, e1);
+    vec3 o = rng_point_in_box(&r, (box3){{-5, -5, -5}, {5, 5, 5}});
+    for (int c = 0; c < GRID * GRID; c++) {
+        double lift = c % 3 == 0 ? 1e-9 : 0.0;
+        for (int k = 0; k < 3; k++) {
+            double s = c % GRID + rng_uniform(&r, 0.1, 0.9), t = c / GRID + rng_uniform(&r, 0.1, 0.9);
+            m.vertices[3 * c + k] = vec3_add(vec3_add(o, vec3_add(vec3_scale(e1, s), vec3_scale(e2, t))),
+                                             vec3_scale(n, lift * rng_uniform(&r, -1, 1)));
+            m.indices[3 * c + k] = (uint32_t)(3 * c + k);
+        }
+    }
+    tally ty = {0};
+    const double resolutions[] = {0.25, 1.0};
+    for (int f = 0; f < 2; f++) {
+        octree *t = build_mode(&m, resolutions[f], ACCURACY_FAST, 1e-9);
+        for (int i = 0; i < 300; i++) {
+            int c = (int)(rng_next(&r) % (GRID * GRID));
+            vec3 q[3];
+            double lift = i % 4 == 0 ? 1e-9 : 0.0;
+            for (int k = 0; k < 3; k++) {
+                double s = c % GRID + rng_uniform(&r, 0.0, 1.0), u = c / GRID + rng_uniform(&r, 0.0, 1.0);
+                q[k] = vec3_add(vec3_add(o, vec3_add(vec3_scale(e1, s), vec3_scale(e2, u))),
+                                vec3_scale(n, lift * rng_uniform(&r, -1, 1)));
+            }
+            check_triangle(t, &m, q, ACCURACY_FAST, &ty, "nearly coplanar");
+        }
+        octree_free(t);
+    }
+    printf("  %zu of %zu queries hit\n", ty.triangle_hits, ty.triangles);
+    assert_true(ty.triangle_hits > 0 && ty.triangle_hits < ty.triangles);
+    mesh_data_free(&m);
+}
+
 /* A fast or seed query on a tree built in another mode gets the same answers: the tree
  * holds what every mode's queries need. */
 static void test_queries_of_each_mode_on_trees_of_every_mode(void **state)
@@ -713,6 +767,7 @@ int main(void)
         cmocka_unit_test(test_seed_answers_equal_brute_force_over_the_seed_primitive),
         cmocka_unit_test(test_seed_with_a_large_epsilon_equals_brute_force),
         cmocka_unit_test(test_fast_rays_from_afar_past_edges_near_node_faces),
+        cmocka_unit_test(test_fast_nearly_coplanar_queries_equal_brute_force),
         cmocka_unit_test(test_queries_of_each_mode_on_trees_of_every_mode),
         cmocka_unit_test(test_mesh_queries_equal_brute_force_in_fast_and_seed_mode),
         cmocka_unit_test(test_seed_hits_lie_in_the_closed_interval),

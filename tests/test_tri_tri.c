@@ -1184,6 +1184,78 @@ static void test_seed_behaviour_as_written(void **state)
     assert_int_equal(tri_tri_overlap_fast(a, b), 1);
 }
 
+/* Nearly coplanar pairs (the same plane up to rounding, or tilted by up to 2^-20 of the
+ * triangles' size) with at least one triangle's size between them along the plane: Moller's
+ * intervals come from rounding there, and the fast test must not accept them; the same
+ * planes with the second triangle inside the first, crossing its plane, it must accept. */
+static void plane_basis(rng *r, vec3 *origin, vec3 *n, vec3 *e1, vec3 *e2)
+{
+    vec3 v;
+    do
+        v = v3(rng_range(r, -1, 1), rng_range(r, -1, 1), rng_range(r, -1, 1));
+    while (vec3_dot(v, v) > 1 || vec3_dot(v, v) < 0.01);
+    *n = vec3_scale(v, 1 / vec3_length(v));
+    vec3 w = vec3_cross(*n, fabs(n->x) < 0.5 ? v3(1, 0, 0) : v3(0, 1, 0));
+    *e1 = vec3_scale(w, 1 / vec3_length(w));
+    *e2 = vec3_cross(*n, *e1);
+    *origin = v3(rng_range(r, -10, 10), rng_range(r, -10, 10), rng_range(r, -10, 10));
+}
+
+static vec3 plane_point(vec3 o, vec3 n, vec3 e1, vec3 e2, double s, double t, double h)
+{
+    return vec3_add(o, vec3_add(vec3_add(vec3_scale(e1, s), vec3_scale(e2, t)), vec3_scale(n, h)));
+}
+
+static void test_fast_rejects_nearly_coplanar_pairs_apart(void **state)
+{
+    (void)state;
+    rng r = rng_for_test("fast on nearly coplanar pairs", 9);
+    const double tilts[3] = {0.0, 0x1p-30, 0x1p-20};
+    long pairs = 0, wrong = 0, contained = 0, missed = 0;
+    for (int i = 0; i < 300000; i++) {
+        vec3 o, n, e1, e2, a[3], b[3];
+        plane_basis(&r, &o, &n, &e1, &e2);
+        double tilt = tilts[rng_int(&r, 0, 2)];
+        double shift = rng_range(&r, -1, 1);
+        for (int k = 0; k < 3; k++) {
+            a[k] = plane_point(o, n, e1, e2, rng_unit(&r), rng_unit(&r), 0.0);
+            b[k] = plane_point(o, n, e1, e2, 2 + rng_unit(&r), shift + rng_unit(&r), tilt * rng_range(&r, -1, 1));
+        }
+        /* Along e1 (a unit vector) they lie at least `gap` apart, so at least that far. */
+        double a_max = -INFINITY, b_min = INFINITY;
+        for (int k = 0; k < 3; k++) {
+            a_max = fmax(a_max, vec3_dot(vec3_sub(a[k], o), e1));
+            b_min = fmin(b_min, vec3_dot(vec3_sub(b[k], o), e1));
+        }
+        if (!(b_min - a_max >= 0.5))
+            continue;
+        pairs++;
+        assert_int_equal(tri_tri_overlap_exact(a, b), 0);
+        if (tri_tri_overlap_fast(a, b) || tri_tri_overlap_fast(b, a)) {
+            if (wrong++ < 3)
+                printf("[ info     ] pair #%d %.2f apart, accepted: a (%.17g %.17g %.17g) (%.17g %.17g %.17g) "
+                       "(%.17g %.17g %.17g) b (%.17g %.17g %.17g) (%.17g %.17g %.17g) (%.17g %.17g %.17g)\n",
+                       i, b_min - a_max, a[0].x, a[0].y, a[0].z, a[1].x, a[1].y, a[1].z, a[2].x, a[2].y, a[2].z,
+                       b[0].x, b[0].y, b[0].z, b[1].x, b[1].y, b[1].z, b[2].x, b[2].y, b[2].z);
+        }
+        /* The second triangle shrunk into the first and crossing its plane at 2^-24 of the size. */
+        vec3 c = vec3_scale(vec3_add(a[0], vec3_add(a[1], a[2])), 1.0 / 3);
+        const double lift[3] = {0x1p-24, -0x1p-24, 0x1p-25};
+        for (int k = 0; k < 3; k++)
+            b[k] = vec3_add(vec3_add(c, vec3_scale(vec3_sub(a[k], c), 0.5)), vec3_scale(n, lift[k]));
+        if (!tri_tri_overlap_exact(a, b))
+            continue;
+        contained++;
+        missed += !tri_tri_overlap_fast(a, b) || !tri_tri_overlap_fast(b, a);
+    }
+    printf("[ info     ] %ld nearly coplanar pairs apart: fast accepted %ld; %ld crossing inside: fast missed "
+           "%ld\n",
+           pairs, wrong, contained, missed);
+    assert_true(pairs > 100000 && contained > 100000);
+    assert_int_equal(wrong, 0);
+    assert_int_equal(missed, 0);
+}
+
 static void test_fast_coplanar_branch(void **state)
 {
     (void)state;
@@ -1216,6 +1288,7 @@ int main(void)
         cmocka_unit_test(test_seed_and_fast_error_counts_on_borderline_cases),
         cmocka_unit_test(test_seed_behaviour_as_written),
         cmocka_unit_test(test_fast_coplanar_branch),
+        cmocka_unit_test(test_fast_rejects_nearly_coplanar_pairs_apart),
     };
     return cmocka_run_group_tests_name("tri_tri", tests, NULL, NULL);
 }

@@ -473,6 +473,17 @@ int tri_tri_overlap_seed(const vec3 a[3], const vec3 b[3], double eps)
  * Moller 1997, plain double. Signs are compared as signs, not through products of
  * distances, so tiny distances cannot underflow into a wrong case and a division by zero.
  * No epsilon snaps distances to zero: any fixed epsilon is wrong at some scale.
+ *
+ * Nearly parallel planes are decided as coplanar, by a relative criterion: the normals
+ * scaled to a max norm of 1 have a cross product of max norm at most
+ * TRI_TRI_FAST_COPLANAR = 2^-15 (sin of the angle at most sqrt(3) 2^-15). The intervals on
+ * the common line are off by about 7u M / sin(angle) each (u = 2^-53, M the coordinates'
+ * magnitude: the rounding of the plane distances, divided by how fast they change along
+ * an edge); below the cutoff that is rounding noise that accepted pairs at any distance
+ * along the planes, above it (sin > 2^-15 / 3) it stays within 2^-32 M, the octree's
+ * slack. Both triangles have passed the plane-side rejection, so each meets the other's
+ * plane and lies within its size times sqrt(3) 2^-15 of it: the 2D test in the query's
+ * projection then accepts only pairs that close (octree_modes.c has the bound).
  * ------------------------------------------------------------------------------------ */
 
 static int sign_of(double v) { return (v > 0.0) - (v < 0.0); }
@@ -579,12 +590,21 @@ int tri_tri_overlap_fast(const vec3 a[3], const vec3 b[3])
     if (sa0 != 0 && sa0 == sign_of(da[1]) && sa0 == sign_of(da[2]))
         return 0;
 
-    if ((da[0] == 0.0 && da[1] == 0.0 && da[2] == 0.0) ||
+    /* The planes' common line from the normals scaled to a max norm of 1 (a positive
+     * scaling changes neither the line nor the axis chosen, and keeps the products of
+     * tiny or huge normals clear of underflow and overflow). */
+    double ma = fmax(fabs(na.x), fmax(fabs(na.y), fabs(na.z)));
+    double mb = fmax(fabs(nb.x), fmax(fabs(nb.y), fabs(nb.z)));
+    vec3 line = vec3_make(0, 0, 0);
+    if (ma > 0.0 && mb > 0.0)
+        line = vec3_cross(vec3_scale(na, 1.0 / ma), vec3_scale(nb, 1.0 / mb));
+    double ml = fmax(fabs(line.x), fmax(fabs(line.y), fabs(line.z)));
+    if (ml <= TRI_TRI_FAST_COPLANAR || (da[0] == 0.0 && da[1] == 0.0 && da[2] == 0.0) ||
         (db[0] == 0.0 && db[1] == 0.0 && db[2] == 0.0))
         /* A zero-area first triangle has no normal to project along; use the other's. */
-        return moller_coplanar(vec3_equal(na, vec3_make(0, 0, 0)) ? nb : na, a, b);
+        return moller_coplanar(ma == 0.0 ? nb : na, a, b);
 
-    int axis = largest_axis(vec3_cross(na, nb));
+    int axis = largest_axis(line);
     double pa[3], pb[3];
     for (int i = 0; i < 3; i++) {
         pa[i] = vec3_get(a[i], axis);

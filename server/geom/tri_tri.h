@@ -27,7 +27,10 @@ int tri_tri_overlap_exact_query(const tri_tri_query *q, const vec3 b[3]);
 /* The seed's edge-plane + point-in-triangle tests with epsilon. */
 int tri_tri_overlap_seed(const vec3 a[3], const vec3 b[3], double eps);
 
-/* Plain double test (Moller 1997 interval overlap), no exactness guarantee. */
+/* Plain double test (Moller 1997 interval overlap), no exactness guarantee. Planes whose
+ * unit-max-norm normals have a cross product of max norm at most TRI_TRI_FAST_COPLANAR are
+ * decided as coplanar (2D overlap in projection). */
+#define TRI_TRI_FAST_COPLANAR 0x1p-15
 int tri_tri_overlap_fast(const vec3 a[3], const vec3 b[3]);
 
 /* For triangles known to touch: an intersection segment p..q (p == q for a point).

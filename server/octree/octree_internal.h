@@ -60,7 +60,12 @@ struct octree {
     box3 world; /* the cube [lo, lo + D] */
     /* Every coordinate of the world within DBL_MAX / 2: no node's lo + hi overflows, so a
      * split is box_split_in_range. */
-    int splits_in_range;
+    short splits_in_range;
+    /* e with 2^e at or above the longest edge of any triangle in max norm (fast triangle
+     * queries' coplanar reach, octree_modes.c); FAST_NO_EDGE_LOG2 when every edge is
+     * zero, FAST_HUGE_EDGE_LOG2 when one overflowed. The two shorts share the four
+     * bytes the flag's int had, so the tree's size (which the daemon reports) is kept. */
+    short fast_longest_edge_log2;
     /* The triangles the seed tests may accept anywhere (zero area, slivers), which every
      * seed query tests: internal ids, after the leaf lists in leaf_items. */
     uint32_t seed_list_count;

@@ -176,23 +176,56 @@ double octree_seed_triangle_slack(const struct octree *tree, const vec3 q[3])
  *
  * tri_tri_overlap_fast measures each vertex's distance to the other triangle's plane as
  * n.x + offset on the absolute coordinates, off by about 7u M |n| for coordinates of
- * magnitude M, so a triangle it places on a plane lies within 7u M of it. When the planes
- * meet at an angle b, the two triangles' intervals on their common line then move by about
- * 7u M / sin b, and triangles it accepts lie that close; in its coplanar branch the 2D
- * tests work on differences, and the pair lies within 7u M of each other's planes and
- * touches in projection. The slack 2^-32 (M + D) covers every pair whose planes meet at
- * more than about 2^-18 rad. Closer to parallel the intervals come from the rounding
- * alone and the test can accept pairs at any distance along the planes (measured: 1 in
- * 200000 random coplanar pairs a triangle's size apart); no bounded slack covers those,
- * and the fast contract says so (docs/engine.md). */
+ * magnitude M, so a triangle it places on a plane lies within 7u M of it.
+ *
+ * Crossing planes. The test takes planes as crossing when the normals, scaled to a max
+ * norm of 1, have a cross product of max norm above c = TRI_TRI_FAST_COPLANAR = 2^-15;
+ * with |x|_max <= |x|_2 <= sqrt(3) |x|_max that puts the sine of the angle b between the
+ * planes above c / 3 (less the cross product's own rounding, a few u). Each end of a
+ * triangle's interval on the common line is where an edge crosses the other plane; the
+ * distances' error 7u M moves it along the line by 7u M / sin b, and the two ends
+ * compared by about twice that, 14u M / sin b < 42u M / c = 2^-32.6 M. Triangles the
+ * test accepts there lie within that of each other: the slack 2^-32 (M + D) covers it.
+ *
+ * Nearly parallel planes (max norm of the scaled cross product at most c, so sin b at
+ * most sqrt(3) c + a few u) are decided in the coplanar branch: both triangles projected
+ * along the axis of the query's largest normal component, then plain double 2D overlap
+ * (edges crossing, or a vertex inside). The plane-side rejection came first, so T has a
+ * vertex on each closed side of q's plane (up to 7u M): every point of T lies within
+ * diam(T) sin b + 7u M <= sqrt(3) L_T sqrt(3) c + 7u M = 3c L_T + 7u M of it, L_T the
+ * longest edge of T in max norm; the points of q lie within their own rounding (7u M,
+ * plus diam(q) times the angle by which q's rounded normal misses its plane, a few u for a
+ * triangle that is not a sliver) of it. Two points x of T and y of q with the same
+ * projection differ only along the projection axis, whose angle with q's normal has a
+ * cosine of at least 1 / sqrt(3), so |x - y| <= sqrt(3) (3c L_T + 14u M + ...). The 2D
+ * test's own rounding works on coordinate differences: it accepts projections apart by a
+ * few u times the coordinates' extent, which the 2^-32 (M + D) term covers. So accepted
+ * pairs lie within 5.2c L_T = 2^-12.6 L_T plus rounding; the slack adds
+ * FAST_COPLANAR_SLACK (L_T + L_q) = 2^-11 (L_T + L_q), L_T the tree's longest edge
+ * (rounded up to a power of two) and L_q the query's, which covers it with room for the normals' rounding and for the same
+ * bound with the roles swapped (a zero-area query is projected along T's normal).
+ *
+ * What this does not bound: a triangle whose rounded normal misses its plane by more than
+ * about 2^-14 (a sliver whose area is near the rounding of its edges' cross product, or
+ * zero area: its normal is zero and any plane goes), which may meet the other's plane at
+ * a steep angle while the test projects it as coplanar. That was so before the cutoff
+ * too (an exactly zero normal took the coplanar branch). */
 #define FAST_TRIANGLE_SLACK 0x1p-32
+#define FAST_COPLANAR_SLACK 0x1p-11
+/* 2^-1100 is 0 and 2^2000 is infinite in double: no edge, and an edge that overflowed. */
+#define FAST_NO_EDGE_LOG2 (-1100)
+#define FAST_HUGE_EDGE_LOG2 2000
 
 double octree_fast_triangle_slack(const struct octree *tree, const vec3 q[3])
 {
-    double magnitude = world_magnitude(tree);
-    for (int i = 0; i < 3; i++)
+    double magnitude = world_magnitude(tree), longest = 0.0;
+    for (int i = 0; i < 3; i++) {
         magnitude = fmax(magnitude, fmax(fabs(q[i].x), fmax(fabs(q[i].y), fabs(q[i].z))));
-    double slack = FAST_TRIANGLE_SLACK * (magnitude + (tree->world.hi.x - tree->world.lo.x));
+        vec3 e = vec3_sub(q[i == 2 ? 0 : i + 1], q[i]);
+        longest = fmax(longest, fmax(fabs(e.x), fmax(fabs(e.y), fabs(e.z))));
+    }
+    double slack = FAST_TRIANGLE_SLACK * (magnitude + (tree->world.hi.x - tree->world.lo.x)) +
+                   FAST_COPLANAR_SLACK * (ldexp(1.0, tree->fast_longest_edge_log2) + longest);
     return isfinite(slack) ? slack : INFINITY;
 }
 
@@ -201,7 +234,7 @@ double octree_fast_triangle_slack(const struct octree *tree, const vec3 q[3])
 octree_status octree_modes_prepare(struct octree *tree)
 {
     size_t n = tree->triangle_count, listed = 0, capacity = 0;
-    double product_min = INFINITY, reach = 2.0;
+    double product_min = INFINITY, reach = 2.0, longest = 0.0;
     uint32_t *list = NULL;
     for (size_t i = 0; i < n; i++) {
         const vec3 *t = octree_triangle_at(tree, (uint32_t)i);
@@ -209,6 +242,10 @@ octree_status octree_modes_prepare(struct octree *tree)
         double product = fmax(fabs(e1.x), fmax(fabs(e1.y), fabs(e1.z))) * fmax(fabs(e2.x), fmax(fabs(e2.y), fabs(e2.z)));
         if (product > 0.0 && product < product_min)
             product_min = product;
+        vec3 e3 = vec3_sub(t[2], t[1]);
+        longest = fmax(longest, fmax(fmax(fabs(e1.x), fmax(fabs(e1.y), fabs(e1.z))),
+                                     fmax(fmax(fabs(e2.x), fmax(fabs(e2.y), fabs(e2.z))),
+                                          fmax(fabs(e3.x), fmax(fabs(e3.y), fabs(e3.z))))));
         double k = seed_reach_factor(t);
         if (isfinite(k)) {
             reach = fmax(reach, k);
@@ -227,6 +264,13 @@ octree_status octree_modes_prepare(struct octree *tree)
         e -= 1;
     }
     tree->fast_edge_product_log2 = e;
+    /* longest = f 2^e with f in [0.5, 1), so 2^e is at or above it. */
+    int le = FAST_NO_EDGE_LOG2;
+    if (!(longest < INFINITY))
+        le = FAST_HUGE_EDGE_LOG2;
+    else if (longest > 0.0)
+        frexp(longest, &le);
+    tree->fast_longest_edge_log2 = (short)le;
     /* Rounded up to a float: the factor only ever grows a slack. */
     float f = (float)reach;
     tree->seed_reach_factor = (double)f < reach ? nextafterf(f, INFINITY) : f;

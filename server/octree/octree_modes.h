@@ -7,8 +7,8 @@
 
 #include "octree_internal.h"
 
-/* Fills the tree's fast_edge_product_log2, seed_reach_factor and seed list (appended to
- * leaf_items, after info.leaf_refs). */
+/* Fills the tree's fast_edge_product_log2, fast_longest_edge_log2, seed_reach_factor and seed
+ * list (appended to leaf_items, after info.leaf_refs). */
 octree_status octree_modes_prepare(struct octree *tree);
 
 /* A ray o + t d in fast (Moller-Trumbore) or seed mode: a triangle the mode's test accepts
