@@ -79,8 +79,9 @@ typedef struct scene {
     int cad;
     double cad_cell;
     /* Every seed epsilon at every resolution; the large timing scenes run seed only at its
-     * default epsilon and the heuristic resolution, because a seed-mode build costs about
-     * 40-70 us per triangle and the whole report must stay within minutes. */
+     * default epsilon and the heuristic resolution, because seed queries test every
+     * zero-area and sliver triangle (the seed list) and the whole report must stay within
+     * minutes. */
     int full_sweep;
 } scene;
 
@@ -960,8 +961,9 @@ static void write_markdown(const char *path, const sweep *s, const char *date, i
                "denominator of its `t`). A triangle query is wrong when its id set differs "
                "(FN/FP count the missing/extra ids). Build time and memory are for the mode's own tree; "
                "cand is primitive tests per query; fallbacks are predicate evaluations per query that needed "
-               "exact arithmetic. Seed mode builds are slow (its box test is the seed's three-step test as "
-               "written), which is why the large scenes run it only once.\n\n",
+               "exact arithmetic. Every mode builds the same exact tree; seed queries also test every "
+               "zero-area and sliver triangle of the scene (the seed test accepts points far from those), which "
+               "makes them slow on meshes that have many, and is why the large scenes run seed only once.\n\n",
             s->rays, s->tris);
 
     fprintf(f, "## Every mode at the heuristic resolution\n\n");
@@ -1119,8 +1121,8 @@ static void write_markdown(const char *path, const sweep *s, const char *date, i
                "no harm (picking, a broad phase followed by your own check) and the measured saving matters "
                "to you.\n"
                "- **Seed** reproduces the seed document. Its absolute epsilon suits one scale of scene only: "
-               "small, it errs like fast mode; large, near misses become hits. It also builds far more slowly. "
-               "Prefer exact.\n"
+               "small, it errs like fast mode; large, near misses become hits; a zero-area triangle touches everything, so on a mesh "
+               "with many of them every query tests them all. Prefer exact.\n"
                "- The resolution trades memory against query time, never exact mode's answers: keep the "
                "heuristic unless the resolution table shows a better trade for your mesh and queries.\n");
     fclose(f);

@@ -725,7 +725,7 @@ octree *octree_build(const mesh_view *mesh, const octree_def *def_in, octree_err
     info->world_size = size;
     info->world_min = lo;
     info->bytes_nodes = node_bytes;
-    info->bytes_leaf_lists = (info->leaf_refs + tree->seed_list_count) * sizeof(uint32_t);
+    info->bytes_leaf_lists = (info->leaf_refs + tree->sliver_list_count) * sizeof(uint32_t);
     info->bytes_triangles = tree->triangle_count * (sizeof *tree->triangles + sizeof *tree->original_id);
     info->bytes_triangle_boxes = tree->triangle_boxes ? tree->triangle_count * sizeof *tree->triangle_boxes : 0;
     info->bytes_total =

@@ -48,7 +48,7 @@ struct octree {
 
     octree_node *nodes;
     size_t node_count;
-    /* The leaves' lists (info.leaf_refs ids), then the seed list (seed_list_count ids). */
+    /* The leaves' lists (info.leaf_refs ids), then the sliver list (sliver_list_count ids). */
     uint32_t *leaf_items;
     /* What fast and seed queries need beyond exact membership (octree_modes.c): the seed
      * reach factor, the largest 2 / sin of a triangle's smallest angle (rounded up); and
@@ -66,14 +66,16 @@ struct octree {
      * zero, FAST_HUGE_EDGE_LOG2 when one overflowed. The two shorts share the four
      * bytes the flag's int had, so the tree's size (which the daemon reports) is kept. */
     short fast_longest_edge_log2;
-    /* The triangles the seed tests may accept anywhere (zero area, slivers), which every
-     * seed query tests: internal ids, after the leaf lists in leaf_items. */
-    uint32_t seed_list_count;
+    /* The triangles whose normal no bound trusts (zero area, slivers: the smallest angle's
+     * sine below 2^-10), which the seed tests may accept anywhere and the fast triangle
+     * test may project as coplanar at any angle: every seed query and every fast triangle
+     * query tests them. Internal ids, after the leaf lists in leaf_items. */
+    uint32_t sliver_list_count;
     double seed_epsilon;
     octree_info info;
 };
 
-static inline const uint32_t *octree_seed_list(const struct octree *tree)
+static inline const uint32_t *octree_sliver_list(const struct octree *tree)
 {
     return tree->leaf_items + tree->info.leaf_refs;
 }

@@ -84,7 +84,7 @@ double octree_fast_ray_slack(const struct octree *tree, vec3 o, vec3 d)
  * eps' being eps plus the rounding of the computed distances. A triangle whose smallest
  * angle has a sine below SEED_SLIVER (or none: zero area, overflow) has a normal the
  * rounding may point anywhere and a reach without a useful bound: such triangles go on the
- * tree's seed list, which every seed query tests, and the others set the tree's reach
+ * tree's sliver list, which every seed query tests, and the others set the tree's reach
  * factor K = max 2 / sin(a_min). Their normals and edge normals are accurate to
  * 4u / SEED_SLIVER, so a distance measured over at most 2 D (a point near T to a vertex)
  * is off by (8u / SEED_SLIVER) D, plus 4u of the coordinates' magnitude M for the rounded
@@ -208,8 +208,12 @@ double octree_seed_triangle_slack(const struct octree *tree, const vec3 q[3])
  * What this does not bound: a triangle whose rounded normal misses its plane by more than
  * about 2^-14 (a sliver whose area is near the rounding of its edges' cross product, or
  * zero area: its normal is zero and any plane goes), which may meet the other's plane at
- * a steep angle while the test projects it as coplanar. That was so before the cutoff
- * too (an exactly zero normal took the coplanar branch). */
+ * a steep angle while the test projects it as coplanar. A triangle whose smallest angle
+ * has a sine of at least SEED_SLIVER (2^-10) is not such a one: for any two of its edges
+ * |e1 x e2| >= 2^-10 |e1| |e2|, and the cross product of the rounded edges is off by a few
+ * u |e1| |e2|, so its direction by about 2^-40. So the others, the tree's sliver list,
+ * are tested by every fast triangle query as by every seed query, and a sliver query gets
+ * an infinite slack (it is tested against every triangle). */
 #define FAST_TRIANGLE_SLACK 0x1p-32
 #define FAST_COPLANAR_SLACK 0x1p-11
 /* 2^-1100 is 0 and 2^2000 is infinite in double: no edge, and an edge that overflowed. */
@@ -218,6 +222,9 @@ double octree_seed_triangle_slack(const struct octree *tree, const vec3 q[3])
 
 double octree_fast_triangle_slack(const struct octree *tree, const vec3 q[3])
 {
+    /* A sliver or zero-area query has no normal to trust (see above): every triangle. */
+    if (!isfinite(seed_reach_factor(q)))
+        return INFINITY;
     double magnitude = world_magnitude(tree), longest = 0.0;
     for (int i = 0; i < 3; i++) {
         magnitude = fmax(magnitude, fmax(fabs(q[i].x), fmax(fabs(q[i].y), fabs(q[i].z))));
@@ -274,7 +281,7 @@ octree_status octree_modes_prepare(struct octree *tree)
     /* Rounded up to a float: the factor only ever grows a slack. */
     float f = (float)reach;
     tree->seed_reach_factor = (double)f < reach ? nextafterf(f, INFINITY) : f;
-    tree->seed_list_count = (uint32_t)listed;
+    tree->sliver_list_count = (uint32_t)listed;
     if (listed) {
         size_t refs = tree->info.leaf_refs;
         uint32_t *items = realloc(tree->leaf_items, (refs + listed) * sizeof *items);

@@ -17,7 +17,7 @@ double octree_fast_ray_slack(const struct octree *tree, vec3 o, vec3 d);
 double octree_seed_ray_slack(const struct octree *tree, vec3 o, vec3 d);
 
 /* A query triangle in fast or seed mode: a world triangle the mode's test accepts lies
- * within the slack of q (seed: unless it is on the tree's seed list). */
+ * within the slack of q, unless it is on the tree's sliver list. */
 double octree_fast_triangle_slack(const struct octree *tree, const vec3 q[3]);
 double octree_seed_triangle_slack(const struct octree *tree, const vec3 q[3]);
 

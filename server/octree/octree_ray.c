@@ -440,8 +440,8 @@ static void walk_begin(ray_walk *w, const octree *tree, const ray_input *ray, ra
     out->truncated = 0;
     /* Seed mode: the triangles whose seed test no slack bounds (octree_modes.c) first. */
     if (mode == ACCURACY_SEED)
-        for (size_t i = 0; i < tree->seed_list_count; i++)
-            if (!walk_test_candidate(w, tree, octree_seed_list(tree)[i]))
+        for (size_t i = 0; i < tree->sliver_list_count; i++)
+            if (!walk_test_candidate(w, tree, octree_sliver_list(tree)[i]))
                 return;
     double tn, tf;
     slab(&w->r, tree->world, &tn, &tf);
