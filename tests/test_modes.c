@@ -595,41 +595,44 @@ static void test_fast_nearly_coplanar_queries_equal_brute_force(void **state)
     mesh_data_free(&m);
 }
 
-/* A zero-area world triangle (a segment) has no normal, so the fast test projects it as
- * coplanar with the query and accepts it where its projection crosses the query's, however
- * steeply it passes through the query's plane and however far above the query it runs:
- * no slack bounds that, so fast triangle queries test the tree's slivers every time, and a
- * sliver query every triangle. */
-static void test_fast_triangle_queries_find_zero_area_triangles_far_above(void **state)
+/* A zero-area triangle (a segment) has no normal. Projected as coplanar with the other
+ * triangle, the fast test accepted it wherever its projection crossed the other's, however
+ * far above it ran, which no slack bounds; it is now tested as the segment it is. Through
+ * the octree the fast answers equal the primitive's, world segment or query segment. */
+static void test_fast_zero_area_triangles_are_tested_as_segments(void **state)
 {
     (void)state;
     mesh_data m = {0};
-    m.vertex_count = 9;
-    m.triangle_count = 3;
+    m.vertex_count = 12;
+    m.triangle_count = 4;
     m.vertices = malloc(m.vertex_count * sizeof *m.vertices);
     m.indices = malloc(m.vertex_count * sizeof *m.indices);
-    /* The segment passes through z = 0 at x = 8, far from the query, and runs 0.6 above it. */
-    const vec3 v[9] = {{-2, 0.25, -1}, {8, 0.25, 0}, {18, 0.25, 1},
-                       {-9, -9, 0.5}, {-8, -9, 0.5}, {-9, -8, 0.5},
-                       {9, 9, -0.5}, {8, 9, -0.5}, {9, 8, -0.5}};
-    for (uint32_t i = 0; i < 9; i++) {
+    /* Segment 0 passes through z = 0 at x = 8, far from the query, and runs 0.6 above it;
+     * segment 1 crosses the query's plane inside it, at (0.25, 0.25, 0). */
+    const vec3 v[12] = {{-2, 0.25, -1}, {8, 0.25, 0}, {18, 0.25, 1},
+                        {0.15, 0.05, -0.5}, {0.25, 0.25, 0}, {0.35, 0.45, 0.5},
+                        {-9, -9, 0.5}, {-8, -9, 0.5}, {-9, -8, 0.5},
+                        {9, 9, -0.5}, {8, 9, -0.5}, {9, 8, -0.5}};
+    for (uint32_t i = 0; i < 12; i++) {
         m.vertices[i] = v[i];
         m.indices[i] = i;
     }
     vec3 q[3] = {{-0.5, -0.5, 0}, {1.5, 0, 0}, {0, 1.5, 0}};
-    vec3 world[3] = {v[0], v[1], v[2]};
-    assert_int_equal(tri_tri_overlap_fast(q, world), 1); /* the primitive's own answer */
-    assert_int_equal(tri_tri_overlap_exact(q, world), 0);
+    vec3 far_above[3] = {v[0], v[1], v[2]}, through[3] = {v[3], v[4], v[5]};
+    assert_int_equal(tri_tri_overlap_fast(q, far_above), 0);
+    assert_int_equal(tri_tri_overlap_fast(far_above, q), 0);
+    assert_int_equal(tri_tri_overlap_fast(q, through), 1);
+    assert_int_equal(tri_tri_overlap_fast(through, q), 1);
     tally ty = {0};
     const double resolutions[] = {0.05, 0.5, 4.0};
     for (int f = 0; f < 3; f++) {
         octree *t = build_mode(&m, resolutions[f], ACCURACY_FAST, 1e-9);
-        check_triangle(t, &m, q, ACCURACY_FAST, &ty, "zero-area world triangle");
-        /* And the segment as the query: every triangle its projection crosses. */
-        check_triangle(t, &m, world, ACCURACY_FAST, &ty, "zero-area query");
+        check_triangle(t, &m, q, ACCURACY_FAST, &ty, "zero-area world triangles");
+        check_triangle(t, &m, far_above, ACCURACY_FAST, &ty, "zero-area query far above");
+        check_triangle(t, &m, through, ACCURACY_FAST, &ty, "zero-area query through");
         octree_free(t);
     }
-    assert_int_equal(ty.triangle_hits, ty.triangles);
+    assert_int_equal(ty.triangle_hits, 9); /* each query meets a segment or itself */
     mesh_data_free(&m);
 }
 
@@ -806,7 +809,7 @@ int main(void)
         cmocka_unit_test(test_seed_with_a_large_epsilon_equals_brute_force),
         cmocka_unit_test(test_fast_rays_from_afar_past_edges_near_node_faces),
         cmocka_unit_test(test_fast_nearly_coplanar_queries_equal_brute_force),
-        cmocka_unit_test(test_fast_triangle_queries_find_zero_area_triangles_far_above),
+        cmocka_unit_test(test_fast_zero_area_triangles_are_tested_as_segments),
         cmocka_unit_test(test_queries_of_each_mode_on_trees_of_every_mode),
         cmocka_unit_test(test_mesh_queries_equal_brute_force_in_fast_and_seed_mode),
         cmocka_unit_test(test_seed_hits_lie_in_the_closed_interval),

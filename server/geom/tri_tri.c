@@ -570,6 +570,68 @@ static int moller_coplanar(vec3 normal, const vec3 a[3], const vec3 b[3])
     return fast_point_in_tri_2d(pa[0], pb) || fast_point_in_tri_2d(pb[0], pa);
 }
 
+static double max_norm(vec3 v) { return fmax(fabs(v.x), fmax(fabs(v.y), fabs(v.z))); }
+
+/* Like fast_point_in_tri_2d, boundary included: a point on an edge is in. */
+static int fast_point_in_closed_tri_2d(const double x[2], const double t[3][2])
+{
+    int s0 = sign_of(cross_2d(t[0][0], t[0][1], t[1][0], t[1][1], x[0], x[1]));
+    int s1 = sign_of(cross_2d(t[1][0], t[1][1], t[2][0], t[2][1], x[0], x[1]));
+    int s2 = sign_of(cross_2d(t[2][0], t[2][1], t[0][0], t[0][1], x[0], x[1]));
+    return s0 * s1 >= 0 && s1 * s2 >= 0 && s0 * s2 >= 0;
+}
+
+/* A triangle whose computed normal n = e1 x e2 (e1 = v1 - v0, e2 = v2 - v0) gives no
+ * direction to trust: zero (no area), or a sliver's, at most TRI_TRI_FAST_FLAT times the
+ * product of the edges' max norms, where the rounding of the cross product (a few u of that
+ * product) turns it by more than 2^-21. Projected as coplanar with the other triangle, such
+ * a triangle would be accepted wherever its projection meets the other's, however far off
+ * the other's plane it runs. */
+#define TRI_TRI_FAST_FLAT 0x1p-30
+static int fast_flat(vec3 n, const vec3 t[3])
+{
+    return !(max_norm(n) > TRI_TRI_FAST_FLAT * (max_norm(vec3_sub(t[1], t[0])) * max_norm(vec3_sub(t[2], t[0]))));
+}
+
+/* A flat triangle a against a triangle b with a trusted normal nb, da the distances of a's
+ * vertices to b's plane (times |nb|): a as the segments it is, each edge whose ends lie on
+ * both sides of the plane crossing it where its distances interpolate to zero, a point that
+ * must lie in b's projection; an edge in the plane, and a wholly in it, are tested in 2D.
+ * An accepted pair then shares a point up to the rounding of the distances and of the 2D
+ * test, which keeps the octree's slack for fast queries bounded. */
+static int fast_flat_against(const vec3 a[3], const double da[3], vec3 nb, const vec3 b[3])
+{
+    if (da[0] == 0.0 && da[1] == 0.0 && da[2] == 0.0)
+        return moller_coplanar(nb, a, b);
+    int axis = largest_axis(nb);
+    int u = other_axis_u(axis), v = other_axis_v(axis);
+    double pb[3][2];
+    for (int i = 0; i < 3; i++) {
+        pb[i][0] = vec3_get(b[i], u);
+        pb[i][1] = vec3_get(b[i], v);
+    }
+    for (int i = 0; i < 3; i++) {
+        int j = i == 2 ? 0 : i + 1;
+        double dp = da[i], dq = da[j];
+        double p2[2] = {vec3_get(a[i], u), vec3_get(a[i], v)}, q2[2] = {vec3_get(a[j], u), vec3_get(a[j], v)};
+        if (dp == 0.0 && dq == 0.0) {
+            for (int k = 0; k < 3; k++)
+                if (fast_seg_seg_2d(p2, q2, pb[k], pb[k == 2 ? 0 : k + 1]))
+                    return 1;
+            if (fast_point_in_closed_tri_2d(p2, pb))
+                return 1;
+            continue;
+        }
+        if (sign_of(dp) * sign_of(dq) > 0)
+            continue;
+        double r = dp / (dp - dq); /* in [0, 1]: the signs differ, or one is zero */
+        double x[2] = {p2[0] + (q2[0] - p2[0]) * r, p2[1] + (q2[1] - p2[1]) * r};
+        if (fast_point_in_closed_tri_2d(x, pb))
+            return 1;
+    }
+    return 0;
+}
+
 int tri_tri_overlap_fast(const vec3 a[3], const vec3 b[3])
 {
     vec3 na = vec3_cross(vec3_sub(a[1], a[0]), vec3_sub(a[2], a[0]));
@@ -589,6 +651,10 @@ int tri_tri_overlap_fast(const vec3 a[3], const vec3 b[3])
     int sa0 = sign_of(da[0]);
     if (sa0 != 0 && sa0 == sign_of(da[1]) && sa0 == sign_of(da[2]))
         return 0;
+
+    int flat_a = fast_flat(na, a), flat_b = fast_flat(nb, b);
+    if (flat_a != flat_b)
+        return flat_a ? fast_flat_against(a, da, nb, b) : fast_flat_against(b, db, na, a);
 
     /* The planes' common line from the normals scaled to a max norm of 1 (a positive
      * scaling changes neither the line nor the axis chosen, and keeps the products of

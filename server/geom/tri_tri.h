@@ -29,7 +29,9 @@ int tri_tri_overlap_seed(const vec3 a[3], const vec3 b[3], double eps);
 
 /* Plain double test (Moller 1997 interval overlap), no exactness guarantee. Planes whose
  * unit-max-norm normals have a cross product of max norm at most TRI_TRI_FAST_COPLANAR are
- * decided as coplanar (2D overlap in projection). */
+ * decided as coplanar (2D overlap in projection). A triangle of no area, or a sliver whose
+ * computed normal is mostly rounding, is tested as its edges against the other triangle
+ * (each edge crossing the other's plane must cross it inside the triangle). */
 #define TRI_TRI_FAST_COPLANAR 0x1p-15
 int tri_tri_overlap_fast(const vec3 a[3], const vec3 b[3]);
 

@@ -66,10 +66,9 @@ struct octree {
      * zero, FAST_HUGE_EDGE_LOG2 when one overflowed. The two shorts share the four
      * bytes the flag's int had, so the tree's size (which the daemon reports) is kept. */
     short fast_longest_edge_log2;
-    /* The triangles whose normal no bound trusts (zero area, slivers: the smallest angle's
-     * sine below 2^-10), which the seed tests may accept anywhere and the fast triangle
-     * test may project as coplanar at any angle: every seed query and every fast triangle
-     * query tests them. Internal ids, after the leaf lists in leaf_items. */
+    /* The slivers (zero area, or the smallest angle's sine below 2^-10), which the seed
+     * tests may accept anywhere: every seed query tests them. Internal ids, after the
+     * leaf lists in leaf_items. */
     uint32_t sliver_list_count;
     double seed_epsilon;
     octree_info info;

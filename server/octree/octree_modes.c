@@ -208,12 +208,16 @@ double octree_seed_triangle_slack(const struct octree *tree, const vec3 q[3])
  * What this does not bound: a triangle whose rounded normal misses its plane by more than
  * about 2^-14 (a sliver whose area is near the rounding of its edges' cross product, or
  * zero area: its normal is zero and any plane goes), which may meet the other's plane at
- * a steep angle while the test projects it as coplanar. A triangle whose smallest angle
- * has a sine of at least SEED_SLIVER (2^-10) is not such a one: for any two of its edges
- * |e1 x e2| >= 2^-10 |e1| |e2|, and the cross product of the rounded edges is off by a few
- * u |e1| |e2|, so its direction by about 2^-40. So the others, the tree's sliver list,
- * are tested by every fast triangle query as by every seed query, and a sliver query gets
- * an infinite slack (it is tested against every triangle). */
+ * a steep angle while the test projects it as coplanar. So the test takes such a triangle
+ * (tri_tri.c's fast_flat: a normal at most 2^-30 times its edges' product, whose direction
+ * the cross product's rounding, a few u of that product, turns by less than 2^-21
+ * otherwise, which the 2^-11 term covers many times) as the segments it is: an accepted
+ * edge crosses the other's plane at a point whose distances were interpolated to zero,
+ * within a few u M of the plane, and that point lies in the other's projection up to the
+ * 2D test's rounding, so the pair lies within the first term. Two flat triangles are not
+ * bounded, but a flat query is a sliver (a normal that small means a smallest angle's
+ * sine far below SEED_SLIVER) and gets an infinite slack: it is tested against every
+ * triangle. */
 #define FAST_TRIANGLE_SLACK 0x1p-32
 #define FAST_COPLANAR_SLACK 0x1p-11
 /* 2^-1100 is 0 and 2^2000 is infinite in double: no edge, and an edge that overflowed. */
