@@ -634,6 +634,30 @@ static void test_fast_zero_area_triangles_are_tested_as_segments(void **state)
     }
     assert_int_equal(ty.triangle_hits, 9); /* each query meets a segment or itself */
     mesh_data_free(&m);
+
+    /* Two segments 5 apart whose projections along x cross: with no normal on either side
+     * the fast test projects both along x and accepts them, which no slack bounds; the
+     * tree's sliver list holds every such triangle, and a fast sliver query tests it. */
+    mesh_data two = {0};
+    two.vertex_count = 6;
+    two.triangle_count = 2;
+    two.vertices = malloc(6 * sizeof *two.vertices);
+    two.indices = malloc(6 * sizeof *two.indices);
+    const vec3 w[6] = {{5, 0, -1}, {5, 0, 0}, {5, 0, 1}, {-9, -9, 0.5}, {-8, -9, 0.5}, {-9, -8, 0.5}};
+    for (uint32_t i = 0; i < 6; i++) {
+        two.vertices[i] = w[i];
+        two.indices[i] = i;
+    }
+    vec3 along_y[3] = {{0, -1, 0}, {0, 0, 0}, {0, 1, 0}}, along_z[3] = {w[0], w[1], w[2]};
+    assert_int_equal(tri_tri_overlap_fast(along_y, along_z), 1); /* the primitive's answer */
+    ty = (tally){0};
+    for (int f = 0; f < 3; f++) {
+        octree *t = build_mode(&two, resolutions[f], ACCURACY_FAST, 1e-9);
+        check_triangle(t, &two, along_y, ACCURACY_FAST, &ty, "zero-area query, zero-area world");
+        octree_free(t);
+    }
+    assert_int_equal(ty.triangle_hits, 3);
+    mesh_data_free(&two);
 }
 
 /* A fast or seed query on a tree built in another mode gets the same answers: the tree

@@ -67,8 +67,9 @@ struct octree {
      * bytes the flag's int had, so the tree's size (which the daemon reports) is kept. */
     short fast_longest_edge_log2;
     /* The slivers (zero area, or the smallest angle's sine below 2^-10), which the seed
-     * tests may accept anywhere: every seed query tests them. Internal ids, after the
-     * leaf lists in leaf_items. */
+     * tests may accept anywhere, and the fast test may accept anywhere against another
+     * sliver: every seed query and every fast sliver query tests them. Internal ids,
+     * after the leaf lists in leaf_items. */
     uint32_t sliver_list_count;
     double seed_epsilon;
     octree_info info;

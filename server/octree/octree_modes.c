@@ -215,20 +215,19 @@ double octree_seed_triangle_slack(const struct octree *tree, const vec3 q[3])
  * edge crosses the other's plane at a point whose distances were interpolated to zero,
  * within a few u M of the plane, and that point lies in the other's projection up to the
  * 2D test's rounding, so the pair lies within the first term. Two flat triangles are not
- * bounded, but a flat query is a sliver (a normal that small means a smallest angle's
- * sine far below SEED_SLIVER) and gets an infinite slack: it is tested against every
- * triangle. */
+ * bounded; but a flat triangle is a sliver (a normal that small means a smallest angle's
+ * sine far below SEED_SLIVER), so every flat world triangle is on the tree's sliver list,
+ * and a sliver query tests that list besides the nodes its slack reaches. */
 #define FAST_TRIANGLE_SLACK 0x1p-32
 #define FAST_COPLANAR_SLACK 0x1p-11
 /* 2^-1100 is 0 and 2^2000 is infinite in double: no edge, and an edge that overflowed. */
 #define FAST_NO_EDGE_LOG2 (-1100)
 #define FAST_HUGE_EDGE_LOG2 2000
 
+int octree_is_sliver(const vec3 t[3]) { return !isfinite(seed_reach_factor(t)); }
+
 double octree_fast_triangle_slack(const struct octree *tree, const vec3 q[3])
 {
-    /* A sliver or zero-area query has no normal to trust (see above): every triangle. */
-    if (!isfinite(seed_reach_factor(q)))
-        return INFINITY;
     double magnitude = world_magnitude(tree), longest = 0.0;
     for (int i = 0; i < 3; i++) {
         magnitude = fmax(magnitude, fmax(fabs(q[i].x), fmax(fabs(q[i].y), fabs(q[i].z))));

@@ -16,6 +16,10 @@ octree_status octree_modes_prepare(struct octree *tree);
 double octree_fast_ray_slack(const struct octree *tree, vec3 o, vec3 d);
 double octree_seed_ray_slack(const struct octree *tree, vec3 o, vec3 d);
 
+/* 1 for a sliver: zero area, or the smallest angle's sine below 2^-10 (the triangles of
+ * the tree's sliver list). */
+int octree_is_sliver(const vec3 t[3]);
+
 /* A query triangle in fast or seed mode: a world triangle the mode's test accepts lies
  * within the slack of q, unless it is on the tree's sliver list. */
 double octree_fast_triangle_slack(const struct octree *tree, const vec3 q[3]);

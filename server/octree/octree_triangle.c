@@ -178,10 +178,11 @@ static octree_status triangle_search(const octree *tree, const vec3 q[3], accura
     octree_status st = OCTREE_OK;
     *any = 0;
 
-    /* Candidates outside the tree's lists: in seed mode the slivers, which no seed slack
-     * bounds (octree_modes.c), and every triangle when the slack is infinite. */
+    /* Candidates outside the tree's lists: the slivers, which no slack bounds for a seed
+     * query, nor for a fast sliver query (octree_modes.c), and every triangle when the
+     * slack is infinite. */
     size_t extra = 0;
-    if (mode == ACCURACY_SEED || !(grow < INFINITY))
+    if (mode == ACCURACY_SEED || (mode == ACCURACY_FAST && octree_is_sliver(q)) || !(grow < INFINITY))
         extra = grow < INFINITY ? tree->sliver_list_count : tree->triangle_count;
     for (size_t i = 0; i < extra; i++) {
         uint32_t id = grow < INFINITY ? octree_sliver_list(tree)[i] : (uint32_t)i;
