@@ -131,6 +131,19 @@ static double world_magnitude(const struct octree *tree)
                 fmax(fabs(w.lo.z), fabs(w.hi.z)));
 }
 
+/* What a query triangle's slack scales with: the largest coordinate magnitude of the
+ * world and q, and q's longest edge in max norm. */
+static void query_reach(const struct octree *tree, const vec3 q[3], double *magnitude, double *longest)
+{
+    *magnitude = world_magnitude(tree);
+    *longest = 0.0;
+    for (int i = 0; i < 3; i++) {
+        *magnitude = fmax(*magnitude, fmax(fabs(q[i].x), fmax(fabs(q[i].y), fabs(q[i].z))));
+        vec3 e = vec3_sub(q[i == 2 ? 0 : i + 1], q[i]);
+        *longest = fmax(*longest, fmax(fabs(e.x), fmax(fabs(e.y), fabs(e.z))));
+    }
+}
+
 /* Seed rays. With the constant part A = K eps' + eps |d| (tmin - eps and tmax + eps move
  * the point by eps |d|) and B = eps' per unit |t|, a hit at t puts p within A + B |t| of
  * T, so inside W grown by that; along the axis of the largest direction component this
@@ -160,13 +173,9 @@ double octree_seed_triangle_slack(const struct octree *tree, const vec3 q[3])
     double k = seed_reach_factor(q);
     if (!isfinite(k))
         return INFINITY;
-    double magnitude = world_magnitude(tree);
-    double longest = tree->world.hi.x - tree->world.lo.x;
-    for (int i = 0; i < 3; i++) {
-        magnitude = fmax(magnitude, fmax(fabs(q[i].x), fmax(fabs(q[i].y), fabs(q[i].z))));
-        vec3 e = vec3_sub(q[i == 2 ? 0 : i + 1], q[i]);
-        longest = fmax(longest, fmax(fabs(e.x), fmax(fabs(e.y), fabs(e.z))));
-    }
+    double magnitude, longest;
+    query_reach(tree, q, &magnitude, &longest);
+    longest = fmax(longest, tree->world.hi.x - tree->world.lo.x);
     double eps = seed_epsilon_rounded(tree, magnitude);
     double slack = 2 * (tree->seed_epsilon * (longest + 2) + fmax(k, tree->seed_reach_factor) * eps);
     return isfinite(slack) ? slack : INFINITY;
@@ -228,12 +237,8 @@ int octree_is_sliver(const vec3 t[3]) { return !isfinite(seed_reach_factor(t)); 
 
 double octree_fast_triangle_slack(const struct octree *tree, const vec3 q[3])
 {
-    double magnitude = world_magnitude(tree), longest = 0.0;
-    for (int i = 0; i < 3; i++) {
-        magnitude = fmax(magnitude, fmax(fabs(q[i].x), fmax(fabs(q[i].y), fabs(q[i].z))));
-        vec3 e = vec3_sub(q[i == 2 ? 0 : i + 1], q[i]);
-        longest = fmax(longest, fmax(fabs(e.x), fmax(fabs(e.y), fabs(e.z))));
-    }
+    double magnitude, longest;
+    query_reach(tree, q, &magnitude, &longest);
     double slack = FAST_TRIANGLE_SLACK * (magnitude + (tree->world.hi.x - tree->world.lo.x)) +
                    FAST_COPLANAR_SLACK * (ldexp(1.0, tree->fast_longest_edge_log2) + longest);
     return isfinite(slack) ? slack : INFINITY;
