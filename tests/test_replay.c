@@ -166,18 +166,26 @@ static void add_ray_request(mem_log *m, int64_t client, int64_t id, int n)
 
 /* A reply to a request of n rays, each hitting at t = ray + 0.5 except `odd`, hitting at
  * odd_t; hits [from, to) in chunk `chunk` of `chunks`. */
+/* The detail the next replies echo, and a ray that they report as missed (-1: none). */
+static int8_t reply_detail = TRIOCT_RAY_REQUEST_T_CLOSEST;
+static int reply_miss = -1;
+
 static void add_ray_reply(mem_log *m, int64_t client, int64_t id, int n, int odd, double odd_t, int from,
                           int to, int chunk, int chunks)
 {
     int32_t found[8];
     trioct_ray_hit_t hits[8];
+    int k = 0; /* the missed ray has no hit record: the hits after it move up one */
     for (int i = 0; i < n; i++) {
-        found[i] = 1;
-        memset(&hits[i], 0, sizeof hits[i]);
-        hits[i].ray = i;
-        hits[i].t = i == odd ? odd_t : i + 0.5;
-        hits[i].triangle = 100 + i;
-        hits[i].normal = (trioct_vec3_t){0, 0, 1};
+        found[i] = i != reply_miss;
+        if (i == reply_miss)
+            continue;
+        memset(&hits[k], 0, sizeof hits[k]);
+        hits[k].ray = i;
+        hits[k].t = i == odd ? odd_t : i + 0.5;
+        hits[k].triangle = 100 + i;
+        hits[k].normal = (trioct_vec3_t){0, 0, 1};
+        k++;
     }
     trioct_ray_reply_t r;
     memset(&r, 0, sizeof r);
@@ -189,7 +197,7 @@ static void add_ray_reply(mem_log *m, int64_t client, int64_t id, int n, int odd
     r.header.message = "ok";
     r.header.chunk_index = chunk;
     r.header.chunk_count = chunks;
-    r.detail = TRIOCT_RAY_REQUEST_T_CLOSEST;
+    r.detail = reply_detail;
     r.num_rays = chunk == 0 ? n : 0;
     r.found = found;
     r.num_hits = to - from;
@@ -274,6 +282,61 @@ static void test_compare_names_the_field(void **state)
     mem_free(&script);
     mem_free(&golden);
     mem_free(&got);
+}
+
+/* Replays a one-request script against golden and got; returns the mismatch count and
+ * the differences printed in *text (the caller frees it). */
+static size_t mismatches_between(mem_log *script, mem_log *golden, mem_log *got, char **text)
+{
+    replay_log vs, vg, vo;
+    replay_book bs, bg, bo;
+    book_of(&bs, script, &vs);
+    book_of(&bg, golden, &vg);
+    book_of(&bo, got, &vo);
+    size_t len = 0;
+    FILE *out = open_memstream(text, &len);
+    replay_counts c;
+    replay_rules rules = {0, NULL};
+    replay_match(&bs, &bg, &bo, &rules, 20, 0, out, &c);
+    fclose(out);
+    replay_book_free(&bo);
+    replay_book_free(&bg);
+    replay_book_free(&bs);
+    return c.mismatched;
+}
+
+/* An any-hit answer promises a hit when there is one, not which: another hit of the same
+ * ray matches, a miss does not; a closest answer is compared field by field. */
+static void test_any_hit_compared_by_whether_it_hit(void **state)
+{
+    (void)state;
+    mem_log script = {0}, golden = {0}, other_hit = {0}, missed = {0}, closest_golden = {0}, closest_other = {0};
+    add_ray_request(&script, 0x2a, 17, 5);
+    reply_detail = TRIOCT_RAY_REQUEST_T_ANY;
+    add_ray_reply(&golden, 0x2a, 17, 5, -1, 0, 0, 5, 0, 1);
+    add_ray_reply(&other_hit, 0x2a, 17, 5, 3, 7.25, 0, 5, 0, 1);
+    reply_miss = 3;
+    add_ray_reply(&missed, 0x2a, 17, 5, 3, 7.25, 0, 4, 0, 1);
+    reply_miss = -1;
+    reply_detail = TRIOCT_RAY_REQUEST_T_CLOSEST;
+    add_ray_reply(&closest_golden, 0x2a, 17, 5, -1, 0, 0, 5, 0, 1);
+    add_ray_reply(&closest_other, 0x2a, 17, 5, 3, 7.25, 0, 5, 0, 1);
+    char *text = NULL;
+    assert_int_equal(mismatches_between(&script, &golden, &other_hit, &text), 0);
+    assert_string_equal(text, "");
+    free(text);
+    assert_int_equal(mismatches_between(&script, &golden, &missed, &text), 1);
+    assert_non_null(strstr(text, "ray 3: found expected 1 got 0"));
+    free(text);
+    assert_int_equal(mismatches_between(&script, &closest_golden, &closest_other, &text), 1);
+    assert_non_null(strstr(text, "ray 3: t expected 3.5 got 7.25"));
+    free(text);
+    mem_free(&script);
+    mem_free(&golden);
+    mem_free(&other_hit);
+    mem_free(&missed);
+    mem_free(&closest_golden);
+    mem_free(&closest_other);
 }
 
 static void test_chunks_compared_after_reassembly(void **state)
@@ -630,7 +693,8 @@ static void test_changed_world_fails(void **state)
     expect_status(&r, 1);
     /* Straight down from z = 12 onto a crate's top at z = 1, now 1.001. */
     expect_line(&r, "request 3 (client 0x51, ray_request_v1_t on TRIOCT_RAY_yard): ray 8: t expected 11 got 10.999");
-    expect_line(&r, "requests 29 (0 malformed), replies 29: 16 matched, 13 mismatched, 0 missing, 0 extra (0 to nobody)");
+    /* The any-hit request still hits on every ray (which hit is not compared): it matches. */
+    expect_line(&r, "requests 29 (0 malformed), replies 29: 17 matched, 12 mismatched, 0 missing, 0 extra (0 to nobody)");
     expect_line(&r, "FAIL");
     free(r.out);
     scratch_remove(dir);
@@ -813,6 +877,7 @@ int main(int argc, char **argv)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_format_and_canon),
         cmocka_unit_test(test_compare_names_the_field),
+        cmocka_unit_test(test_any_hit_compared_by_whether_it_hit),
         cmocka_unit_test(test_chunks_compared_after_reassembly),
         cmocka_unit_test(test_logs_reproducible),
         cmocka_unit_test(test_replay_every_log_at_1_and_4_threads),
