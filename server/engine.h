@@ -64,6 +64,11 @@ typedef struct octree_def {
      * default) is OCTREE_DEFAULT_BUDGET_BASE + OCTREE_DEFAULT_BUDGET_PER_TRIANGLE per
      * triangle, about forty times what real meshes take; SIZE_MAX is no budget. */
     size_t budget_bytes;
+    /* 1: no compiled traversal form (octree_traversal.h, about 20-30 bytes a triangle):
+     * rays take the double-precision walk over the seed's nodes, with the same answers
+     * (any-hit rays may report another of their hits), more slowly. 0 (the default):
+     * rays walk the compiled form. */
+    int plain_walk;
 } octree_def;
 
 /* The default build budget: real meshes take 100-115 bytes a triangle in all; a build past
@@ -115,6 +120,8 @@ typedef struct octree_info {
                                   corner rounded up so that it holds every vertex */
     size_t bytes_nodes, bytes_leaf_lists, bytes_triangles, bytes_total;
     size_t bytes_triangle_boxes; /* 24 per triangle with octree_def.triangle_boxes, else 0;
+                                    part of bytes_total */
+    size_t bytes_traversal;      /* the compiled form rays walk (96 bytes an interior node);
                                     part of bytes_total */
     double build_seconds;
     accuracy_mode mode;

@@ -483,6 +483,100 @@ static inline __attribute__((always_inline)) int ray_tri_exact_rule(vec3 o, vec3
     return 1;
 }
 
+/* ---------------------------------------------------------------- the filter, four at once */
+
+/* The decided signs of the three edge functions of one triangle as ray_tri_exact_rule
+ * computes them, and whether they already rule a hit out (two decided signs that differ). */
+static unsigned scalar_edge_miss(vec3 o, vec3 d, const vec3 tri[3])
+{
+    double e01, e12, e20;
+    double w01 = edge_function(vec3_sub(tri[0], o), vec3_sub(tri[1], tri[0]), d, &e01);
+    double w12 = edge_function(vec3_sub(tri[1], o), vec3_sub(tri[2], tri[1]), d, &e12);
+    int s01 = filtered_sign(w01, e01), s12 = filtered_sign(w12, e12);
+    if (s01 * s12 < 0)
+        return 1;
+    double w20 = edge_function(vec3_sub(tri[2], o), vec3_sub(tri[0], tri[2]), d, &e20);
+    int s20 = filtered_sign(w20, e20);
+    return s20 * s01 < 0 || s20 * s12 < 0;
+}
+
+#if defined(__x86_64__)
+#include <immintrin.h>
+#define RAY_TRI_AVX2 __attribute__((target("avx2")))
+
+/* edge_function on four lanes: the same products, sums and bound, in the same order. The
+ * sign masks say where the filter is sure the value is positive or negative. */
+RAY_TRI_AVX2 static inline __attribute__((always_inline)) void edge_function4(const __m256d a[3], const __m256d e[3], const __m256d d[3],
+                                               const __m256d dabs[3], __m256d *pos, __m256d *neg)
+{
+    __m256d mag = _mm256_castsi256_pd(_mm256_set1_epi64x(0x7fffffffffffffffll));
+    __m256d p1 = _mm256_mul_pd(a[1], e[2]), p2 = _mm256_mul_pd(a[2], e[1]);
+    __m256d p3 = _mm256_mul_pd(a[2], e[0]), p4 = _mm256_mul_pd(a[0], e[2]);
+    __m256d p5 = _mm256_mul_pd(a[0], e[1]), p6 = _mm256_mul_pd(a[1], e[0]);
+    __m256d w = _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(d[0], _mm256_sub_pd(p1, p2)),
+                                            _mm256_mul_pd(d[1], _mm256_sub_pd(p3, p4))),
+                              _mm256_mul_pd(d[2], _mm256_sub_pd(p5, p6)));
+    __m256d pad = _mm256_set1_pd(TRIPLE_PAD);
+    __m256d m1 = _mm256_add_pd(_mm256_add_pd(_mm256_and_pd(p1, mag), _mm256_and_pd(p2, mag)), pad);
+    __m256d m2 = _mm256_add_pd(_mm256_add_pd(_mm256_and_pd(p3, mag), _mm256_and_pd(p4, mag)), pad);
+    __m256d m3 = _mm256_add_pd(_mm256_add_pd(_mm256_and_pd(p5, mag), _mm256_and_pd(p6, mag)), pad);
+    __m256d perm = _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(dabs[0], m1), _mm256_mul_pd(dabs[1], m2)),
+                                 _mm256_mul_pd(dabs[2], m3));
+    __m256d err = _mm256_add_pd(_mm256_mul_pd(_mm256_set1_pd(TRIPLE_ERR_EXACT_ROW), perm), _mm256_set1_pd(TRIPLE_ABS));
+    /* w == 0 is undecided whatever the bound (edge_function's err = INFINITY). */
+    __m256d nonzero = _mm256_cmp_pd(w, _mm256_setzero_pd(), _CMP_NEQ_OQ);
+    *pos = _mm256_and_pd(nonzero, _mm256_cmp_pd(w, err, _CMP_GT_OQ));
+    *neg = _mm256_and_pd(nonzero, _mm256_cmp_pd(_mm256_xor_pd(w, _mm256_set1_pd(-0.0)), err, _CMP_GT_OQ));
+}
+
+/* Edge k -> k + 1 of four triangles: a = v_k - o, e = v_{k+1} - v_k, per axis. */
+#define EDGE4(vk, vj, pos, neg)                                                                              \
+    do {                                                                                                     \
+        __m256d a_[3] = {_mm256_sub_pd(vk##x, ox), _mm256_sub_pd(vk##y, oy), _mm256_sub_pd(vk##z, oz)};       \
+        __m256d e_[3] = {_mm256_sub_pd(vj##x, vk##x), _mm256_sub_pd(vj##y, vk##y), _mm256_sub_pd(vj##z, vk##z)}; \
+        edge_function4(a_, e_, dv, da, &pos, &neg);                                                          \
+    } while (0)
+
+RAY_TRI_AVX2 static unsigned misses4_avx2(vec3 o, vec3 d, const vec3 *const tris[4], unsigned count)
+{
+    /* Unused lanes repeat the first triangle; their bits are dropped below. */
+    const vec3 *t0 = tris[0], *t1 = count > 1 ? tris[1] : t0, *t2 = count > 2 ? tris[2] : t0,
+               *t3 = count > 3 ? tris[3] : t0;
+#define COORD4(k, c) _mm256_set_pd(t3[k].c, t2[k].c, t1[k].c, t0[k].c)
+    __m256d v0x = COORD4(0, x), v0y = COORD4(0, y), v0z = COORD4(0, z);
+    __m256d v1x = COORD4(1, x), v1y = COORD4(1, y), v1z = COORD4(1, z);
+    __m256d v2x = COORD4(2, x), v2y = COORD4(2, y), v2z = COORD4(2, z);
+#undef COORD4
+    __m256d ox = _mm256_set1_pd(o.x), oy = _mm256_set1_pd(o.y), oz = _mm256_set1_pd(o.z);
+    __m256d dv[3] = {_mm256_set1_pd(d.x), _mm256_set1_pd(d.y), _mm256_set1_pd(d.z)};
+    __m256d da[3] = {_mm256_set1_pd(fabs(d.x)), _mm256_set1_pd(fabs(d.y)), _mm256_set1_pd(fabs(d.z))};
+    __m256d pos01, neg01, pos12, neg12, pos20, neg20;
+    EDGE4(v0, v1, pos01, neg01);
+    EDGE4(v1, v2, pos12, neg12);
+    EDGE4(v2, v0, pos20, neg20);
+    /* Two decided signs that differ: (01, 12), then 20 against either. */
+    __m256d miss = _mm256_or_pd(_mm256_and_pd(pos01, neg12), _mm256_and_pd(neg01, pos12));
+    miss = _mm256_or_pd(miss, _mm256_and_pd(pos20, _mm256_or_pd(neg01, neg12)));
+    miss = _mm256_or_pd(miss, _mm256_and_pd(neg20, _mm256_or_pd(pos01, pos12)));
+    return (unsigned)_mm256_movemask_pd(miss) & ((1u << count) - 1);
+}
+#undef EDGE4
+#endif
+
+unsigned ray_tri_exact_misses4(vec3 o, vec3 d, const vec3 *const tris[4], unsigned count, int avx2)
+{
+#if defined(__x86_64__)
+    if (avx2 && count > 1)
+        return misses4_avx2(o, d, tris, count);
+#else
+    (void)avx2;
+#endif
+    unsigned miss = 0;
+    for (unsigned i = 0; i < count; i++)
+        miss |= scalar_edge_miss(o, d, tris[i]) << i;
+    return miss;
+}
+
 int ray_tri_exact(vec3 o, vec3 d, double tmin, double tmax, const vec3 tri[3], ray_tri_hit *hit)
 {
     return ray_tri_exact_rule(o, d, tmin, tmax, tri, 0, hit);

@@ -51,6 +51,13 @@ typedef struct ray_tri_hit {
  *    2^-120 and 2^160. */
 int ray_tri_exact(vec3 o, vec3 d, double tmin, double tmax, const vec3 tri[3], ray_tri_hit *hit);
 
+/* The candidates among tris[0 .. count) (count <= 4) that ray_tri_exact surely misses by
+ * its own edge filter, as a bit mask (bit i for tris[i]). The filter is computed with the
+ * same operations in the same order, four triangles side by side in AVX2 when `avx2` is
+ * set (the caller checked the processor), so a rejected candidate is exactly one for which
+ * ray_tri_exact returns 0 without going further; the others still need ray_tri_exact. */
+unsigned ray_tri_exact_misses4(vec3 o, vec3 d, const vec3 *const tris[4], unsigned count, int avx2);
+
 /* Compare the exact t of two exact hits of the same ray: -1, 0, +1 for t_a <, =, > t_b.
  * Exact (filter, then expansions) for any two triangles whose planes the ray is not
  * parallel to, hit or not; 0 when either den is 0. */

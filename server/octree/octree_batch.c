@@ -30,6 +30,11 @@ static int share_one_origin(const ray_input *rays, size_t count)
 octree_status octree_ray_batch(const octree *tree, const ray_input *rays, size_t count, ray_detail detail,
                                accuracy_mode mode, ray_output *outs, octree_status *statuses, query_stats *stats)
 {
+    /* A tree with its compiled form walks each ray over it (octree_ray). The interleaved
+     * and grouped walks below are the double-precision walk's, for worlds without one. */
+    if (tree->traversal.present) {
+        BATCH_LOOP(octree_ray(tree, &rays[i], detail, mode, &outs[i], stats));
+    }
     if (!share_one_origin(rays, count))
         return octree_ray_stream(tree, rays, count, detail, mode, outs, statuses, stats);
     return octree_ray_packets(tree, rays, count, detail, mode, outs, statuses, stats);

@@ -58,6 +58,7 @@ octree_def octree_default_def(void)
         .seed_epsilon = OCTREE_DEFAULT_SEED_EPSILON,
         .triangle_boxes = 0,
         .budget_bytes = 0,
+        .plain_walk = 0,
     };
 }
 
@@ -573,6 +574,8 @@ octree *octree_build(const mesh_view *mesh, const octree_def *def_in, octree_err
         return fail(err, OCTREE_ERR_INVALID, SIZE_MAX, "resolution and seed epsilon must be finite (epsilon >= 0)");
     if (def.triangle_boxes != 0 && def.triangle_boxes != 1)
         return fail(err, OCTREE_ERR_INVALID, SIZE_MAX, "triangle_boxes %d is neither 0 nor 1", def.triangle_boxes);
+    if (def.plain_walk != 0 && def.plain_walk != 1)
+        return fail(err, OCTREE_ERR_INVALID, SIZE_MAX, "plain_walk %d is neither 0 nor 1", def.plain_walk);
 
     /* The budget, and what the build holds before its first node: at its peak (the Morton
      * renumbering holds two copies of the triangles and two key arrays beside the bounds),
@@ -707,6 +710,18 @@ octree *octree_build(const mesh_view *mesh, const octree_def *def_in, octree_err
     memcpy(aligned, tree->nodes, tree->node_count * sizeof(octree_node));
     free(tree->nodes);
     tree->nodes = aligned;
+
+    /* The compiled traversal form, a second stage after the seed's build (one record an
+     * interior node). It only makes rays faster, so a build whose budget cannot hold it, or
+     * a world outside its float range, goes without: rays then take the double walk. */
+    size_t interior = 0;
+    for (size_t i = 0; i < tree->node_count; i++)
+        interior += tree->nodes[i].count == NODE_INTERIOR;
+    if (!def.plain_walk && budget_take(&ctx, interior * sizeof(traversal_node) + 64) == 0 &&
+        traversal_form_build(tree, &tree->traversal) < 0) {
+        octree_free(tree);
+        return fail(err, OCTREE_ERR_NOMEM, SIZE_MAX, "out of memory");
+    }
     size_t padding = tree->node_count > 1 ? OCTREE_BLOCK_PADDING : 0;
 
     octree_info *info = &tree->info;
@@ -728,8 +743,9 @@ octree *octree_build(const mesh_view *mesh, const octree_def *def_in, octree_err
     info->bytes_leaf_lists = (info->leaf_refs + tree->sliver_list_count) * sizeof(uint32_t);
     info->bytes_triangles = tree->triangle_count * (sizeof *tree->triangles + sizeof *tree->original_id);
     info->bytes_triangle_boxes = tree->triangle_boxes ? tree->triangle_count * sizeof *tree->triangle_boxes : 0;
-    info->bytes_total =
-        info->bytes_nodes + info->bytes_leaf_lists + info->bytes_triangles + info->bytes_triangle_boxes + sizeof *tree;
+    info->bytes_traversal = tree->traversal.bytes;
+    info->bytes_total = info->bytes_nodes + info->bytes_leaf_lists + info->bytes_triangles +
+                        info->bytes_triangle_boxes + info->bytes_traversal + sizeof *tree;
     info->mode = def.mode;
     tree->seed_epsilon = def.seed_epsilon;
     info->build_seconds = seconds_now() - started;
@@ -745,6 +761,7 @@ void octree_free(octree *tree)
     free(tree->triangle_boxes);
     free(tree->nodes);
     free(tree->leaf_items);
+    traversal_form_free(&tree->traversal);
     free(tree);
 }
 

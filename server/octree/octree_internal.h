@@ -10,6 +10,7 @@
 #include "../engine.h"
 #include "../geom/box_geometry.h"
 #include "../geom/vec3.h"
+#include "octree_traversal.h"
 
 /* count == NODE_INTERIOR marks an interior node whose eight children, in the seed's octant
  * order, are nodes first .. first + 7. Otherwise the node is a leaf whose triangles are
@@ -72,6 +73,9 @@ struct octree {
      * after the leaf lists in leaf_items. */
     uint32_t sliver_list_count;
     double seed_epsilon;
+    /* The compiled form rays walk (octree_traversal.h); empty when the world is outside
+     * its range, and then every ray takes the double-precision walk over nodes. */
+    traversal_form traversal;
     octree_info info;
 };
 

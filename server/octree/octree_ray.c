@@ -420,6 +420,14 @@ static octree_status check_query(const ray_input *ray, ray_detail detail, accura
 
 static inline __attribute__((always_inline)) int walk_test_candidate(ray_walk *w, const octree *tree, uint32_t id);
 
+/* Makes the walk's tested set ready (clearing its inline slots costs about as much as a
+ * node step, which walks that test no candidate twice need not pay). */
+static void walk_need_set(ray_walk *w)
+{
+    if (!w->tested.slots)
+        id_set_init(&w->tested);
+}
+
 /* Starts the walk of a ray that passed check_query. */
 static void walk_begin(ray_walk *w, const octree *tree, const ray_input *ray, ray_detail detail,
                        accuracy_mode mode, ray_output *out)
@@ -435,7 +443,10 @@ static void walk_begin(ray_walk *w, const octree *tree, const ray_input *ray, ra
     w->bound = w->r.tmax;
     w->best = (ray_hit){0};
     w->local = (query_stats){0};
-    id_set_init(&w->tested);
+    /* The tested set is made ready by walk_need_set, for the walks that use it. */
+    w->tested.slots = NULL;
+    if (mode == ACCURACY_SEED)
+        walk_need_set(w);
     w->all = (hit_list){0};
     w->top = 0;
     out->hit_count = 0;
@@ -473,9 +484,10 @@ PREFETCH_HELPER void prefetch_span(const void *first, size_t bytes)
 /* Tests one candidate unless the walk tested it already. Returns 0 once the walk is done
  * (an answer for RAY_ANY, or out of memory). Forced inline: as a call per candidate it
  * cost exact rays 7% of their instructions. */
+static inline __attribute__((always_inline)) int walk_test_unique(ray_walk *w, const octree *tree, uint32_t id);
+
 static inline __attribute__((always_inline)) int walk_test_candidate(ray_walk *w, const octree *tree, uint32_t id)
 {
-    const ray_setup *r = &w->r;
     int fresh = id_set_insert(&w->tested, id);
     if (fresh == 0)
         return 1;
@@ -484,6 +496,17 @@ static inline __attribute__((always_inline)) int walk_test_candidate(ray_walk *w
         w->done = 1;
         return 0;
     }
+    return walk_test_unique(w, tree, id);
+}
+
+/* Tests one candidate, which the walk either has not tested yet or may test again (a
+ * closest or any hit is the same however often a triangle is tested). */
+static inline __attribute__((always_inline)) int walk_test_unique(ray_walk *w, const octree *tree, uint32_t id)
+{
+    const ray_setup *r = &w->r;
+    /* The best hit so far met again in a neighbouring leaf: nothing to learn from it. */
+    if (w->have_best && w->best.triangle == id)
+        return 1;
     w->local.candidates_tested++;
     ray_tri_hit h;
     if (!test_triangle(tree, r, w->mode, id, &h))
@@ -750,6 +773,309 @@ static octree_status walk_finish(ray_walk *w, const octree *tree, ray_output *ou
     return st;
 }
 
+/* ---------- the compiled walk (octree_traversal.h) ---------- */
+
+/* A ray as the float walk takes it, relative to the world's lower corner. Along each axis
+ * the near planes are measured from o_near and the far planes from o_far, floats on either
+ * side of the exact origin (grown by the mode's slack): with d > 0 a larger origin gives a
+ * smaller t, so (plane - o_near) / d is at or below the exact near crossing and
+ * (plane - o_far) / d at or above the exact far one, and with d < 0 the roles swap. The
+ * origin's rounding into float and the slack are paid here, once per ray; the walk's own
+ * roundings are relative, three per crossing (the difference, the product, and 1/d taken
+ * to float), and are paid once per child lane by widening the interval by 2^-21 of itself.
+ * A direction component of zero takes 1/d = +inf: a plane beyond o_near gives +inf (the
+ * box is not met), one before it -inf (no constraint), and a plane exactly at it NaN,
+ * which the interval's max and min ignore (the axis then constrains nothing, which is
+ * conservative). */
+typedef struct float_ray {
+    float o_near[3], o_far[3], inv[3];
+    unsigned char near_row[3], far_row[3];
+    unsigned near_upper; /* bit a: the ray meets the upper half along axis a first */
+    int filtered;        /* leaves go through walk_test_leaf_filtered */
+} float_ray;
+
+/* Past these the float walk could overflow, or 1/d round to zero: such rays (an origin
+ * 2^60 world sides away, a direction component below 2^-60 or above 2^60 of a unit) take
+ * the double walk. */
+#define FLOAT_WALK_RANGE 0x1p60
+
+/* A float at or above x + g (g >= 0), from a float at or above x. */
+static float float_grown_up(float f, double g)
+{
+    if (g == 0.0)
+        return f;
+    return float_at_or_above(nextafter((double)f + g, INFINITY));
+}
+
+static float float_grown_down(float f, double g)
+{
+    if (g == 0.0)
+        return f;
+    return float_at_or_below(nextafter((double)f - g, -INFINITY));
+}
+
+/* Prepares r for the float walk; 0 when the ray must take the double walk instead. */
+static int float_ray_setup(float_ray *f, const octree *tree, const ray_setup *r)
+{
+    if (!tree->traversal.present || !(r->grow < INFINITY))
+        return 0;
+    f->near_upper = 0;
+    for (int a = 0; a < 3; a++) {
+        if (r->kind[a] != 0 && r->kind[a] != 1)
+            return 0;
+        double o = vec3_get(r->o, a), c = vec3_get(tree->world.lo, a), d = vec3_get(r->d, a);
+        float above = float_grown_up(float_above_difference(o, c), r->grow);
+        float below = float_grown_down(float_below_difference(o, c), r->grow);
+        if (!(fabsf(above) <= FLOAT_WALK_RANGE && fabsf(below) <= FLOAT_WALK_RANGE))
+            return 0;
+        int negative = 0;
+        if (d == 0.0) {
+            f->inv[a] = INFINITY;
+        } else {
+            double inv = 1.0 / d;
+            if (!(fabs(inv) <= FLOAT_WALK_RANGE && fabs(inv) >= 1.0 / FLOAT_WALK_RANGE))
+                return 0;
+            f->inv[a] = (float)inv;
+            negative = inv < 0;
+        }
+        f->o_near[a] = negative ? below : above;
+        f->o_far[a] = negative ? above : below;
+        f->near_row[a] = (unsigned char)(negative ? TRAVERSAL_HI_X + a : TRAVERSAL_LO_X + a);
+        f->far_row[a] = (unsigned char)(negative ? TRAVERSAL_LO_X + a : TRAVERSAL_HI_X + a);
+        f->near_upper |= (unsigned)negative << a;
+    }
+    return 1;
+}
+
+/* The children of n that the ray meets within [lo, hi], as a lane mask, with each lane's
+ * widened entry parameter in tnear: eight lanes in two SSE2 halves (the x86-64 baseline),
+ * or one AVX2 register where the processor has it. A child's bound is origin + q * scale,
+ * exact in float (octree_traversal.h); each crossing (plane - o) * inv rounds three times
+ * (with 1/d's rounding to float), which FLOAT_WALK_REL covers together with the rounding
+ * of the widening itself, and FLOAT_WALK_ABS covers underflow. max and min take the
+ * running value where a crossing is NaN (MAXPS and MINPS return their second operand
+ * then), so a NaN constrains nothing. */
+#define FLOAT_WALK_REL 0x1p-21f
+#define FLOAT_WALK_ABS 0x1p-100f
+
+#if defined(__x86_64__) || defined(__SSE2__)
+#include <immintrin.h>
+#define FLOAT_WALK_SIMD 1
+
+/* Lanes 0-3 (half 0) or 4-7 (half 1) of a quantized row. */
+static inline __m128 row_half_sse2(const uint8_t *row, int half, __m128 scale, __m128 origin)
+{
+    __m128i bytes = _mm_loadl_epi64((const __m128i *)row);
+    __m128i words = _mm_unpacklo_epi8(bytes, _mm_setzero_si128());
+    __m128i ints = half ? _mm_unpackhi_epi16(words, _mm_setzero_si128()) : _mm_unpacklo_epi16(words, _mm_setzero_si128());
+    return _mm_add_ps(_mm_mul_ps(_mm_cvtepi32_ps(ints), scale), origin);
+}
+
+static inline unsigned node_children_met_sse2(const traversal_node *n, const float_ray *f, float lo, float hi,
+                                              float tnear[8])
+{
+    __m128 scale = _mm_set1_ps(n->scale);
+    __m128 rel = _mm_set1_ps(FLOAT_WALK_REL), absw = _mm_set1_ps(FLOAT_WALK_ABS);
+    __m128 sign = _mm_castsi128_ps(_mm_set1_epi32(0x7fffffff));
+    unsigned met = 0;
+    for (int h = 0; h < 2; h++) {
+        __m128 tn = _mm_set1_ps(lo), tf = _mm_set1_ps(hi);
+        for (int a = 0; a < 3; a++) {
+            __m128 origin = _mm_set1_ps(n->origin[a]), inv = _mm_set1_ps(f->inv[a]);
+            __m128 t0 = _mm_mul_ps(_mm_sub_ps(row_half_sse2(n->q[f->near_row[a]], h, scale, origin),
+                                              _mm_set1_ps(f->o_near[a])), inv);
+            __m128 t1 = _mm_mul_ps(_mm_sub_ps(row_half_sse2(n->q[f->far_row[a]], h, scale, origin),
+                                              _mm_set1_ps(f->o_far[a])), inv);
+            tn = _mm_max_ps(t0, tn);
+            tf = _mm_min_ps(t1, tf);
+        }
+        __m128 tn_w = _mm_sub_ps(_mm_sub_ps(tn, _mm_mul_ps(_mm_and_ps(tn, sign), rel)), absw);
+        __m128 tf_w = _mm_add_ps(_mm_add_ps(tf, _mm_mul_ps(_mm_and_ps(tf, sign), rel)), absw);
+        __m128i kids = _mm_loadu_si128((const __m128i *)&n->child[4 * h]);
+        __m128i empty = _mm_cmpeq_epi32(kids, _mm_set1_epi32(-1));
+        __m128 ok = _mm_andnot_ps(_mm_castsi128_ps(empty), _mm_cmple_ps(tn_w, tf_w));
+        _mm_storeu_ps(&tnear[4 * h], tn_w);
+        met |= (unsigned)_mm_movemask_ps(ok) << (4 * h);
+    }
+    return met;
+}
+
+/* All eight lanes in one AVX2 register: about half the instructions of the SSE2 form. */
+#define FLOAT_WALK_AVX2 __attribute__((target("avx2")))
+
+FLOAT_WALK_AVX2 static inline __m256 row_avx2(const uint8_t *row, __m256 scale, __m256 origin)
+{
+    __m256i ints = _mm256_cvtepu8_epi32(_mm_loadl_epi64((const __m128i *)row));
+    return _mm256_add_ps(_mm256_mul_ps(_mm256_cvtepi32_ps(ints), scale), origin);
+}
+
+FLOAT_WALK_AVX2 static inline unsigned node_children_met_avx2(const traversal_node *n, const float_ray *f, float lo,
+                                                              float hi, float tnear[8])
+{
+    __m256 scale = _mm256_set1_ps(n->scale);
+    __m256 tn = _mm256_set1_ps(lo), tf = _mm256_set1_ps(hi);
+    for (int a = 0; a < 3; a++) {
+        __m256 origin = _mm256_set1_ps(n->origin[a]), inv = _mm256_set1_ps(f->inv[a]);
+        __m256 t0 = _mm256_mul_ps(_mm256_sub_ps(row_avx2(n->q[f->near_row[a]], scale, origin), _mm256_set1_ps(f->o_near[a])), inv);
+        __m256 t1 = _mm256_mul_ps(_mm256_sub_ps(row_avx2(n->q[f->far_row[a]], scale, origin), _mm256_set1_ps(f->o_far[a])), inv);
+        tn = _mm256_max_ps(t0, tn);
+        tf = _mm256_min_ps(t1, tf);
+    }
+    __m256 sign = _mm256_castsi256_ps(_mm256_set1_epi32(0x7fffffff));
+    __m256 rel = _mm256_set1_ps(FLOAT_WALK_REL), absw = _mm256_set1_ps(FLOAT_WALK_ABS);
+    __m256 tn_w = _mm256_sub_ps(_mm256_sub_ps(tn, _mm256_mul_ps(_mm256_and_ps(tn, sign), rel)), absw);
+    __m256 tf_w = _mm256_add_ps(_mm256_add_ps(tf, _mm256_mul_ps(_mm256_and_ps(tf, sign), rel)), absw);
+    __m256i empty = _mm256_cmpeq_epi32(_mm256_loadu_si256((const __m256i *)n->child), _mm256_set1_epi32(-1));
+    __m256 ok = _mm256_andnot_ps(_mm256_castsi256_ps(empty), _mm256_cmp_ps(tn_w, tf_w, _CMP_LE_OQ));
+    _mm256_storeu_ps(tnear, tn_w);
+    return (unsigned)_mm256_movemask_ps(ok);
+}
+#endif
+
+/* The same test one lane at a time, for targets without SSE2; it computes exactly what the
+ * lanes compute (plain comparisons keep the running value where a crossing is NaN). */
+static inline unsigned node_children_met_scalar(const traversal_node *n, const float_ray *f, float lo, float hi,
+                                                float tnear[8])
+{
+    unsigned met = 0;
+    for (int k = 0; k < 8; k++) {
+        float tn = lo, tf = hi;
+        for (int a = 0; a < 3; a++) {
+            float bn = (float)n->q[f->near_row[a]][k] * n->scale + n->origin[a];
+            float bf = (float)n->q[f->far_row[a]][k] * n->scale + n->origin[a];
+            float t0 = (bn - f->o_near[a]) * f->inv[a], t1 = (bf - f->o_far[a]) * f->inv[a];
+            tn = t0 > tn ? t0 : tn;
+            tf = t1 < tf ? t1 : tf;
+        }
+        float tn_w = tn - fabsf(tn) * FLOAT_WALK_REL - FLOAT_WALK_ABS;
+        float tf_w = tf + fabsf(tf) * FLOAT_WALK_REL + FLOAT_WALK_ABS;
+        tnear[k] = tn_w;
+        met |= (unsigned)(tn_w <= tf_w && n->child[k] != TRAVERSAL_EMPTY) << k;
+    }
+    return met;
+}
+
+/* Bit j of rank_of_lanes[s][m] is bit j ^ s of m: a lane mask in a ray's front-to-back
+ * order, for the ray whose near-upper bits are s. */
+#define RANK_BIT(s, m, j) ((((m) >> ((j) ^ (s))) & 1u) << (j))
+#define RANK_MASK(s, m)                                                                                      \
+    (RANK_BIT(s, m, 0) | RANK_BIT(s, m, 1) | RANK_BIT(s, m, 2) | RANK_BIT(s, m, 3) | RANK_BIT(s, m, 4) |       \
+     RANK_BIT(s, m, 5) | RANK_BIT(s, m, 6) | RANK_BIT(s, m, 7))
+#define RANK4(s, m) RANK_MASK(s, m), RANK_MASK(s, (m) + 1), RANK_MASK(s, (m) + 2), RANK_MASK(s, (m) + 3)
+#define RANK16(s, m) RANK4(s, m), RANK4(s, (m) + 4), RANK4(s, (m) + 8), RANK4(s, (m) + 12)
+#define RANK64(s, m) RANK16(s, m), RANK16(s, (m) + 16), RANK16(s, (m) + 32), RANK16(s, (m) + 48)
+#define RANK256(s) {RANK64(s, 0), RANK64(s, 64), RANK64(s, 128), RANK64(s, 192)}
+static const unsigned char rank_of_lanes[8][256] = {RANK256(0), RANK256(1), RANK256(2), RANK256(3),
+                                                    RANK256(4), RANK256(5), RANK256(6), RANK256(7)};
+
+typedef struct float_entry {
+    float tnear;
+    uint32_t ref;
+} float_entry;
+
+/* 7 siblings waiting per level plus the node. */
+#define FLOAT_STACK_MAX (7 * (OCTREE_MAX_DEPTH_CAP + 1) + 2)
+
+/* A leaf's candidates for an exact crossing, closest or any hit: four at a time through
+ * ray_tri_exact's own edge filter, and the full test only for those it cannot rule out.
+ * Repeats are not skipped (walk_test_unique). */
+static void walk_test_leaf_filtered(ray_walk *w, const octree *tree, octree_node leaf)
+{
+    const uint32_t *ids = &tree->leaf_items[leaf.first];
+    for (uint32_t i = 0; i < leaf.count; i += 4) {
+        unsigned k = leaf.count - i < 4 ? leaf.count - i : 4;
+        const vec3 *tris[4];
+        for (unsigned j = 0; j < k; j++)
+            tris[j] = octree_triangle_at(tree, ids[i + j]);
+        unsigned miss = ray_tri_exact_misses4(w->r.o, w->r.d, tris, k, tree->traversal.avx2);
+        w->local.candidates_tested += (uint64_t)__builtin_popcount(miss);
+        for (unsigned j = 0; j < k; j++)
+            if (!((miss >> j) & 1) && !walk_test_unique(w, tree, ids[i + j]))
+                return;
+    }
+}
+
+/* What visiting a pushed child reads first: its record (two cache lines), or its leaf's
+ * node. Every child but the nearest waits for the nearer ones' subtrees, so its memory
+ * arrives meanwhile. */
+PREFETCH_HELPER void prefetch_compiled_child(const octree *tree, uint32_t ref)
+{
+    if (ref & TRAVERSAL_LEAF) {
+        __builtin_prefetch(&tree->nodes[ref & ~TRAVERSAL_LEAF]);
+        return;
+    }
+    const char *p = (const char *)&tree->traversal.nodes[ref];
+    __builtin_prefetch(p);
+    __builtin_prefetch(p + sizeof(traversal_node) - 1);
+}
+
+/* Runs a walk begun by walk_begin to its end over the compiled form, with NODE_TEST as the
+ * eight-lane child test. One body for each instruction set, so that the whole loop is
+ * compiled for it (a function for another target is not inlined into this one). */
+#define DEFINE_COMPILED_WALK(NAME, TARGET, NODE_TEST)                                                       \
+    TARGET static void NAME(ray_walk *w, const octree *tree, const float_ray *f)                              \
+    {                                                                                                         \
+        const traversal_node *nodes = tree->traversal.nodes;                                                  \
+        float_entry stack[FLOAT_STACK_MAX];                                                                   \
+        size_t top = 0;                                                                                       \
+        float lo = float_at_or_below(w->r.tmin);                                                              \
+        float bound = float_at_or_above(w->bound);                                                            \
+        if (tree->traversal.root == TRAVERSAL_EMPTY)                                                          \
+            return;                                                                                           \
+        stack[top++] = (float_entry){-INFINITY, tree->traversal.root};                                        \
+        while (top > 0) {                                                                                     \
+            float_entry e = stack[--top];                                                                     \
+            if (e.tnear > bound)                                                                              \
+                continue; /* a nearer hit was found after this node was pushed */                             \
+            w->local.nodes_visited++;                                                                         \
+            if (e.ref & TRAVERSAL_LEAF) {                                                                     \
+                octree_node leaf = tree->nodes[e.ref & ~TRAVERSAL_LEAF];                                      \
+                w->local.leaves_visited++;                                                                    \
+                /* Asked for together, so their misses overlap instead of coming one test at a time. */     \
+                prefetch_leaf_triangles(tree, leaf);                                                          \
+                if (f->filtered)                                                                              \
+                    walk_test_leaf_filtered(w, tree, leaf);                                                   \
+                else                                                                                          \
+                    walk_test_leaf(w, tree, leaf);                                                            \
+                if (w->done)                                                                                  \
+                    return;                                                                                   \
+                bound = float_at_or_above(w->bound);                                                          \
+                continue;                                                                                     \
+            }                                                                                                 \
+            const traversal_node *n = &nodes[e.ref];                                                          \
+            float tnear[8];                                                                                   \
+            unsigned met = rank_of_lanes[f->near_upper][NODE_TEST(n, f, lo, bound, tnear)];                   \
+            /* Pushed far to near, so the nearest is popped first. */                                        \
+            while (met) {                                                                                     \
+                int j = 31 - __builtin_clz(met);                                                              \
+                met &= ~(1u << j);                                                                            \
+                int lane = j ^ (int)f->near_upper;                                                            \
+                uint32_t child = n->child[lane];                                                              \
+                stack[top++] = (float_entry){tnear[lane], child};                                             \
+                prefetch_compiled_child(tree, child);                                                         \
+            }                                                                                                 \
+        }                                                                                                     \
+    }
+
+#ifdef FLOAT_WALK_SIMD
+DEFINE_COMPILED_WALK(walk_run_compiled_sse2, , node_children_met_sse2)
+DEFINE_COMPILED_WALK(walk_run_compiled_avx2, FLOAT_WALK_AVX2, node_children_met_avx2)
+#else
+DEFINE_COMPILED_WALK(walk_run_compiled_scalar, , node_children_met_scalar)
+#endif
+
+static void walk_run_compiled(ray_walk *w, const octree *tree, const float_ray *f)
+{
+#ifdef FLOAT_WALK_SIMD
+    if (tree->traversal.avx2)
+        walk_run_compiled_avx2(w, tree, f);
+    else
+        walk_run_compiled_sse2(w, tree, f);
+#else
+    walk_run_compiled_scalar(w, tree, f);
+#endif
+}
+
 octree_status octree_ray(const octree *tree, const ray_input *ray, ray_detail detail, accuracy_mode mode,
                          ray_output *out, query_stats *stats)
 {
@@ -759,8 +1085,20 @@ octree_status octree_ray(const octree *tree, const ray_input *ray, ray_detail de
     uint64_t fallbacks_before = predicates_fallback_count();
     ray_walk w;
     walk_begin(&w, tree, ray, detail, mode, out);
-    while (walk_step(&w, tree, 0))
-        ;
+    float_ray f;
+    if (w.top > 0 && !w.done && float_ray_setup(&f, tree, &w.r)) {
+        /* Closest and any-hit exact crossings may test a triangle twice (a leaf's
+         * neighbours share it), which costs less than a set that prevents it, and their
+         * leaves take four candidates at once through the filter. */
+        f.filtered = mode == ACCURACY_EXACT && !w.r.touch && detail != RAY_ALL;
+        if (!f.filtered)
+            walk_need_set(&w);
+        walk_run_compiled(&w, tree, &f);
+    } else {
+        walk_need_set(&w);
+        while (walk_step(&w, tree, 0))
+            ;
+    }
     st = walk_finish(&w, tree, out);
     query_stats_finish(stats, &w.local, fallbacks_before, predicates_fallback_count());
     return st;
@@ -876,6 +1214,7 @@ static size_t walk_start_next(ray_walk *w, const octree *tree, const ray_input *
             continue;
         }
         walk_begin(w, tree, &rays[i], detail, mode, &outs[i]);
+        walk_need_set(w);
         return i;
     }
     return count;
