@@ -164,6 +164,32 @@ bench: $(BENCH_BIN) $(DAEMON_BENCH_BIN) $(DAEMON_BIN)
 	@for b in $(BENCH_BIN); do echo "== $$b"; $$b || exit 1; done
 	@echo "== $(DAEMON_BENCH_BIN) (udpm in a private network namespace)"
 	tests/e2e/netns.sh $(DAEMON_BENCH_BIN) $(DAEMON_BIN)
+	@$(MAKE) --no-print-directory bench-peers
+
+# trioct against its peers, Embree 3 (rays, builds) and FCL 0.7 (triangles, a shape at
+# poses), on one core (bench/peers/). Only this binary links them: it is outside BENCH_SRC
+# and `all`, and is built only here, after bench/peers/ensure_peers.sh has found the
+# packages (installing them as root); without them and without root it prints the apt-get
+# line and the peer benchmark is skipped. FCL's headers come in as system headers, so
+# their warnings do not fail the build.
+CXX ?= g++
+PEER_BIN   := $(BUILD)/bench/peers/bench_peers
+PEER_OBJ   := $(BUILD)/bench/peers/bench_peers.o $(BUILD)/bench/peers/fcl_peer.o
+PEER_CXXFLAGS = -std=c++17 -Wall -Wextra -Werror -isystem /usr/include/eigen3 $(OPT) $(SAN) $(CXXFLAGS)
+PEER_LIBS  := -lembree3 -lfcl
+PEER_ENSURE ?= bench/peers/ensure_peers.sh
+.PHONY: bench-peers
+bench-peers:
+	@st=0; sh $(PEER_ENSURE) || st=$$?; \
+	if [ $$st -eq 3 ]; then echo "== $(PEER_BIN) skipped: Embree and FCL are not installed"; \
+	elif [ $$st -ne 0 ]; then exit $$st; \
+	else $(MAKE) --no-print-directory $(PEER_BIN) && \
+	    echo "== $(PEER_BIN) (trioct vs Embree and FCL, one core)" && $(PEER_BIN); fi
+$(BUILD)/bench/peers/fcl_peer.o: bench/peers/fcl_peer.cpp | $(DEPS_STAMP)
+	@mkdir -p $(dir $@)
+	$(CXX) $(PEER_CXXFLAGS) -MMD -MP -c $< -o $@
+$(PEER_BIN): $(PEER_OBJ) $(ALL_LIBS)
+	$(CXX) $(OPT) $(SAN) -pthread $(PEER_OBJ) $(ALL_LIBS) $(SYS_LIBS) $(PEER_LIBS) -o $@
 
 # Issue 3: what accuracy costs in time. Writes docs/accuracy.md and its plots.
 accuracy-report: $(ACC_BIN)

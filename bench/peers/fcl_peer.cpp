@@ -1,0 +1,75 @@
+// FCL 0.7 behind the C API of fcl_peer.h.
+#include "fcl_peer.h"
+
+#include <fcl/fcl.h>
+
+#include <cstdio>
+#include <exception>
+#include <memory>
+#include <vector>
+
+using Model = fcl::BVHModel<fcl::OBBRSSd>;
+
+struct fcl_peer_model {
+    std::shared_ptr<Model> bvh;
+    fcl::CollisionObjectd object;
+    explicit fcl_peer_model(const std::shared_ptr<Model> &m) : bvh(m), object(m, fcl::Transform3d::Identity()) {}
+};
+
+extern "C" const char *fcl_peer_version(void)
+{
+    return FCL_VERSION;
+}
+
+extern "C" fcl_peer_model *fcl_peer_model_new(const double *xyz, size_t vertex_count, const uint32_t *indices,
+                                              size_t triangle_count)
+{
+    try {
+        std::vector<fcl::Vector3d> vertices(vertex_count);
+        for (size_t i = 0; i < vertex_count; i++)
+            vertices[i] = fcl::Vector3d(xyz[3 * i], xyz[3 * i + 1], xyz[3 * i + 2]);
+        std::vector<fcl::Triangle> triangles(triangle_count);
+        for (size_t i = 0; i < triangle_count; i++)
+            triangles[i] = fcl::Triangle(indices[3 * i], indices[3 * i + 1], indices[3 * i + 2]);
+        auto bvh = std::make_shared<Model>();
+        if (bvh->beginModel((int)triangle_count, (int)vertex_count) != fcl::BVH_OK ||
+            bvh->addSubModel(vertices, triangles) != fcl::BVH_OK || bvh->endModel() != fcl::BVH_OK) {
+            std::fprintf(stderr, "fcl_peer: building the BVHModel failed\n");
+            return nullptr;
+        }
+        bvh->computeLocalAABB();
+        return new fcl_peer_model(bvh);
+    } catch (const std::exception &e) {
+        std::fprintf(stderr, "fcl_peer: %s\n", e.what());
+        return nullptr;
+    }
+}
+
+extern "C" void fcl_peer_model_free(fcl_peer_model *model)
+{
+    delete model;
+}
+
+extern "C" size_t fcl_peer_collide(fcl_peer_model *shape, const double r[9], const double t[3],
+                                   const fcl_peer_model *world, size_t max_contacts, uint32_t *world_ids,
+                                   size_t id_cap)
+{
+    if (r && t) {
+        fcl::Transform3d tf = fcl::Transform3d::Identity();
+        fcl::Matrix3d rot;
+        rot << r[0], r[1], r[2], r[3], r[4], r[5], r[6], r[7], r[8];
+        tf.linear() = rot;
+        tf.translation() = fcl::Vector3d(t[0], t[1], t[2]);
+        // What a planning scene does when a link moves: new transform, then its AABB.
+        shape->object.setTransform(tf);
+        shape->object.computeAABB();
+    }
+    fcl::CollisionRequestd request(max_contacts, false);
+    fcl::CollisionResultd result;
+    fcl::collide(&shape->object, &world->object, request, result);
+    size_t n = result.numContacts();
+    if (world_ids)
+        for (size_t i = 0; i < n && i < id_cap; i++)
+            world_ids[i] = (uint32_t)result.getContact(i).b2;
+    return n;
+}
