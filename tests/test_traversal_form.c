@@ -175,6 +175,48 @@ static ray_input hard_ray(rng *r, const mesh_data *m, const octree *t, size_t i)
     return (ray_input){o, d, tmin, tmax, RAY_CROSSING};
 }
 
+/* Batches (the stream over the compiled form, the interleaved and grouped walks over the
+ * plain one) answer as the same tree answers each ray alone. */
+static void compare_batches(const octree *tree, const ray_input *rays, size_t count, const char *scene)
+{
+    ray_output *outs = calloc(count, sizeof *outs);
+    ray_hit *hits = calloc(count, sizeof *hits);
+    octree_status *st = calloc(count, sizeof *st);
+    ray_input *shared = malloc(count * sizeof *shared);
+    for (int pass = 0; pass < 2; pass++) {
+        /* pass 1: every ray from the first one's origin, which takes the grouped walks */
+        const ray_input *in = rays;
+        if (pass == 1) {
+            for (size_t i = 0; i < count; i++) {
+                shared[i] = rays[i];
+                shared[i].origin = rays[0].origin;
+            }
+            in = shared;
+        }
+        for (int detail = RAY_ANY; detail <= RAY_CLOSEST; detail++) {
+            for (size_t i = 0; i < count; i++)
+                outs[i] = (ray_output){.hits = &hits[i], .max_hits = 1};
+            assert_int_equal(octree_ray_batch(tree, in, count, (ray_detail)detail, ACCURACY_EXACT, outs, st, NULL),
+                             OCTREE_OK);
+            for (size_t i = 0; i < count; i++) {
+                ray_hit h;
+                ray_output one = {.hits = &h, .max_hits = 1};
+                assert_int_equal(octree_ray(tree, &in[i], (ray_detail)detail, ACCURACY_EXACT, &one, NULL), st[i]);
+                if (one.hit_count != outs[i].hit_count)
+                    fail_msg("%s batch pass %d ray %zu detail %d: %zu hits alone, %zu in the batch", scene, pass, i,
+                             detail, one.hit_count, outs[i].hit_count);
+                if (detail == RAY_CLOSEST && one.hit_count && (h.triangle != hits[i].triangle || bits_of(h.t) != bits_of(hits[i].t)))
+                    fail_msg("%s batch pass %d ray %zu: (%u, %a) alone, (%u, %a) in the batch", scene, pass, i,
+                             h.triangle, h.t, hits[i].triangle, hits[i].t);
+            }
+        }
+    }
+    free(outs);
+    free(hits);
+    free(st);
+    free(shared);
+}
+
 static void compare_scene(const char *name, const mesh_data *m, double resolution, size_t rays, uint64_t seed,
                           tally *t)
 {
@@ -187,8 +229,10 @@ static void compare_scene(const char *name, const mesh_data *m, double resolutio
     assert_int_equal(info.bytes_traversal, 0);
     rng r = rng_seeded(seed);
     const accuracy_mode modes[] = {ACCURACY_EXACT, ACCURACY_FAST, ACCURACY_SEED};
+    ray_input *all = malloc(rays * sizeof *all);
     for (size_t i = 0; i < rays; i++) {
         ray_input ray = hard_ray(&r, m, compiled, i);
+        all[i] = ray;
         for (size_t k = 0; k < 3; k++)
             compare_ray(compiled, plain, m, &ray, modes[k], t, name, i);
         if (i % 3 == 0) {
@@ -196,6 +240,9 @@ static void compare_scene(const char *name, const mesh_data *m, double resolutio
             compare_ray(compiled, plain, m, &ray, ACCURACY_EXACT, t, name, i);
         }
     }
+    compare_batches(compiled, all, rays, name);
+    compare_batches(plain, all, rays, name);
+    free(all);
     octree_free(compiled);
     octree_free(plain);
 }

@@ -30,12 +30,14 @@ static int share_one_origin(const ray_input *rays, size_t count)
 octree_status octree_ray_batch(const octree *tree, const ray_input *rays, size_t count, ray_detail detail,
                                accuracy_mode mode, ray_output *outs, octree_status *statuses, query_stats *stats)
 {
-    /* A tree with its compiled form walks each ray over it (octree_ray). The interleaved
-     * and grouped walks below are the double-precision walk's, for worlds without one. */
-    if (tree->traversal.present) {
+    /* Over the compiled form, rays from one origin walk one after the other (their
+     * memory is already in cache); the stream, which serves every other batch, walks the
+     * compiled form too when the tree has it. */
+    int one_origin = share_one_origin(rays, count);
+    if (tree->traversal.present && one_origin) {
         BATCH_LOOP(octree_ray(tree, &rays[i], detail, mode, &outs[i], stats));
     }
-    if (!share_one_origin(rays, count))
+    if (!one_origin)
         return octree_ray_stream(tree, rays, count, detail, mode, outs, statuses, stats);
     return octree_ray_packets(tree, rays, count, detail, mode, outs, statuses, stats);
 }

@@ -1009,71 +1009,233 @@ PREFETCH_HELPER void prefetch_compiled_child(const octree *tree, uint32_t ref)
     __builtin_prefetch(p + sizeof(traversal_node) - 1);
 }
 
-/* Runs a walk begun by walk_begin to its end over the compiled form, with NODE_TEST as the
- * eight-lane child test. One body for each instruction set, so that the whole loop is
- * compiled for it (a function for another target is not inlined into this one). */
-#define DEFINE_COMPILED_WALK(NAME, TARGET, NODE_TEST)                                                       \
-    TARGET static void NAME(ray_walk *w, const octree *tree, const float_ray *f)                              \
+/* A walk over the compiled form: its ray in float, its stack, and its interval. */
+typedef struct compiled_walk {
+    float_ray f;
+    float lo, bound; /* [tmin, bound] rounded outward */
+    uint32_t pending_leaf; /* a leaf popped and counted, tested by the next step (pipelined) */
+    size_t top;
+    float_entry stack[FLOAT_STACK_MAX];
+} compiled_walk;
+
+/* Prepares c for the walk w (begun by walk_begin); 0 when the ray must take the double walk. */
+static int compiled_begin(compiled_walk *c, ray_walk *w, const octree *tree)
+{
+    if (w->top == 0 || w->done || !float_ray_setup(&c->f, tree, &w->r))
+        return 0;
+    /* Closest and any-hit exact crossings may test a triangle twice (a leaf's neighbours
+     * share it), which costs less than a set that prevents it, and their leaves take four
+     * candidates at once through the filter. */
+    c->f.filtered = w->mode == ACCURACY_EXACT && !w->r.touch && w->detail != RAY_ALL;
+    if (!c->f.filtered)
+        walk_need_set(w);
+    c->lo = float_at_or_below(w->r.tmin);
+    c->bound = float_at_or_above(w->bound);
+    c->pending_leaf = NO_PENDING_LEAF;
+    c->top = 0;
+    if (tree->traversal.root != TRAVERSAL_EMPTY)
+        c->stack[c->top++] = (float_entry){-INFINITY, tree->traversal.root};
+    return 1;
+}
+
+static inline __attribute__((always_inline)) void compiled_test_leaf(ray_walk *w, compiled_walk *c,
+                                                                     const octree *tree, octree_node leaf)
+{
+    if (c->f.filtered)
+        walk_test_leaf_filtered(w, tree, leaf);
+    else
+        walk_test_leaf(w, tree, leaf);
+    c->bound = float_at_or_above(w->bound);
+}
+
+/* Asks for what the walk's next step reads: the next entry's record, or its leaf's list
+ * and triangles. Entries the bound excludes are dropped first (the pop would skip them). */
+PREFETCH_HELPER void compiled_prefetch_next(compiled_walk *c, const octree *tree)
+{
+    while (c->top > 0 && c->stack[c->top - 1].tnear > c->bound)
+        c->top--;
+    if (c->top > 0)
+        prefetch_compiled_child(tree, c->stack[c->top - 1].ref);
+}
+
+/* One step of a compiled walk: a node expanded, or a leaf tested (pipelined: a leaf's
+ * triangles asked for, and tested by the next step). Returns 0 once the walk is over. One
+ * body for each instruction set, NODE_TEST its eight-lane child test, so that the whole
+ * loop is compiled for it (a function for another target is not inlined into this one). */
+#define DEFINE_COMPILED_STEP(SUFFIX, TARGET, NODE_TEST)                                                      \
+    TARGET static inline __attribute__((always_inline)) int compiled_step_##SUFFIX(                          \
+        ray_walk *w, compiled_walk *c, const octree *tree, int pipelined)                                    \
     {                                                                                                         \
-        const traversal_node *nodes = tree->traversal.nodes;                                                  \
-        float_entry stack[FLOAT_STACK_MAX];                                                                   \
-        size_t top = 0;                                                                                       \
-        float lo = float_at_or_below(w->r.tmin);                                                              \
-        float bound = float_at_or_above(w->bound);                                                            \
-        if (tree->traversal.root == TRAVERSAL_EMPTY)                                                          \
-            return;                                                                                           \
-        stack[top++] = (float_entry){-INFINITY, tree->traversal.root};                                        \
-        while (top > 0) {                                                                                     \
-            float_entry e = stack[--top];                                                                     \
-            if (e.tnear > bound)                                                                              \
-                continue; /* a nearer hit was found after this node was pushed */                             \
-            w->local.nodes_visited++;                                                                         \
-            if (e.ref & TRAVERSAL_LEAF) {                                                                     \
-                octree_node leaf = tree->nodes[e.ref & ~TRAVERSAL_LEAF];                                      \
-                w->local.leaves_visited++;                                                                    \
-                /* Asked for together, so their misses overlap instead of coming one test at a time. */     \
-                prefetch_leaf_triangles(tree, leaf);                                                          \
-                if (f->filtered)                                                                              \
-                    walk_test_leaf_filtered(w, tree, leaf);                                                   \
-                else                                                                                          \
-                    walk_test_leaf(w, tree, leaf);                                                            \
-                if (w->done)                                                                                  \
-                    return;                                                                                   \
-                bound = float_at_or_above(w->bound);                                                          \
-                continue;                                                                                     \
-            }                                                                                                 \
-            const traversal_node *n = &nodes[e.ref];                                                          \
-            float tnear[8];                                                                                   \
-            unsigned met = rank_of_lanes[f->near_upper][NODE_TEST(n, f, lo, bound, tnear)];                   \
-            /* Pushed far to near, so the nearest is popped first. */                                        \
-            while (met) {                                                                                     \
-                int j = 31 - __builtin_clz(met);                                                              \
-                met &= ~(1u << j);                                                                            \
-                int lane = j ^ (int)f->near_upper;                                                            \
-                uint32_t child = n->child[lane];                                                              \
-                stack[top++] = (float_entry){tnear[lane], child};                                             \
-                prefetch_compiled_child(tree, child);                                                         \
-            }                                                                                                 \
+        if (pipelined && c->pending_leaf != NO_PENDING_LEAF) {                                                \
+            compiled_test_leaf(w, c, tree, tree->nodes[c->pending_leaf]);                                     \
+            c->pending_leaf = NO_PENDING_LEAF;                                                                \
+            if (w->done)                                                                                      \
+                return 0;                                                                                     \
+            compiled_prefetch_next(c, tree);                                                                  \
+            return c->top > 0;                                                                                \
         }                                                                                                     \
+        float_entry e;                                                                                        \
+        do {                                                                                                  \
+            if (c->top == 0)                                                                                  \
+                return 0;                                                                                     \
+            e = c->stack[--c->top];                                                                           \
+        } while (e.tnear > c->bound); /* a nearer hit was found after this node was pushed */                \
+        w->local.nodes_visited++;                                                                             \
+        if (e.ref & TRAVERSAL_LEAF) {                                                                         \
+            uint32_t index = e.ref & ~TRAVERSAL_LEAF;                                                         \
+            octree_node leaf = tree->nodes[index];                                                            \
+            w->local.leaves_visited++;                                                                        \
+            /* Asked for together, so their misses overlap instead of coming one test at a time. */         \
+            prefetch_leaf_triangles(tree, leaf);                                                              \
+            if (pipelined) {                                                                                  \
+                c->pending_leaf = index;                                                                      \
+                return 1;                                                                                     \
+            }                                                                                                 \
+            compiled_test_leaf(w, c, tree, leaf);                                                             \
+            return !w->done && c->top > 0;                                                                    \
+        }                                                                                                     \
+        const traversal_node *n = &tree->traversal.nodes[e.ref];                                              \
+        float tnear[8];                                                                                       \
+        unsigned met = rank_of_lanes[c->f.near_upper][NODE_TEST(n, &c->f, c->lo, c->bound, tnear)];           \
+        /* Pushed far to near, so the nearest is popped first. */                                            \
+        while (met) {                                                                                         \
+            int j = 31 - __builtin_clz(met);                                                                  \
+            met &= ~(1u << j);                                                                                \
+            int lane = j ^ (int)c->f.near_upper;                                                              \
+            uint32_t child = n->child[lane];                                                                  \
+            c->stack[c->top++] = (float_entry){tnear[lane], child};                                           \
+            if (!pipelined)                                                                                   \
+                prefetch_compiled_child(tree, child);                                                         \
+        }                                                                                                     \
+        if (pipelined)                                                                                        \
+            compiled_prefetch_next(c, tree);                                                                  \
+        return c->top > 0;                                                                                    \
+    }                                                                                                         \
+                                                                                                              \
+    TARGET static void compiled_run_##SUFFIX(ray_walk *w, compiled_walk *c, const octree *tree)              \
+    {                                                                                                         \
+        while (compiled_step_##SUFFIX(w, c, tree, 0))                                                         \
+            ;                                                                                                 \
+    }                                                                                                         \
+                                                                                                              \
+    /* Round robin over the slots, one step each: each step ends by asking for what that walk reads \
+     * next, which arrives while the other walks take their steps. A finished slot takes the next ray. */  \
+    TARGET static void compiled_stream_##SUFFIX(compiled_stream *s, const octree *tree)                      \
+    {                                                                                                         \
+        while (s->live > 0)                                                                                   \
+            for (int k = 0; k < RAY_STREAM_WIDTH; k++) {                                                      \
+                if (s->ray_of[k] == s->count)                                                                 \
+                    continue;                                                                                 \
+                if (compiled_step_##SUFFIX(&s->walks[k], &s->compiled[k], tree, 1))                           \
+                    continue;                                                                                 \
+                compiled_stream_next(s, tree, k);                                                             \
+            }                                                                                                 \
     }
 
+/* A batch of rays walking the compiled form side by side (octree_ray_stream). */
+typedef struct compiled_stream {
+    const ray_input *rays;
+    size_t count, next;
+    ray_detail detail;
+    accuracy_mode mode;
+    ray_output *outs;
+    octree_status *statuses;
+    octree_status batch;
+    query_stats sum;
+    int live;
+    size_t ray_of[RAY_STREAM_WIDTH];
+    ray_walk walks[RAY_STREAM_WIDTH];
+    compiled_walk compiled[RAY_STREAM_WIDTH];
+} compiled_stream;
+
+static void add_walk_counts(query_stats *sum, const ray_walk *w);
+
+/* Ends slot k's ray, if it has one, and starts the next ray that can take the compiled
+ * walk in it; rays that cannot are answered on the spot by the double walk. */
+static void compiled_stream_next(compiled_stream *s, const octree *tree, int k)
+{
+    if (s->ray_of[k] < s->count) {
+        size_t i = s->ray_of[k];
+        s->statuses[i] = walk_finish(&s->walks[k], tree, &s->outs[i]);
+        if (s->statuses[i] == OCTREE_ERR_NOMEM)
+            s->batch = OCTREE_ERR_NOMEM;
+        add_walk_counts(&s->sum, &s->walks[k]);
+        s->live--;
+    }
+    s->ray_of[k] = s->count;
+    while (s->next < s->count) {
+        size_t i = s->next++;
+        octree_status st = check_query(&s->rays[i], s->detail, s->mode);
+        if (st != OCTREE_OK) {
+            s->statuses[i] = st;
+            continue;
+        }
+        ray_walk *w = &s->walks[k];
+        walk_begin(w, tree, &s->rays[i], s->detail, s->mode, &s->outs[i]);
+        if (compiled_begin(&s->compiled[k], w, tree)) {
+            s->ray_of[k] = i;
+            s->live++;
+            return;
+        }
+        walk_need_set(w);
+        while (walk_step(w, tree, 0))
+            ;
+        s->statuses[i] = walk_finish(w, tree, &s->outs[i]);
+        if (s->statuses[i] == OCTREE_ERR_NOMEM)
+            s->batch = OCTREE_ERR_NOMEM;
+        add_walk_counts(&s->sum, w);
+    }
+}
+
 #ifdef FLOAT_WALK_SIMD
-DEFINE_COMPILED_WALK(walk_run_compiled_sse2, , node_children_met_sse2)
-DEFINE_COMPILED_WALK(walk_run_compiled_avx2, FLOAT_WALK_AVX2, node_children_met_avx2)
+DEFINE_COMPILED_STEP(sse2, , node_children_met_sse2)
+DEFINE_COMPILED_STEP(avx2, FLOAT_WALK_AVX2, node_children_met_avx2)
 #else
-DEFINE_COMPILED_WALK(walk_run_compiled_scalar, , node_children_met_scalar)
+DEFINE_COMPILED_STEP(scalar, , node_children_met_scalar)
 #endif
 
-static void walk_run_compiled(ray_walk *w, const octree *tree, const float_ray *f)
+static void compiled_run(ray_walk *w, compiled_walk *c, const octree *tree)
 {
 #ifdef FLOAT_WALK_SIMD
     if (tree->traversal.avx2)
-        walk_run_compiled_avx2(w, tree, f);
+        compiled_run_avx2(w, c, tree);
     else
-        walk_run_compiled_sse2(w, tree, f);
+        compiled_run_sse2(w, c, tree);
 #else
-    walk_run_compiled_scalar(w, tree, f);
+    compiled_run_scalar(w, c, tree);
 #endif
+}
+
+/* Answers a batch over the compiled form, RAY_STREAM_WIDTH rays in flight, into *batch;
+ * -1 (nothing answered) when the stream's own memory could not be had. */
+static int compiled_stream_run(const octree *tree, const ray_input *rays, size_t count, ray_detail detail,
+                               accuracy_mode mode, ray_output *outs, octree_status *statuses, query_stats *stats,
+                               octree_status *batch)
+{
+    compiled_stream *s = malloc(sizeof *s);
+    if (!s)
+        return -1;
+    uint64_t fallbacks_before = predicates_fallback_count();
+    *s = (compiled_stream){.rays = rays, .count = count, .detail = detail, .mode = mode, .outs = outs,
+                           .statuses = statuses, .batch = OCTREE_OK};
+    for (int k = 0; k < RAY_STREAM_WIDTH; k++) {
+        s->ray_of[k] = count;
+        compiled_stream_next(s, tree, k);
+    }
+#ifdef FLOAT_WALK_SIMD
+    if (tree->traversal.avx2)
+        compiled_stream_avx2(s, tree);
+    else
+        compiled_stream_sse2(s, tree);
+#else
+    compiled_stream_scalar(s, tree);
+#endif
+    *batch = s->batch;
+    /* Every ray runs the same predicates as alone, so the batch's fallbacks are the sum of
+     * the rays' own. */
+    query_stats_finish(stats, &s->sum, fallbacks_before, predicates_fallback_count());
+    free(s);
+    return 0;
 }
 
 octree_status octree_ray(const octree *tree, const ray_input *ray, ray_detail detail, accuracy_mode mode,
@@ -1085,15 +1247,9 @@ octree_status octree_ray(const octree *tree, const ray_input *ray, ray_detail de
     uint64_t fallbacks_before = predicates_fallback_count();
     ray_walk w;
     walk_begin(&w, tree, ray, detail, mode, out);
-    float_ray f;
-    if (w.top > 0 && !w.done && float_ray_setup(&f, tree, &w.r)) {
-        /* Closest and any-hit exact crossings may test a triangle twice (a leaf's
-         * neighbours share it), which costs less than a set that prevents it, and their
-         * leaves take four candidates at once through the filter. */
-        f.filtered = mode == ACCURACY_EXACT && !w.r.touch && detail != RAY_ALL;
-        if (!f.filtered)
-            walk_need_set(&w);
-        walk_run_compiled(&w, tree, &f);
+    compiled_walk c;
+    if (compiled_begin(&c, &w, tree)) {
+        compiled_run(&w, &c, tree);
     } else {
         walk_need_set(&w);
         while (walk_step(&w, tree, 0))
@@ -1294,6 +1450,13 @@ octree_status octree_ray_stream(const octree *tree, const ray_input *rays, size_
                                 accuracy_mode mode, ray_output *outs, octree_status *statuses,
                                 query_stats *stats)
 {
+    if (tree->traversal.present) {
+        octree_status batch;
+        if (compiled_stream_run(tree, rays, count, detail, mode, outs, statuses, stats, &batch) == 0)
+            return batch;
+        /* Without the memory for the stream the rays still get their answers, one at a time. */
+        return rays_one_at_a_time(tree, rays, count, detail, mode, outs, statuses, stats);
+    }
     octree_status batch = OCTREE_OK;
     /* Walks are large (their stacks): on the heap, once per batch. Without the memory the
      * rays still get their answers, one at a time. */
