@@ -987,9 +987,9 @@ static void bench_world(const char *mesh, const mesh_data *m, RTCDevice dev, emb
              (double)eb_last.buffer_bytes / (double)n, (double)eb_last.peak_bytes / (double)n);
     octree_info info;
     octree_get_info(tree, &info);
-    printf("# %s: %zu triangles, %zu vertices; trioct d %.4g, L_max %d, %zu nodes\n", mesh, n, m->vertex_count,
-           info.resolution, info.max_level, info.node_count);
-    fflush(stdout);
+    char about[160];
+    snprintf(about, sizeof about, "%zu triangles, %zu vertices; trioct d %.4g, L_max %d, %zu nodes", n,
+             m->vertex_count, info.resolution, info.max_level, info.node_count);
 
     rng r = rng_seeded(2024);
     ray_set sets[4];
@@ -1035,7 +1035,7 @@ static void bench_world(const char *mesh, const mesh_data *m, RTCDevice dev, emb
     snprintf(fcl_builds + used, sizeof fcl_builds - used, "%s%s %.2f s", used ? ", " : "", mesh, fcl_build);
     fcl_peer_model_free(world_fcl);
     octree_free(boxed);
-    printf("# %s: done in %.1f s (builds and rays %.1f s, triangles %.1f s, shape %.1f s)\n", mesh, now() - t_start,
+    printf("# %s: %s; %.1f s (builds and rays %.1f, triangles %.1f, shape %.1f)\n", mesh, about, now() - t_start,
            t_rays - t_start, t_tris - t0, now() - t_tris);
     fflush(stdout);
 }
