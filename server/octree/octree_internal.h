@@ -5,6 +5,7 @@
 #include <float.h>
 #include <stdint.h>
 #include <stdlib.h>
+#include <string.h>
 
 #include "../../common/array_reserve.h"
 #include "../engine.h"
@@ -107,6 +108,24 @@ static inline void octree_triangle_vertices(const struct octree *tree, uint32_t 
     out[2] = t[2];
 }
 
+/* The next float above (below) a finite f, as nextafterf gives it, from its bits: a libm
+ * call cost a ray's setup more than its arithmetic. */
+static inline float float_next_up(float f)
+{
+    if (f == 0.0f)
+        return FLT_TRUE_MIN;
+    uint32_t b;
+    memcpy(&b, &f, sizeof b);
+    b = f > 0.0f ? b + 1 : b - 1;
+    memcpy(&f, &b, sizeof f);
+    return f;
+}
+
+static inline float float_next_down(float f)
+{
+    return -float_next_up(-f);
+}
+
 /* The largest float <= x, and the smallest float >= x; past the float range they give
  * the nearest float on the safe side or an infinity. The explicit range checks keep the
  * conversion defined (C leaves an out-of-range double-to-float conversion undefined). */
@@ -117,7 +136,7 @@ static inline float float_at_or_below(double x)
     if (x > FLT_MAX)
         return FLT_MAX;
     float f = (float)x;
-    return (double)f > x ? nextafterf(f, -INFINITY) : f;
+    return (double)f > x ? float_next_down(f) : f;
 }
 
 static inline float float_at_or_above(double x)
@@ -127,7 +146,7 @@ static inline float float_at_or_above(double x)
     if (x < -FLT_MAX)
         return -FLT_MAX;
     float f = (float)x;
-    return (double)f < x ? nextafterf(f, INFINITY) : f;
+    return (double)f < x ? float_next_up(f) : f;
 }
 
 /* Bounds in float of the real difference x - o, which the double subtraction may round
@@ -147,14 +166,14 @@ static inline float float_below_difference(double x, double o)
 {
     double d = x - o;
     float f = float_at_or_below(d);
-    return (double)f == d && rounding_error_of_difference(x, o, d) < 0 ? nextafterf(f, -INFINITY) : f;
+    return (double)f == d && rounding_error_of_difference(x, o, d) < 0 ? float_next_down(f) : f;
 }
 
 static inline float float_above_difference(double x, double o)
 {
     double d = x - o;
     float f = float_at_or_above(d);
-    return (double)f == d && rounding_error_of_difference(x, o, d) > 0 ? nextafterf(f, INFINITY) : f;
+    return (double)f == d && rounding_error_of_difference(x, o, d) > 0 ? float_next_up(f) : f;
 }
 
 /* The outward float box of the closed box [lo, hi] relative to origin. */

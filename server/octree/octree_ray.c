@@ -98,6 +98,11 @@ static void setup_ray(ray_setup *r, const octree *tree, const ray_input *in, acc
             }
         }
     }
+}
+
+/* The rest of a ray's setup that only the double walk reads: its visiting order. */
+static void setup_ray_order(ray_setup *r)
+{
     for (int a = 0; a < 3; a++)
         r->near_upper[a] = (r->kind[a] == 0 || r->kind[a] == 3) && r->inv[a] < 0.0;
     r->ordinary = r->kind[0] == 0 && r->kind[1] == 0 && r->kind[2] == 0;
@@ -429,8 +434,10 @@ static void walk_need_set(ray_walk *w)
 }
 
 /* Starts the walk of a ray that passed check_query. */
-static void walk_begin(ray_walk *w, const octree *tree, const ray_input *ray, ray_detail detail,
-                       accuracy_mode mode, ray_output *out)
+/* Starts the walk of a ray that passed check_query, short of its root: the compiled walk
+ * goes on from here (compiled_begin), the double walk from walk_root. */
+static void walk_init(ray_walk *w, const octree *tree, const ray_input *ray, ray_detail detail,
+                      accuracy_mode mode, ray_output *out)
 {
     setup_ray(&w->r, tree, ray, mode);
     w->r.touch = ray->contact == RAY_TOUCH;
@@ -456,10 +463,27 @@ static void walk_begin(ray_walk *w, const octree *tree, const ray_input *ray, ra
         for (size_t i = 0; i < tree->sliver_list_count; i++)
             if (!walk_test_candidate(w, tree, octree_sliver_list(tree)[i]))
                 return;
+}
+
+/* The double walk's start: its visiting order, and the root when the ray meets the world. */
+static void walk_root(ray_walk *w, const octree *tree)
+{
+    setup_ray_order(&w->r);
+    walk_need_set(w);
+    if (w->done)
+        return;
     double tn, tf;
     slab(&w->r, tree->world, &tn, &tf);
     if (tn <= tf && tn <= w->r.tmax && tf >= w->r.tmin && tn <= w->bound)
         w->stack[w->top++] = (ray_entry){tn, tf, 0, 0, 0};
+}
+
+/* Starts the double walk of a ray that passed check_query. */
+static void walk_begin(ray_walk *w, const octree *tree, const ray_input *ray, ray_detail detail,
+                       accuracy_mode mode, ray_output *out)
+{
+    walk_init(w, tree, ray, detail, mode, out);
+    walk_root(w, tree);
 }
 
 /* Cache lines a prefetch of one leaf list or one leaf's triangles may ask for: leaves hold
@@ -1021,7 +1045,7 @@ typedef struct compiled_walk {
 /* Prepares c for the walk w (begun by walk_begin); 0 when the ray must take the double walk. */
 static int compiled_begin(compiled_walk *c, ray_walk *w, const octree *tree)
 {
-    if (w->top == 0 || w->done || !float_ray_setup(&c->f, tree, &w->r))
+    if (w->done || !float_ray_setup(&c->f, tree, &w->r))
         return 0;
     /* Closest and any-hit exact crossings may test a triangle twice (a leaf's neighbours
      * share it), which costs less than a set that prevents it, and their leaves take four
@@ -1171,13 +1195,13 @@ static void compiled_stream_next(compiled_stream *s, const octree *tree, int k)
             continue;
         }
         ray_walk *w = &s->walks[k];
-        walk_begin(w, tree, &s->rays[i], s->detail, s->mode, &s->outs[i]);
+        walk_init(w, tree, &s->rays[i], s->detail, s->mode, &s->outs[i]);
         if (compiled_begin(&s->compiled[k], w, tree)) {
             s->ray_of[k] = i;
             s->live++;
             return;
         }
-        walk_need_set(w);
+        walk_root(w, tree);
         while (walk_step(w, tree, 0))
             ;
         s->statuses[i] = walk_finish(w, tree, &s->outs[i]);
@@ -1246,12 +1270,12 @@ octree_status octree_ray(const octree *tree, const ray_input *ray, ray_detail de
         return st;
     uint64_t fallbacks_before = predicates_fallback_count();
     ray_walk w;
-    walk_begin(&w, tree, ray, detail, mode, out);
+    walk_init(&w, tree, ray, detail, mode, out);
     compiled_walk c;
     if (compiled_begin(&c, &w, tree)) {
         compiled_run(&w, &c, tree);
     } else {
-        walk_need_set(&w);
+        walk_root(&w, tree);
         while (walk_step(&w, tree, 0))
             ;
     }
@@ -1370,7 +1394,6 @@ static size_t walk_start_next(ray_walk *w, const octree *tree, const ray_input *
             continue;
         }
         walk_begin(w, tree, &rays[i], detail, mode, &outs[i]);
-        walk_need_set(w);
         return i;
     }
     return count;
