@@ -297,7 +297,8 @@ static void check_leaf(bounds_check *c, const traversal_node *parent, int lane, 
         double hi = (double)parent->origin[a] + (double)parent->q[3 + a][lane] * (double)parent->scale;
         double wlo = vec3_get(t->world.lo, a);
         for (uint32_t i = 0; i < leaf.count; i++) {
-            const vec3 *tri = octree_triangle_at(t, t->leaf_items[leaf.first + i]);
+            vec3 tri[3];
+            octree_triangle_vertices(t, t->leaf_items[leaf.first + i], tri);
             double tlo = fmax(fmin(fmin(vec3_get(tri[0], a), vec3_get(tri[1], a)), vec3_get(tri[2], a)),
                               vec3_get(cube.lo, a));
             double thi = fmin(fmax(fmax(vec3_get(tri[0], a), vec3_get(tri[1], a)), vec3_get(tri[2], a)),

@@ -151,8 +151,10 @@ static void test_stored_boxes_enclose_their_triangles(void **state)
     vec3 o = t->world.lo;
     for (uint32_t id = 0; id < t->triangle_count; id++) {
         const triangle_box *b = &t->triangle_boxes[id];
+        vec3 tri[3];
+        octree_triangle_vertices(t, id, tri);
         for (int k = 0; k < 3; k++) {
-            vec3 p = t->triangles[id][k];
+            vec3 p = tri[k];
             double c[3] = {p.x, p.y, p.z}, oc[3] = {o.x, o.y, o.z};
             for (int a = 0; a < 3; a++) {
                 assert_true(compare_offset(oc[a], b->lo[a], c[a]) <= 0);

@@ -537,7 +537,7 @@ RAY_TRI_AVX2 static inline __attribute__((always_inline)) void edge_function4(co
         edge_function4(a_, e_, dv, da, &pos, &neg);                                                          \
     } while (0)
 
-RAY_TRI_AVX2 static unsigned misses4_avx2(vec3 o, vec3 d, const vec3 *const tris[4], unsigned count)
+RAY_TRI_AVX2 static unsigned misses4_avx2(vec3 o, vec3 d, const vec3 (*tris)[3], unsigned count)
 {
     /* Unused lanes repeat the first triangle; their bits are dropped below. */
     const vec3 *t0 = tris[0], *t1 = count > 1 ? tris[1] : t0, *t2 = count > 2 ? tris[2] : t0,
@@ -563,7 +563,7 @@ RAY_TRI_AVX2 static unsigned misses4_avx2(vec3 o, vec3 d, const vec3 *const tris
 #undef EDGE4
 #endif
 
-unsigned ray_tri_exact_misses4(vec3 o, vec3 d, const vec3 *const tris[4], unsigned count, int avx2)
+unsigned ray_tri_exact_misses4(vec3 o, vec3 d, const vec3 (*tris)[3], unsigned count, int avx2)
 {
 #if defined(__x86_64__)
     if (avx2 && count > 1)

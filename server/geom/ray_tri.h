@@ -56,7 +56,7 @@ int ray_tri_exact(vec3 o, vec3 d, double tmin, double tmax, const vec3 tri[3], r
  * same operations in the same order, four triangles side by side in AVX2 when `avx2` is
  * set (the caller checked the processor), so a rejected candidate is exactly one for which
  * ray_tri_exact returns 0 without going further; the others still need ray_tri_exact. */
-unsigned ray_tri_exact_misses4(vec3 o, vec3 d, const vec3 *const tris[4], unsigned count, int avx2);
+unsigned ray_tri_exact_misses4(vec3 o, vec3 d, const vec3 (*tris)[3], unsigned count, int avx2);
 
 /* Compare the exact t of two exact hits of the same ray: -1, 0, +1 for t_a <, =, > t_b.
  * Exact (filter, then expansions) for any two triangles whose planes the ray is not

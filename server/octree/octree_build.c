@@ -194,7 +194,7 @@ static void compute_reach(const build_ctx *ctx, shared_list *list)
         triangle_bounds b = ctx->bounds[list->items[i]];
         unsigned reach = box_octants_reached(b.lo, b.hi, c);
         if (reach & (reach - 1)) {
-            const vec3 *tri = octree_triangle_at(ctx->tree, list->items[i]);
+            const vec3 *tri = ctx->tree->triangles[list->items[i]];
             unsigned open = reach & ~tri_box_children_proven(tri, box, c, reach);
             if (open) {
                 tri_box_triangle t;
@@ -424,8 +424,7 @@ static double heuristic_resolution(const octree *tree)
 {
     double area_sum = 0.0, edge_sum = 0.0;
     for (size_t i = 0; i < tree->triangle_count; i++) {
-        vec3 t[3];
-        octree_triangle_vertices(tree, (uint32_t)i, t);
+        const vec3 *t = tree->triangles[i];
         vec3 e0 = vec3_sub(t[1], t[0]), e2 = vec3_sub(t[0], t[2]);
         area_sum += vec3_length(vec3_cross(e2, e0));
         edge_sum += vec3_length(e0) + vec3_length(vec3_sub(t[2], t[1])) + vec3_length(e2);
@@ -549,6 +548,50 @@ static octree_status reorder_triangles(octree *tree, vec3 lo, vec3 hi)
     tree->triangles = sorted;
     free(a);
     free(b);
+    return OCTREE_OK;
+}
+
+/* Replaces the build's side-by-side copy of the triangles by the vertices they use and
+ * each one's corner indices, from the caller's mesh through original_id (so each caller
+ * vertex is kept once). Vertices are numbered in the order the triangles (in their Morton
+ * order) first use them. The budget is checked for the peak, while both forms are held. */
+static octree_status index_triangles(build_ctx *ctx, const mesh_view *mesh)
+{
+    octree *tree = ctx->tree;
+    size_t n = tree->triangle_count;
+    size_t peak = mesh->vertex_count * (sizeof(uint32_t) + sizeof(vec3)) + n * sizeof *tree->corners;
+    if (budget_take(ctx, peak) != 0)
+        return OCTREE_ERR_BUDGET;
+    uint32_t *number = malloc(mesh->vertex_count * sizeof *number);
+    tree->corners = malloc(n * sizeof *tree->corners);
+    vec3 *used = malloc(mesh->vertex_count * sizeof *used);
+    if (!number || !tree->corners || !used) {
+        free(number);
+        free(used);
+        return OCTREE_ERR_NOMEM;
+    }
+    memset(number, 0xff, mesh->vertex_count * sizeof *number);
+    size_t count = 0;
+    for (size_t i = 0; i < n; i++) {
+        const uint32_t *in = &mesh->indices[3 * (size_t)tree->original_id[i]];
+        for (int k = 0; k < 3; k++) {
+            uint32_t v = in[k];
+            if (number[v] == UINT32_MAX) {
+                number[v] = (uint32_t)count;
+                used[count++] = mesh->vertices[v];
+            }
+            tree->corners[i][k] = number[v];
+        }
+    }
+    free(number);
+    /* Sized to what is used (a mesh may carry vertices no triangle names). */
+    vec3 *fit = realloc(used, (count ? count : 1) * sizeof *fit);
+    tree->vertices = fit ? fit : used;
+    tree->used_vertex_count = count;
+    free(tree->triangles);
+    tree->triangles = NULL;
+    ctx->held -= peak - count * sizeof(vec3) - n * sizeof *tree->corners;
+    ctx->held -= n * sizeof(vec3[3]);
     return OCTREE_OK;
 }
 
@@ -684,6 +727,8 @@ octree *octree_build(const mesh_view *mesh, const octree_def *def_in, octree_err
     }
     st = build_nodes(&ctx, levels);
     free(ctx.bounds);
+    if (st == OCTREE_OK)
+        st = index_triangles(&ctx, mesh);
     /* The final array, 64-byte aligned (realloc keeps no alignment, so the build grows a
      * plain array and copies it once). aligned_alloc wants a multiple of the alignment. */
     size_t node_bytes = (tree->node_count * sizeof(octree_node) + 63) & ~(size_t)63;
@@ -741,7 +786,8 @@ octree *octree_build(const mesh_view *mesh, const octree_def *def_in, octree_err
     info->world_min = lo;
     info->bytes_nodes = node_bytes;
     info->bytes_leaf_lists = (info->leaf_refs + tree->sliver_list_count) * sizeof(uint32_t);
-    info->bytes_triangles = tree->triangle_count * (sizeof *tree->triangles + sizeof *tree->original_id);
+    info->bytes_triangles = tree->triangle_count * (sizeof *tree->corners + sizeof *tree->original_id) +
+                            tree->used_vertex_count * sizeof *tree->vertices;
     info->bytes_triangle_boxes = tree->triangle_boxes ? tree->triangle_count * sizeof *tree->triangle_boxes : 0;
     info->bytes_traversal = tree->traversal.bytes;
     info->bytes_total = info->bytes_nodes + info->bytes_leaf_lists + info->bytes_triangles +
@@ -757,6 +803,8 @@ void octree_free(octree *tree)
     if (!tree)
         return;
     free(tree->triangles);
+    free(tree->vertices);
+    free(tree->corners);
     free(tree->original_id);
     free(tree->triangle_boxes);
     free(tree->nodes);

@@ -36,9 +36,16 @@ typedef struct triangle_box {
 _Static_assert(sizeof(triangle_box) == 24, "engine.h documents 24 bytes a triangle");
 
 struct octree {
-    /* Each triangle's three vertices side by side: a candidate test touches one place in
-     * memory instead of an index triple and three scattered vertices. */
+    /* While the seed's build runs, each triangle's three vertices side by side (its
+     * membership tests read them in turn); freed once the nodes are built. */
     vec3 (*triangles)[3];
+    /* What queries read: the vertices the triangles use, once each, in the order the
+     * triangles first use them (so neighbours' vertices sit together), and per triangle
+     * its three corners' indices. A vertex is shared by about six triangles: 24 bytes a
+     * vertex and 12 a triangle instead of 72 a triangle. */
+    vec3 *vertices;
+    size_t used_vertex_count;
+    uint32_t (*corners)[3];
     size_t triangle_count;
     /* Triangles are stored, listed in leaves and tested under internal ids that follow a
      * Morton order of their centroids, so that a node's list, a leaf's candidates and
@@ -95,17 +102,13 @@ static inline vec3 octree_split_point(const struct octree *tree, box3 box)
     return box_split_point(box);
 }
 
-static inline const vec3 *octree_triangle_at(const struct octree *tree, uint32_t id)
-{
-    return tree->triangles[id];
-}
-
+/* A built tree's triangle id's three vertices (the same doubles the caller gave). */
 static inline void octree_triangle_vertices(const struct octree *tree, uint32_t id, vec3 out[3])
 {
-    const vec3 *t = tree->triangles[id];
-    out[0] = t[0];
-    out[1] = t[1];
-    out[2] = t[2];
+    const uint32_t *c = tree->corners[id];
+    out[0] = tree->vertices[c[0]];
+    out[1] = tree->vertices[c[1]];
+    out[2] = tree->vertices[c[2]];
 }
 
 /* The next float above (below) a finite f, as nextafterf gives it, from its bits: a libm

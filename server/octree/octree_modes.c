@@ -252,7 +252,8 @@ octree_status octree_modes_prepare(struct octree *tree)
     double product_min = INFINITY, reach = 2.0, longest = 0.0;
     uint32_t *list = NULL;
     for (size_t i = 0; i < n; i++) {
-        const vec3 *t = octree_triangle_at(tree, (uint32_t)i);
+        vec3 t[3];
+        octree_triangle_vertices(tree, (uint32_t)i, t);
         vec3 e1 = vec3_sub(t[1], t[0]), e2 = vec3_sub(t[2], t[0]);
         double product = fmax(fabs(e1.x), fmax(fabs(e1.y), fabs(e1.z))) * fmax(fabs(e2.x), fmax(fabs(e2.y), fabs(e2.z)));
         if (product > 0.0 && product < product_min)

@@ -264,7 +264,8 @@ static double exact_t_upper_bound(const ray_setup *r, const vec3 tri[3])
 static inline __attribute__((always_inline)) int test_triangle(const octree *tree, const ray_setup *r,
                                                               accuracy_mode mode, uint32_t id, ray_tri_hit *hit)
 {
-    const vec3 *tri = octree_triangle_at(tree, id);
+    vec3 tri[3];
+    octree_triangle_vertices(tree, id, tri);
     switch (mode) {
     case ACCURACY_SEED:
         return ray_tri_seed(r->o, r->d, r->tmin, r->tmax, tri, tree->seed_epsilon, hit);
@@ -283,11 +284,15 @@ static int hit_order(const octree *tree, const ray_setup *r, accuracy_mode mode,
                      const ray_hit *b)
 {
     int c;
+    vec3 ta[3], tb[3];
+    if (mode == ACCURACY_EXACT) {
+        octree_triangle_vertices(tree, a->triangle, ta);
+        octree_triangle_vertices(tree, b->triangle, tb);
+    }
     if (mode == ACCURACY_EXACT && r->touch) {
-        c = ray_tri_touch_compare(r->o, r->d, r->tmin, r->tmax, octree_triangle_at(tree, a->triangle),
-                                  octree_triangle_at(tree, b->triangle));
+        c = ray_tri_touch_compare(r->o, r->d, r->tmin, r->tmax, ta, tb);
     } else if (mode == ACCURACY_EXACT) {
-        c = ray_tri_compare_t(r->o, r->d, octree_triangle_at(tree, a->triangle), octree_triangle_at(tree, b->triangle));
+        c = ray_tri_compare_t(r->o, r->d, ta, tb);
     } else {
         c = (a->t > b->t) - (a->t < b->t);
     }
@@ -302,7 +307,8 @@ static int hit_order(const octree *tree, const ray_setup *r, accuracy_mode mode,
  * hits pay for. */
 static ray_hit reported(const octree *tree, ray_hit hit)
 {
-    const vec3 *tri = octree_triangle_at(tree, hit.triangle);
+    vec3 tri[3];
+    octree_triangle_vertices(tree, hit.triangle, tri);
     hit.normal = vec3_normalize(vec3_cross(vec3_sub(tri[1], tri[0]), vec3_sub(tri[2], tri[0])));
     hit.triangle = tree->original_id[hit.triangle];
     return hit;
@@ -546,7 +552,9 @@ static inline __attribute__((always_inline)) int walk_test_unique(ray_walk *w, c
             w->best = hit;
             w->have_best = 1;
             if (w->mode == ACCURACY_EXACT) {
-                double ub = exact_t_upper_bound(r, octree_triangle_at(tree, id));
+                vec3 tri[3];
+                octree_triangle_vertices(tree, id, tri);
+                double ub = exact_t_upper_bound(r, tri);
                 if (r->touch && ub == INFINITY)
                     ub = touch_t_upper_bound(hit.t);
                 w->bound = ub < w->bound ? ub : w->bound;
@@ -723,7 +731,14 @@ PREFETCH_HELPER void prefetch_leaf_triangles(const octree *tree, octree_node lea
 {
     uint32_t n = leaf.count < PREFETCH_TRIANGLES_MAX ? leaf.count : PREFETCH_TRIANGLES_MAX;
     for (uint32_t i = 0; i < n; i++)
-        prefetch_span(octree_triangle_at(tree, tree->leaf_items[leaf.first + i]), 3 * sizeof(vec3));
+    {
+        /* The corners are read now (their line is likely in with the list's neighbours'),
+         * so the three vertices can be asked for. */
+        const uint32_t *c = tree->corners[tree->leaf_items[leaf.first + i]];
+        __builtin_prefetch(&tree->vertices[c[0]]);
+        __builtin_prefetch(&tree->vertices[c[1]]);
+        __builtin_prefetch(&tree->vertices[c[2]]);
+    }
 }
 
 /* Advances the walk by one node visit (or, pipelined, by one half of a leaf visit).
@@ -1008,10 +1023,10 @@ static void walk_test_leaf_filtered(ray_walk *w, const octree *tree, octree_node
     const uint32_t *ids = &tree->leaf_items[leaf.first];
     for (uint32_t i = 0; i < leaf.count; i += 4) {
         unsigned k = leaf.count - i < 4 ? leaf.count - i : 4;
-        const vec3 *tris[4];
+        vec3 tris[4][3];
         for (unsigned j = 0; j < k; j++)
-            tris[j] = octree_triangle_at(tree, ids[i + j]);
-        unsigned miss = ray_tri_exact_misses4(w->r.o, w->r.d, tris, k, tree->traversal.avx2);
+            octree_triangle_vertices(tree, ids[i + j], tris[j]);
+        unsigned miss = ray_tri_exact_misses4(w->r.o, w->r.d, (const vec3(*)[3])tris, k, tree->traversal.avx2);
         w->local.candidates_tested += (uint64_t)__builtin_popcount(miss);
         for (unsigned j = 0; j < k; j++)
             if (!((miss >> j) & 1) && !walk_test_unique(w, tree, ids[i + j]))

@@ -41,7 +41,8 @@ static float_bounds leaf_bounds(const octree *tree, octree_node leaf, box3 cube)
 {
     vec3 lo = {INFINITY, INFINITY, INFINITY}, hi = {-INFINITY, -INFINITY, -INFINITY};
     for (uint32_t i = 0; i < leaf.count; i++) {
-        const vec3 *t = octree_triangle_at(tree, tree->leaf_items[leaf.first + i]);
+        vec3 t[3];
+        octree_triangle_vertices(tree, tree->leaf_items[leaf.first + i], t);
         vec3 tlo = vec3_max(vec3_min(vec3_min(t[0], t[1]), t[2]), cube.lo);
         vec3 thi = vec3_min(vec3_max(vec3_max(t[0], t[1]), t[2]), cube.hi);
         lo = vec3_min(lo, tlo);

@@ -138,7 +138,9 @@ static inline __attribute__((always_inline)) int take_candidate(const octree *tr
         return 1;
     }
     stats->candidates_tested++;
-    if (!triangles_touch(tree, q, prepared, octree_triangle_at(tree, id), mode))
+    vec3 w[3];
+    octree_triangle_vertices(tree, id, w);
+    if (!triangles_touch(tree, q, prepared, w, mode))
         return 0;
     *any = 1;
     if (stop_at_first)
@@ -271,8 +273,11 @@ octree_status octree_triangle(const octree *tree, const vec3 tri[3], tri_detail 
             tri_contact *c = &out->contacts[i];
             c->triangle = (uint32_t)(sorted[i] >> 32);
             c->p = c->q = (vec3){0, 0, 0};
-            if (detail == TRI_SEGMENTS)
-                tri_tri_contact_segment(tri, octree_triangle_at(tree, (uint32_t)sorted[i]), &c->p, &c->q);
+            if (detail == TRI_SEGMENTS) {
+                vec3 w[3];
+                octree_triangle_vertices(tree, (uint32_t)sorted[i], w);
+                tri_tri_contact_segment(tri, w, &c->p, &c->q);
+            }
         }
         free(sorted);
     }
