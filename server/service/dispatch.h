@@ -99,12 +99,13 @@ int dispatch_handle(dispatch_ctx *ctx, const char *channel, const void *bytes, s
  * 12.6-13.6 us, ANY, ALL and TOUCH alike; one query triangle whose bounding box spans 14
  * leaves 2.7 us yes/no, 10.5 us with ids or segments, 70 leaves 4 us yes/no but 74-131 us
  * with ids or segments (its contacts grow with its size relative to the leaves). Handing a
- * one-ray request to the pool and back cost 20-30 us more than answering it on the loop
- * thread, on this project's 2-core machine (bench/daemon_bench.c: the one-ray round trip
- * went from 1.4-1.6x a bare LCM ping-pong to 1.1-1.3x). So a request is small when its
- * work is a fraction of that hand-off: at most 8 rays; at most 2 triangles, each within 16
- * leaves of the world's resolution. Mesh and admin requests are never small: a named shape may hold thousands
- * of triangles, and a LOAD builds a world. */
+ * one-ray request to the pool and back cost 20-60 us more than answering it on the loop
+ * thread, on this project's 2-core machine (bench/daemon_bench.c: the daemon's own share of
+ * the round trip fell from 25-62 us to about 5 us, the round trip from 1.3-1.9x a bare LCM
+ * ping-pong to 1.0-1.3x). So a request is small when its work is a fraction of that
+ * hand-off: at most 8 rays; at most 2 triangles, each within 16 leaves of the world's
+ * resolution. Mesh and admin requests are never small: a named shape may hold thousands of
+ * triangles, and a LOAD builds a world. */
 #define DISPATCH_INLINE_MAX_RAYS 8
 #define DISPATCH_INLINE_MAX_TRIANGLES 2
 #define DISPATCH_INLINE_MAX_TRIANGLE_LEAVES 16
