@@ -12,7 +12,9 @@
  *            fails (old answers, error in status), adds a new one, unloads one whose
  *            section left, keeps the ones an admin LOAD brought, and survives a scene
  *            with a syntax error;
- *   sigterm: the work in hand is answered, newer requests get STOPPING, exit 0. */
+ *   sigterm: the work in hand is answered, newer requests get STOPPING, exit 0;
+ *   inline:  small requests answered on the loop thread get the bytes the workers give,
+ *            with --ordered too, and the same counters. */
 #include <errno.h>
 #include <math.h>
 #include <setjmp.h>
@@ -43,6 +45,8 @@
 #include "trioct_mesh_request_t.h"
 #include "trioct_ray_reply_t.h"
 #include "trioct_ray_request_t.h"
+#include "trioct_ray_request_v1_t.h"
+#include "trioct_reply_header_t.h"
 #include "trioct_status.h"
 #include "trioct_status_t.h"
 #include "trioct_triangle_reply_t.h"
@@ -779,7 +783,10 @@ static void test_replay_busy(void **state)
     (void)state;
     /* With speed=0 the whole log is readable at once, so one wake-up of the loop reads all
      * of it (fewer messages than its budget) before any finished work is published: the
-     * first two requests fill the queue and the other 98 get BUSY at once. */
+     * first two requests fill the queue and the other 98 get BUSY at once. One-ray requests
+     * are small, so the loop thread answers the two it takes itself, and they count as in
+     * hand until the wake-up ends: BUSY comes exactly as when they go to a worker
+     * (--no-inline). */
     enum { N = 100, DEPTH = 2 };
     _Static_assert(N < DAEMON_PUMP_BUDGET, "the test needs every request read in one wake-up");
     scratch s;
@@ -791,44 +798,52 @@ static void test_replay_busy(void **state)
         log_ray_up(&rl, 0, "box", 1000 + i, "box", 0.25, 0.6);
     log_close(&rl);
 
-    run r;
-    const char *extra[] = {"--exit-at-eof", "--queue-depth", "2", "--threads", "1", NULL};
-    daemon_start(&r, &s, "?speed=0", extra);
-    daemon_expect_exit(&r, 0);
+    static const char *const modes[][10] = {
+        {"--exit-at-eof", "--queue-depth", "2", "--threads", "1", "--log-level", "debug", NULL},
+        {"--exit-at-eof", "--queue-depth", "2", "--threads", "1", "--log-level", "debug", "--no-inline", NULL},
+    };
+    static const char *const answered_on[] = {"on the loop thread", "on a worker"};
+    for (int mode = 0; mode < 2; mode++) {
+        run r;
+        daemon_start(&r, &s, "?speed=0", modes[mode]);
+        daemon_expect_exit(&r, 0);
+        assert_int_equal(count_in_file(r.log_path, answered_on[mode]), DEPTH);
 
-    replay_out *out = calloc(1, sizeof *out);
-    assert_non_null(out);
-    read_out(&s, out);
-    assert_int_equal(out->reply_count, N);
-    int ok = 0, busy = 0;
-    for (int i = 0; i < N; i++) {
-        const reply_rec *rr = reply_to(out, 1000 + i);
-        if (rr->status == TRIOCT_OK) {
-            ok++;
-            assert_true(rr->hit_t[0] == 1.0);
-            assert_int_equal(rr->world_version, 1);
-        } else {
-            assert_int_equal(rr->status, TRIOCT_ERR_BUSY);
-            assert_int_equal(rr->world_version, 0);
-            busy++;
+        replay_out *out = calloc(1, sizeof *out);
+        assert_non_null(out);
+        read_out(&s, out);
+        assert_int_equal(out->reply_count, N);
+        int ok = 0, busy = 0;
+        for (int i = 0; i < N; i++) {
+            const reply_rec *rr = reply_to(out, 1000 + i);
+            if (rr->status == TRIOCT_OK) {
+                ok++;
+                assert_true(rr->hit_t[0] == 1.0);
+                assert_int_equal(rr->world_version, 1);
+            } else {
+                assert_int_equal(rr->status, TRIOCT_ERR_BUSY);
+                assert_int_equal(rr->world_version, 0);
+                assert_string_equal(rr->message, "the queue is full: 2 requests in hand (queue_depth 2)");
+                busy++;
+            }
         }
-    }
-    /* The first two in the log are the ones taken. */
-    assert_int_equal(reply_to(out, 1000)->status, TRIOCT_OK);
-    assert_int_equal(reply_to(out, 1001)->status, TRIOCT_OK);
-    assert_int_equal(ok, DEPTH);
-    assert_int_equal(busy, N - DEPTH);
+        /* The first two in the log are the ones taken. */
+        assert_int_equal(reply_to(out, 1000)->status, TRIOCT_OK);
+        assert_int_equal(reply_to(out, 1001)->status, TRIOCT_OK);
+        assert_int_equal(ok, DEPTH);
+        assert_int_equal(busy, N - DEPTH);
 
-    check_statuses(out, DEPTH); /* BUSY replies did no work: no latency */
-    const trioct_status_t *last = &out->statuses[out->status_count - 1];
-    assert_int_equal(last->served[REQUEST_RAY], N);
-    assert_int_equal(last->replies_by_status[TRIOCT_OK], DEPTH);
-    assert_int_equal(last->replies_by_status[TRIOCT_ERR_BUSY], N - DEPTH);
-    assert_int_equal(last->queue_capacity, DEPTH);
-    assert_int_equal(last->threads, 1);
-    assert_int_equal(last->malformed, 0);
-    free_out(out);
-    free(out);
+        check_statuses(out, DEPTH); /* BUSY replies did no work: no latency */
+        const trioct_status_t *last = &out->statuses[out->status_count - 1];
+        assert_int_equal(last->served[REQUEST_RAY], N);
+        assert_int_equal(last->replies_by_status[TRIOCT_OK], DEPTH);
+        assert_int_equal(last->replies_by_status[TRIOCT_ERR_BUSY], N - DEPTH);
+        assert_int_equal(last->queue_capacity, DEPTH);
+        assert_int_equal(last->threads, 1);
+        assert_int_equal(last->malformed, 0);
+        free_out(out);
+        free(out);
+    }
     scratch_teardown(&s);
 }
 
@@ -1032,6 +1047,316 @@ static void test_sigterm_finishes_work_in_hand(void **state)
     scratch_teardown(&s);
 }
 
+/* ---------- answering on the loop thread ---------- */
+
+/* Every reply chunk of a run, as bytes, by request id. */
+typedef struct raw_reply {
+    int64_t request_id;
+    int status;
+    char channel[32];
+    int size;
+    uint8_t *data;
+} raw_reply;
+
+typedef struct raw_out {
+    raw_reply replies[64];
+    size_t count;
+} raw_out;
+
+static void read_raw(const scratch *s, raw_out *out)
+{
+    memset(out, 0, sizeof *out);
+    char path[256];
+    scratch_path(s, "out.log", path, sizeof path);
+    lcm_eventlog_t *log = lcm_eventlog_create(path, "r");
+    assert_non_null(log);
+    lcm_eventlog_event_t *ev;
+    while ((ev = lcm_eventlog_read_next_event(log)) != NULL) {
+        if (strncmp(ev->channel, "CLIENT_", 7) == 0) {
+            assert_true(out->count < sizeof out->replies / sizeof out->replies[0]);
+            raw_reply *r = &out->replies[out->count++];
+            /* Every reply type starts with its fingerprint, then reply_header_t. */
+            trioct_reply_header_t h;
+            assert_true(__trioct_reply_header_t_decode_array(ev->data, 8, ev->datalen - 8, &h, 1) > 0);
+            r->request_id = h.request_id;
+            r->status = h.status;
+            __trioct_reply_header_t_decode_array_cleanup(&h, 1);
+            snprintf(r->channel, sizeof r->channel, "%s", ev->channel);
+            r->size = ev->datalen;
+            r->data = malloc((size_t)ev->datalen);
+            assert_non_null(r->data);
+            memcpy(r->data, ev->data, (size_t)ev->datalen);
+        }
+        lcm_eventlog_free_event(ev);
+    }
+    lcm_eventlog_destroy(log);
+}
+
+static void free_raw(raw_out *out)
+{
+    for (size_t i = 0; i < out->count; i++)
+        free(out->replies[i].data);
+    out->count = 0;
+}
+
+static const raw_reply *raw_reply_to(const raw_out *out, int64_t id)
+{
+    const raw_reply *found = NULL;
+    for (size_t i = 0; i < out->count; i++) {
+        if (out->replies[i].request_id != id)
+            continue;
+        if (found != NULL)
+            fail_msg("request %lld answered twice", (long long)id);
+        found = &out->replies[i];
+    }
+    if (found == NULL)
+        fail_msg("request %lld has no reply", (long long)id);
+    return found;
+}
+
+static void log_ray_request(request_log *rl, const char *world, const trioct_ray_request_t *m)
+{
+    char ch[64];
+    snprintf(ch, sizeof ch, PREFIX "_RAY_%s", world);
+    int len = trioct_ray_request_t_encoded_size(m);
+    uint8_t *buf = malloc((size_t)len);
+    assert_non_null(buf);
+    assert_int_equal(trioct_ray_request_t_encode(buf, 0, len, m), len);
+    log_bytes(rl, 0, ch, buf, len);
+    free(buf);
+}
+
+/* n vertical rays up through the cube's bottom face, on a grid inside it. */
+static void log_rays_up(request_log *rl, int64_t id, int n, int8_t detail, int8_t contact)
+{
+    trioct_vec3_t o[64], d[64];
+    assert_true(n <= 64);
+    for (int i = 0; i < n; i++) {
+        o[i] = v3(0.05 + 0.9 * (i % 8) / 8.0, 0.05 + 0.9 * (i / 8) / 8.0, -1);
+        d[i] = v3(0, 0, 1);
+    }
+    trioct_ray_request_t m;
+    memset(&m, 0, sizeof m);
+    m.header = header(id, REPLY_RAY, "box");
+    m.detail = detail;
+    m.accuracy = TRIOCT_RAY_REQUEST_T_ACCURACY_WORLD;
+    m.tmax = INFINITY;
+    m.max_hits = 4;
+    m.num_rays = n;
+    m.origin = o;
+    m.direction = d;
+    m.contact = contact;
+    log_ray_request(rl, "box", &m);
+}
+
+static void log_triangles(request_log *rl, int64_t id, const char *world, int8_t detail, int n,
+                          const trioct_triangle_t *tris)
+{
+    char ch[64];
+    snprintf(ch, sizeof ch, PREFIX "_TRI_%s", world);
+    trioct_triangle_request_t m;
+    memset(&m, 0, sizeof m);
+    m.header = header(id, REPLY_TRI, world);
+    m.detail = detail;
+    m.accuracy = TRIOCT_RAY_REQUEST_T_ACCURACY_WORLD;
+    m.num_triangles = n;
+    m.triangles = (trioct_triangle_t *)tris;
+    int len = trioct_triangle_request_t_encoded_size(&m);
+    uint8_t *buf = malloc((size_t)len);
+    assert_non_null(buf);
+    assert_int_equal(trioct_triangle_request_t_encode(buf, 0, len, &m), len);
+    log_bytes(rl, 0, ch, buf, len);
+    free(buf);
+}
+
+/* The same log answered by a daemon that answers small requests on its loop thread (the
+ * default), one that hands every request to its workers (--no-inline), and an ordered one
+ * (--ordered, which answers its small held requests on the loop thread): every reply is
+ * the same bytes (but ERR_DEADLINE's message, which says how late, and INFO's build time and
+ * query count, which depend on the clock), every counter the same,
+ * and the daemon's log shows which thread answered what. */
+static void test_inline_answers_are_the_workers(void **state)
+{
+    (void)state;
+    scratch s;
+    scratch_setup(&s);
+    scratch_write_scene(&s, "[daemon]\nprefix = " PREFIX "\nname = " DAEMON_NAME "\nstatus_interval = 50\n\n"
+                            "[box]\nmesh = box.obj\neffects = rays triangles\n\n"
+                            "[raysonly]\nmesh = box.obj\neffects = rays\n");
+    /* The cube's triangles make a resolution of 1: triangles within 16 are small. */
+    const trioct_triangle_t through_bottom = {v3(0.3, 0.3, -0.5), v3(0.6, 0.3, 0.5), v3(0.3, 0.6, 0.5)};
+    const trioct_triangle_t far_away = {v3(5, 5, 5), v3(6, 5, 5), v3(5, 6, 5)};
+    const trioct_triangle_t across = {v3(-20, -20, 0.5), v3(20, -20, 0.5), v3(0, 20, 0.5)};
+    trioct_triangle_t not_finite = through_bottom;
+    not_finite.b.x = NAN;
+
+    request_log rl;
+    log_open(&rl, &s);
+    int len;
+    uint8_t *buf;
+    log_rays_up(&rl, 1, 1, TRIOCT_RAY_REQUEST_T_CLOSEST, TRIOCT_RAY_REQUEST_T_CROSSING);  /* small */
+    log_rays_up(&rl, 2, 8, TRIOCT_RAY_REQUEST_T_CLOSEST, TRIOCT_RAY_REQUEST_T_CROSSING);  /* small */
+    log_rays_up(&rl, 3, 9, TRIOCT_RAY_REQUEST_T_CLOSEST, TRIOCT_RAY_REQUEST_T_CROSSING);  /* large */
+    log_rays_up(&rl, 4, 40, TRIOCT_RAY_REQUEST_T_ALL, TRIOCT_RAY_REQUEST_T_CROSSING);     /* large */
+    log_rays_up(&rl, 5, 2, TRIOCT_RAY_REQUEST_T_ALL, TRIOCT_RAY_REQUEST_T_TOUCH);         /* small */
+    {
+        /* 6: the layout before contact, one ray; small. */
+        trioct_vec3_t o = v3(0.5, 0.5, 2), d = v3(0, 0, -1);
+        trioct_ray_request_v1_t m;
+        memset(&m, 0, sizeof m);
+        m.header = header(6, REPLY_RAY, "box");
+        m.detail = TRIOCT_RAY_REQUEST_T_CLOSEST;
+        m.accuracy = TRIOCT_RAY_REQUEST_T_ACCURACY_WORLD;
+        m.tmax = INFINITY;
+        m.num_rays = 1;
+        m.origin = &o;
+        m.direction = &d;
+        len = trioct_ray_request_v1_t_encoded_size(&m);
+        buf = malloc((size_t)len);
+        assert_int_equal(trioct_ray_request_v1_t_encode(buf, 0, len, &m), len);
+        log_bytes(&rl, 0, PREFIX "_RAY_box", buf, len);
+        free(buf);
+    }
+    {
+        /* 7: a zero direction; 8: a NaN origin; 9: a deadline in 1970; 10: a header naming
+         * another world than its channel. All small, all errors. */
+        trioct_vec3_t o = v3(0.5, 0.5, -1), zero = v3(0, 0, 0), up = v3(0, 0, 1), bad = v3(NAN, 0, 0);
+        buf = encode_rays(7, "box", TRIOCT_RAY_REQUEST_T_CLOSEST, 1, &o, &zero, 0, &len);
+        log_bytes(&rl, 0, PREFIX "_RAY_box", buf, len);
+        free(buf);
+        buf = encode_rays(8, "box", TRIOCT_RAY_REQUEST_T_CLOSEST, 1, &bad, &up, 0, &len);
+        log_bytes(&rl, 0, PREFIX "_RAY_box", buf, len);
+        free(buf);
+        buf = encode_rays(9, "box", TRIOCT_RAY_REQUEST_T_CLOSEST, 1, &o, &up, 1, &len);
+        log_bytes(&rl, 0, PREFIX "_RAY_box", buf, len);
+        free(buf);
+        log_ray_up(&rl, 0, "box", 10, "other", 0.5, 0.5);
+    }
+    log_triangles(&rl, 11, "box", TRIOCT_TRIANGLE_REQUEST_T_YESNO, 1, &through_bottom); /* small */
+    {
+        trioct_triangle_t two[2] = {through_bottom, far_away};
+        log_triangles(&rl, 12, "box", TRIOCT_TRIANGLE_REQUEST_T_SEGMENTS, 2, two); /* small */
+        trioct_triangle_t three[3] = {far_away, through_bottom, far_away};
+        log_triangles(&rl, 13, "box", TRIOCT_TRIANGLE_REQUEST_T_IDS, 3, three); /* large: three */
+    }
+    log_triangles(&rl, 14, "box", TRIOCT_TRIANGLE_REQUEST_T_IDS, 1, &across);       /* large: 40 wide */
+    log_triangles(&rl, 15, "box", TRIOCT_TRIANGLE_REQUEST_T_YESNO, 1, &not_finite); /* large: no size */
+    log_triangles(&rl, 16, "raysonly", TRIOCT_TRIANGLE_REQUEST_T_YESNO, 1, &through_bottom); /* small */
+    {
+        /* 17: a mesh query (the world serves none); 18: INFO. Never small. */
+        trioct_triangle_t shape = far_away;
+        trioct_pose_t pose;
+        memset(&pose, 0, sizeof pose);
+        pose.r[0] = pose.r[4] = pose.r[8] = 1;
+        trioct_mesh_request_t m;
+        memset(&m, 0, sizeof m);
+        m.header = header(17, REPLY_MESH, "box");
+        m.detail = TRIOCT_MESH_REQUEST_T_YESNO;
+        m.accuracy = TRIOCT_RAY_REQUEST_T_ACCURACY_WORLD;
+        m.shape = "";
+        m.num_shape_triangles = 1;
+        m.shape_triangles = &shape;
+        m.num_poses = 1;
+        m.poses = &pose;
+        len = trioct_mesh_request_t_encoded_size(&m);
+        buf = malloc((size_t)len);
+        assert_int_equal(trioct_mesh_request_t_encode(buf, 0, len, &m), len);
+        log_bytes(&rl, 0, PREFIX "_MESH_box", buf, len);
+        free(buf);
+        log_admin(&rl, 0, PREFIX "_ADMIN_box", 18, "box", TRIOCT_ADMIN_REQUEST_T_INFO, "", 0);
+    }
+    log_close(&rl);
+    enum { REQUESTS = 18, SMALL = 11, DEADLINE_ID = 9, INFO_ID = 18 };
+
+    static const char *const modes[][8] = {
+        {"--exit-at-eof", "--log-level", "debug", "--threads", "2", "--no-inline", NULL},
+        {"--exit-at-eof", "--log-level", "debug", "--threads", "2", NULL},
+        {"--exit-at-eof", "--log-level", "debug", "--threads", "2", "--ordered", NULL},
+    };
+    static const int on_loop[] = {0, SMALL, SMALL};
+    raw_out *raw = calloc(3, sizeof *raw);
+    replay_out *out = calloc(3, sizeof *out);
+    assert_non_null(raw);
+    assert_non_null(out);
+    for (int mode = 0; mode < 3; mode++) {
+        run r;
+        daemon_start(&r, &s, "?speed=0", modes[mode]);
+        daemon_expect_exit(&r, 0);
+        read_raw(&s, &raw[mode]);
+        read_out(&s, &out[mode]);
+        assert_int_equal(raw[mode].count, REQUESTS);
+        assert_int_equal(count_in_file(r.log_path, "on the loop thread"), on_loop[mode]);
+        assert_int_equal(count_in_file(r.log_path, "on a worker"), REQUESTS - on_loop[mode]);
+        check_statuses(&out[mode], REQUESTS);
+    }
+
+    /* The workers' answers are right (the rest of this file checks them in detail): */
+    const replay_out *pool = &out[0];
+    const reply_rec *rr = expect_status(pool, 1, REQUEST_RAY, TRIOCT_OK);
+    assert_true(rr->hit_t[0] == 1.0);
+    rr = expect_status(pool, 2, REQUEST_RAY, TRIOCT_OK);
+    assert_int_equal(rr->num_found, 8);
+    for (int i = 0; i < 8; i++)
+        assert_int_equal(rr->found[i], 1);
+    rr = expect_status(pool, 5, REQUEST_RAY, TRIOCT_OK);
+    assert_int_equal(rr->num_found, 2);
+    /* Ray 0 runs up the faces' diagonal x = y: it touches both triangles of the bottom and
+     * of the top; ray 1 one of each. */
+    assert_int_equal(rr->found[0], 4);
+    assert_int_equal(rr->found[1], 2);
+    assert_int_equal(rr->num_hits, 6);
+    const double touch_t[6] = {1, 1, 2, 2, 1, 2};
+    for (int i = 0; i < 6; i++)
+        assert_true(rr->hit_t[i] == touch_t[i]);
+    rr = expect_status(pool, 6, REQUEST_RAY, TRIOCT_OK);
+    assert_true(rr->hit_t[0] == 1.0);
+    expect_status(pool, 7, REQUEST_RAY, TRIOCT_ERR_ZERO_DIRECTION);
+    expect_status(pool, 8, REQUEST_RAY, TRIOCT_ERR_NONFINITE);
+    expect_status(pool, DEADLINE_ID, REQUEST_RAY, TRIOCT_ERR_DEADLINE);
+    expect_status(pool, 10, REQUEST_RAY, TRIOCT_ERR_BAD_REQUEST);
+    rr = expect_status(pool, 11, REQUEST_TRIANGLE, TRIOCT_OK);
+    assert_int_equal(rr->found[0], 1);
+    rr = expect_status(pool, 12, REQUEST_TRIANGLE, TRIOCT_OK);
+    assert_int_equal(rr->found[0], 2); /* it cuts z = 0 across the bottom face's diagonal */
+    assert_int_equal(rr->found[1], 0);
+    rr = expect_status(pool, 14, REQUEST_TRIANGLE, TRIOCT_OK);
+    assert_int_equal(rr->found[0], 8); /* z = 0.5 cuts both triangles of each side face */
+    expect_status(pool, 15, REQUEST_TRIANGLE, TRIOCT_ERR_NONFINITE);
+    expect_status(pool, 16, REQUEST_TRIANGLE, TRIOCT_ERR_EFFECT);
+    expect_status(pool, 17, REQUEST_MESH, TRIOCT_ERR_EFFECT);
+    expect_status(pool, INFO_ID, REQUEST_ADMIN, TRIOCT_OK);
+
+    /* ... and the loop thread's are the same bytes. */
+    for (int mode = 1; mode < 3; mode++) {
+        for (int64_t id = 1; id <= REQUESTS; id++) {
+            const raw_reply *a = raw_reply_to(&raw[0], id), *b = raw_reply_to(&raw[mode], id);
+            assert_string_equal(a->channel, b->channel);
+            assert_int_equal(a->status, b->status);
+            /* How late, and a world's build time and query count so far, are the clock's. */
+            if (id == DEADLINE_ID || id == INFO_ID)
+                continue;
+            assert_int_equal(a->size, b->size);
+            if (memcmp(a->data, b->data, (size_t)a->size) != 0)
+                fail_msg("mode %d: request %lld got other bytes than from a worker", mode, (long long)id);
+        }
+        const trioct_status_t *x = &pool->statuses[pool->status_count - 1];
+        const trioct_status_t *y = &out[mode].statuses[out[mode].status_count - 1];
+        for (int t = 0; t < 4; t++)
+            assert_int_equal(x->served[t], y->served[t]);
+        for (int c = 0; c < TRIOCT_WIRE_STATUS_COUNT; c++)
+            assert_int_equal(x->replies_by_status[c], y->replies_by_status[c]);
+        assert_int_equal(y->malformed, 0);
+        assert_int_equal(y->queue_depth, 0);
+    }
+    for (int mode = 0; mode < 3; mode++) {
+        free_raw(&raw[mode]);
+        free_out(&out[mode]);
+    }
+    free(raw);
+    free(out);
+    scratch_teardown(&s);
+}
+
 static void test_missing_input_log_fails_cleanly(void **state)
 {
     (void)state;
@@ -1054,6 +1379,7 @@ int main(void)
         cmocka_unit_test(test_replay_busy),
         cmocka_unit_test(test_reload_on_sighup),
         cmocka_unit_test(test_sigterm_finishes_work_in_hand),
+        cmocka_unit_test(test_inline_answers_are_the_workers),
         cmocka_unit_test(test_missing_input_log_fails_cleanly),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);

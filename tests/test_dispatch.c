@@ -997,6 +997,182 @@ static trioct_triangle_t *sphere_triangles(rng *r, int n)
     return t;
 }
 
+/* The peek reads what the inline estimate weighs: how many items, and for a few triangles
+ * the longest side of their bounding boxes. */
+static void test_peek_measures_the_request_for_the_estimate(void **state)
+{
+    (void)state;
+    rng r = rng_seeded(base_seed + 21);
+    dispatch_request req;
+    for (int n = 0; n <= 12; n += 3) {
+        ray_set rays = sphere_rays(&r, n);
+        trioct_ray_request_t q = ray_request("sphere", &rays, TRIOCT_RAY_REQUEST_T_ALL, -1, 0, INFINITY, 5);
+        msg m = ENCODE(trioct_ray_request_t, &q);
+        assert_int_equal(dispatch_peek(&F.ctx, channel_of(TRIOCT_CHANNEL_RAY, "sphere"), m.data, m.size, &req),
+                         PEEK_REQUEST);
+        assert_int_equal(req.items, n);
+        free(m.data);
+        /* The layout before contact counts its rays at the same place. */
+        trioct_ray_request_v1_t old = {q.header, q.detail, q.accuracy, q.tmin, q.tmax, q.max_hits, q.num_rays,
+                                       q.origin, q.direction};
+        m = ENCODE(trioct_ray_request_v1_t, &old);
+        assert_int_equal(dispatch_peek(&F.ctx, channel_of(TRIOCT_CHANNEL_RAY, "sphere"), m.data, m.size, &req),
+                         PEEK_REQUEST);
+        assert_int_equal(req.items, n);
+        free(m.data);
+        ray_set_free(&rays);
+    }
+
+    /* Bounding boxes 0.5 x 0.25 x 0.125 and 0.1 x 3 x 0.2: the longest side is 3. */
+    trioct_triangle_t tris[3] = {
+        tri_of((vec3){0, 0, 0}, (vec3){0.5, 0.25, 0}, (vec3){0.25, 0, 0.125}),
+        tri_of((vec3){1, -1, 2}, (vec3){1.1, 2, 2.2}, (vec3){1, 0, 2}),
+        tri_of((vec3){-50, -50, 0}, (vec3){50, -50, 0}, (vec3){0, 50, 0}),
+    };
+    trioct_triangle_request_t t = {header("sphere"), TRIOCT_TRIANGLE_REQUEST_T_IDS, -1, 1, tris};
+    msg m = ENCODE(trioct_triangle_request_t, &t);
+    assert_int_equal(dispatch_peek(&F.ctx, channel_of(TRIOCT_CHANNEL_TRI, "sphere"), m.data, m.size, &req),
+                     PEEK_REQUEST);
+    assert_int_equal(req.items, 1);
+    assert_true(req.extent == 0.5);
+    free(m.data);
+    t.num_triangles = 2;
+    m = ENCODE(trioct_triangle_request_t, &t);
+    assert_int_equal(dispatch_peek(&F.ctx, channel_of(TRIOCT_CHANNEL_TRI, "sphere"), m.data, m.size, &req),
+                     PEEK_REQUEST);
+    assert_int_equal(req.items, 2);
+    assert_true(req.extent == 3.0);
+    free(m.data);
+    /* Past DISPATCH_INLINE_MAX_TRIANGLES the triangles are not read: they go to the pool. */
+    t.num_triangles = 3;
+    m = ENCODE(trioct_triangle_request_t, &t);
+    assert_int_equal(dispatch_peek(&F.ctx, channel_of(TRIOCT_CHANNEL_TRI, "sphere"), m.data, m.size, &req),
+                     PEEK_REQUEST);
+    assert_int_equal(req.items, 3);
+    assert_true(isinf(req.extent));
+    free(m.data);
+    /* A coordinate that is not finite gives no size. */
+    trioct_triangle_t bad = tris[0];
+    bad.b.y = NAN;
+    t.num_triangles = 1;
+    t.triangles = &bad;
+    m = ENCODE(trioct_triangle_request_t, &t);
+    assert_int_equal(dispatch_peek(&F.ctx, channel_of(TRIOCT_CHANNEL_TRI, "sphere"), m.data, m.size, &req),
+                     PEEK_REQUEST);
+    assert_true(isnan(req.extent));
+    free(m.data);
+
+    /* Meshes and admin requests carry no count the estimate reads. */
+    trioct_admin_request_t a = admin_request("sphere", TRIOCT_ADMIN_REQUEST_T_INFO);
+    m = ENCODE(trioct_admin_request_t, &a);
+    assert_int_equal(dispatch_peek(&F.ctx, channel_of(TRIOCT_CHANNEL_ADMIN, "sphere"), m.data, m.size, &req),
+                     PEEK_REQUEST);
+    assert_int_equal(req.items, 0);
+    free(m.data);
+}
+
+/* Peeks a triangle request of n copies of tri on world's channel. */
+static dispatch_request peek_triangles(const char *world_name, const trioct_triangle_t *tri, int n, int8_t detail)
+{
+    trioct_triangle_t copies[4];
+    assert_true(n <= 4);
+    for (int i = 0; i < n; i++)
+        copies[i] = *tri;
+    trioct_triangle_request_t t = {header(world_name), detail, -1, n, copies};
+    msg m = ENCODE(trioct_triangle_request_t, &t);
+    dispatch_request req;
+    assert_int_equal(dispatch_peek(&F.ctx, channel_of(TRIOCT_CHANNEL_TRI, world_name), m.data, m.size, &req),
+                     PEEK_REQUEST);
+    free(m.data);
+    return req;
+}
+
+/* A triangle in the plane z = 0.1 whose bounding box's longest side is side. */
+static trioct_triangle_t triangle_of_side(double side)
+{
+    return tri_of((vec3){0, 0, 0.1}, (vec3){side, 0, 0.1}, (vec3){0, side / 2, 0.1});
+}
+
+/* What the daemon answers on its loop thread: at most DISPATCH_INLINE_MAX_RAYS rays, at
+ * most DISPATCH_INLINE_MAX_TRIANGLES triangles each within DISPATCH_INLINE_MAX_TRIANGLE_LEAVES
+ * leaves of the world's resolution; never a mesh or an admin request. */
+static void test_small_requests_follow_the_threshold(void **state)
+{
+    (void)state;
+    rng r = rng_seeded(base_seed + 22);
+    const int ray_counts[] = {0, 1, DISPATCH_INLINE_MAX_RAYS, DISPATCH_INLINE_MAX_RAYS + 1, 100};
+    const int ray_small[] = {1, 1, 1, 0, 0};
+    for (size_t i = 0; i < sizeof ray_counts / sizeof ray_counts[0]; i++) {
+        ray_set rays = sphere_rays(&r, ray_counts[i]);
+        trioct_ray_request_t q = ray_request("sphere", &rays, TRIOCT_RAY_REQUEST_T_CLOSEST, -1, 0, INFINITY, 0);
+        msg m = ENCODE(trioct_ray_request_t, &q);
+        dispatch_request req;
+        assert_int_equal(dispatch_peek(&F.ctx, channel_of(TRIOCT_CHANNEL_RAY, "sphere"), m.data, m.size, &req),
+                         PEEK_REQUEST);
+        assert_int_equal(dispatch_is_small(&F.ctx, &req), ray_small[i]);
+        free(m.data);
+        ray_set_free(&rays);
+    }
+
+    /* The flat terrain's leaves: a triangle is small up to 16 of them, whatever its detail. */
+    world *w = held("flat");
+    octree_info info;
+    octree_get_info(w->tree, &info);
+    world_release(w);
+    double limit = DISPATCH_INLINE_MAX_TRIANGLE_LEAVES * info.resolution;
+    assert_true(limit > 1.0 && limit < 20.0); /* the terrain is 20 wide: big triangles exist */
+    const int8_t details[] = {TRIOCT_TRIANGLE_REQUEST_T_YESNO, TRIOCT_TRIANGLE_REQUEST_T_IDS,
+                              TRIOCT_TRIANGLE_REQUEST_T_SEGMENTS};
+    for (size_t d = 0; d < 3; d++) {
+        trioct_triangle_t at = triangle_of_side(limit), over = triangle_of_side(nextafter(limit, INFINITY));
+        trioct_triangle_t tiny = triangle_of_side(0.01);
+        dispatch_request req = peek_triangles("flat", &at, 1, details[d]);
+        assert_true(dispatch_is_small(&F.ctx, &req));
+        req = peek_triangles("flat", &at, DISPATCH_INLINE_MAX_TRIANGLES, details[d]);
+        assert_true(dispatch_is_small(&F.ctx, &req));
+        req = peek_triangles("flat", &tiny, DISPATCH_INLINE_MAX_TRIANGLES + 1, details[d]);
+        assert_false(dispatch_is_small(&F.ctx, &req));
+        req = peek_triangles("flat", &over, 1, details[d]);
+        assert_false(dispatch_is_small(&F.ctx, &req));
+        req = peek_triangles("flat", &tiny, 0, details[d]);
+        assert_true(dispatch_is_small(&F.ctx, &req));
+        /* Not finite: the workers answer it (with ERR_NONFINITE). */
+        trioct_triangle_t bad = tiny;
+        bad.c.x = INFINITY;
+        req = peek_triangles("flat", &bad, 1, details[d]);
+        assert_false(dispatch_is_small(&F.ctx, &req));
+    }
+    /* The limit is the world's: the same triangle is large on a finer world. */
+    w = held("sphere");
+    octree_get_info(w->tree, &info);
+    world_release(w);
+    assert_true(DISPATCH_INLINE_MAX_TRIANGLE_LEAVES * info.resolution < limit);
+    trioct_triangle_t at = triangle_of_side(limit);
+    dispatch_request req = peek_triangles("sphere", &at, 1, TRIOCT_TRIANGLE_REQUEST_T_YESNO);
+    assert_false(dispatch_is_small(&F.ctx, &req));
+    /* A world not held: its answer is ERR_UNKNOWN_WORLD, cheap wherever it is made. */
+    req = peek_triangles("nowhere", &at, 1, TRIOCT_TRIANGLE_REQUEST_T_YESNO);
+    assert_true(dispatch_is_small(&F.ctx, &req));
+
+    /* A mesh query of one pose and one inline triangle, and an INFO: never small. */
+    trioct_triangle_t shape = triangle_of_side(0.01);
+    trioct_pose_t pose = pose_at(0, (vec3){0, 0, 0});
+    trioct_mesh_request_t mq = {.header = header("flat"), .detail = TRIOCT_MESH_REQUEST_T_YESNO, .accuracy = -1,
+                                .shape = "", .num_shape_triangles = 1, .shape_triangles = &shape,
+                                .num_poses = 1, .poses = &pose};
+    msg m = ENCODE(trioct_mesh_request_t, &mq);
+    assert_int_equal(dispatch_peek(&F.ctx, channel_of(TRIOCT_CHANNEL_MESH, "flat"), m.data, m.size, &req),
+                     PEEK_REQUEST);
+    assert_false(dispatch_is_small(&F.ctx, &req));
+    free(m.data);
+    trioct_admin_request_t a = admin_request("flat", TRIOCT_ADMIN_REQUEST_T_INFO);
+    m = ENCODE(trioct_admin_request_t, &a);
+    assert_int_equal(dispatch_peek(&F.ctx, channel_of(TRIOCT_CHANNEL_ADMIN, "flat"), m.data, m.size, &req),
+                     PEEK_REQUEST);
+    assert_false(dispatch_is_small(&F.ctx, &req));
+    free(m.data);
+}
+
 static void test_triangles_equal_the_engine(void **state)
 {
     (void)state;
@@ -1811,6 +1987,8 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_peek_reads_the_header),
         cmocka_unit_test(test_hostile_bytes_are_dropped),
+        cmocka_unit_test(test_peek_measures_the_request_for_the_estimate),
+        cmocka_unit_test(test_small_requests_follow_the_threshold),
         cmocka_unit_test(test_rays_equal_the_engine),
         cmocka_unit_test(test_touch_requests_get_touch_answers),
         cmocka_unit_test(test_all_hits_report_more_than_stored),

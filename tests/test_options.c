@@ -97,6 +97,7 @@ static void test_defaults(void **state)
     assert_int_equal(opt.log_level, LOG_INFO);
     assert_int_equal(opt.status_interval_ms, 1000);
     assert_int_equal(opt.exit_at_eof, 0);
+    assert_int_equal(opt.no_inline, 0);
 
     /* Without LCM_DEFAULT_URL: LCM's own default, spelled out (nothing is opened here). */
     unsetenv("LCM_DEFAULT_URL");
@@ -135,6 +136,7 @@ static void test_every_long_option(void **state)
                           "--log-level", "debug",
                           "--status-interval", "250",
                           "--exit-at-eof",
+                          "--no-inline",
                           NULL};
     assert_int_equal(parse(&opt, err, sizeof err, args), OPTIONS_RUN);
     assert_int_equal(opt.from_cli, OPT_URL | OPT_PUBLISH_URL | OPT_PREFIX | OPT_NAME | OPT_THREADS |
@@ -152,6 +154,7 @@ static void test_every_long_option(void **state)
     assert_int_equal(opt.log_level, LOG_DEBUG);
     assert_int_equal(opt.status_interval_ms, 250);
     assert_int_equal(opt.exit_at_eof, 1);
+    assert_int_equal(opt.no_inline, 1);
 
     /* --opt=value works as well as --opt value. */
     const char *eq[] = {"trioctd", "--scene=s.ini", "--threads=2", "--log-level=warn", NULL};
@@ -215,7 +218,7 @@ static void test_help_and_version(void **state)
     fclose(f);
     const char *names[] = {"--scene", "--url", "--publish-url", "--prefix", "--name", "--threads",
                            "--world-dir", "--queue-depth", "--log-level", "--status-interval",
-                           "--exit-at-eof", "--help", "--version"};
+                           "--exit-at-eof", "--ordered", "--no-inline", "--help", "--version"};
     for (size_t i = 0; i < sizeof names / sizeof names[0]; i++)
         assert_non_null(strstr(text, names[i]));
     free(text);
@@ -417,6 +420,7 @@ static void test_scene_errors(void **state)
     expect_scene_error("foo", "1", "scene.ini:12: unknown daemon option 'foo'");
     expect_scene_error("scene", "other.ini", "scene.ini:12: unknown daemon option 'scene'");
     expect_scene_error("exit_at_eof", "1", "scene.ini:12: unknown daemon option 'exit_at_eof'");
+    expect_scene_error("no_inline", "1", "scene.ini:12: unknown daemon option 'no_inline'");
     expect_scene_error("queue-depth", "5", "scene.ini:12: unknown daemon option 'queue-depth'");
     expect_scene_error("threads", "0", "scene.ini:12: threads: '0' is not an integer in 1..1024");
     expect_scene_error("threads", "two", "scene.ini:12: threads: 'two' is not an integer in 1..1024");

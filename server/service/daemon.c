@@ -92,6 +92,8 @@ typedef struct daemon {
 
     int state;          /* TRIOCT_STATUS_T_* */
     int in_flight;      /* requests taken whose reply is not yet published */
+    int inline_taken;   /* requests this wake-up answered on the loop thread (see
+                           "Answering on the loop thread") */
     int builds;         /* world builds of start-up or of a reload still running */
     int reload_pending; /* a SIGHUP came during start-up or a reload */
 
@@ -274,6 +276,64 @@ static int ordered_subscribe(daemon *d);
 static int ordered_stop_waits(const daemon *d);
 static void start_polling(daemon *d);
 
+/* Publishes the reply dispatch_handle made (rc its return) to a request received at
+ * received_hr, and counts it; where says on which thread it was answered, for the log.
+ * Returns whether the reply changed the worlds held (a LOAD or an UNLOAD). */
+static int deliver(daemon *d, const dispatch_request *req, const char *channel, uint64_t received_hr, int rc,
+                   dispatch_reply *reply, const char *where)
+{
+    if (rc != 0) {
+        /* The peek took these bytes, so dispatch_handle's -1 means it could not even encode
+         * an error reply: out of memory. A well-formed request still gets its answer. */
+        reply_now(d, req, channel, TRIOCT_ERR_NOMEM, "the daemon ran out of memory for this request");
+        return 0;
+    }
+    publish_reply(d, reply);
+    int64_t us = (int64_t)((uv_hrtime() - received_hr) / 1000);
+    stats_add_latency(&d->st, us);
+    count_reply(d, reply);
+    LOG(LOG_DEBUG, "%s request %" PRId64 " of client %" PRId64 " on %s answered %s on %s in %" PRId64
+        " us (%zu chunk%s) %s", type_name(reply->type), req->request_id, req->client_id, channel,
+        trioct_status_name(reply->status), reply->channel, us, reply->chunk_count,
+        reply->chunk_count == 1 ? "" : "s", where);
+    int changed = reply->worlds_changed;
+    dispatch_reply_free(reply);
+    return changed;
+}
+
+/* ---- Answering on the loop thread -------------------------------------------------------
+ *
+ * A small request (dispatch_is_small: a few rays, a small triangle or two) is answered
+ * where it was read, inside lcm_handle, and its reply published at once: the hand-off to a
+ * worker and back costs two thread wake-ups, more than such a request's work. Large
+ * requests, meshes and admin requests keep the workers, so the loop stays free to read,
+ * refuse and publish; so a daemon computes on up to --threads workers plus the loop. A
+ * wake-up reads at most DAEMON_PUMP_BUDGET messages, so the loop answers at most that many
+ * before the timers and the workers' replies have their turn.
+ *
+ * Nothing else changes. The answer is dispatch_handle's, as on a worker, and counted and
+ * timed the same way. Backpressure is the same: a request answered here counts as in hand
+ * until its wake-up ends (d->inline_taken), as if it had gone to a worker, whose reply
+ * would only be published after the wake-up; so the requests one wake-up reads get BUSY
+ * exactly as they would without this. With --ordered a small held request is answered
+ * here when its turn comes in ordered_run, where it would have gone to a worker, so every
+ * answer is still the one a single thread gives.
+ * Only queries come here, never a request that changes the worlds held: those re-sync the
+ * subscriptions, which must not happen inside lcm_handle. --no-inline turns it off. */
+
+static int answers_inline(daemon *d, const dispatch_request *req)
+{
+    return !d->opt.no_inline && req->type != REQUEST_ADMIN && dispatch_is_small(&d->ctx, req);
+}
+
+static void answer_inline(daemon *d, const dispatch_request *req, const char *channel, const void *bytes,
+                          size_t size, uint64_t received_hr)
+{
+    dispatch_reply reply;
+    int rc = dispatch_handle(&d->ctx, channel, bytes, size, wall_utime(), &reply);
+    (void)deliver(d, req, channel, received_hr, rc, &reply, "on the loop thread");
+}
+
 static void work_request(uv_work_t *work)
 {
     request_job *job = work->data;
@@ -296,24 +356,9 @@ static void after_request(uv_work_t *work, int status)
     if (status != 0) {
         /* Only uv_cancel makes this happen, and nothing cancels requests. */
         LOG(LOG_ERROR, "a request on %s was not run: %s", job->channel, uv_strerror(status));
-    } else if (job->rc != 0) {
-        /* The peek took these bytes, so the worker's -1 means it could not even encode an
-         * error reply: out of memory. A well-formed request still gets its answer. */
-        reply_now(d, &job->req, job->channel, TRIOCT_ERR_NOMEM,
-                  "the daemon ran out of memory for this request");
-    } else {
-        dispatch_reply *reply = &job->reply;
-        publish_reply(d, reply);
-        int64_t us = (int64_t)((uv_hrtime() - job->received_hr) / 1000);
-        stats_add_latency(&d->st, us);
-        count_reply(d, reply);
-        LOG(LOG_DEBUG, "%s request %" PRId64 " of client %" PRId64 " on %s answered %s on %s in %"
-            PRId64 " us (%zu chunk%s)", type_name(reply->type), job->req.request_id,
-            job->req.client_id, job->channel, trioct_status_name(reply->status), reply->channel, us,
-            reply->chunk_count, reply->chunk_count == 1 ? "" : "s");
-        if (reply->worlds_changed && d->state != TRIOCT_STATUS_T_STOPPING)
-            sync_subscriptions(d);
-        dispatch_reply_free(reply);
+    } else if (deliver(d, &job->req, job->channel, job->received_hr, job->rc, &job->reply, "on a worker") &&
+               d->state != TRIOCT_STATUS_T_STOPPING) {
+        sync_subscriptions(d);
     }
     free(job);
     maybe_finish(d);
@@ -352,11 +397,17 @@ static void on_message(const lcm_recv_buf_t *rbuf, const char *channel, void *us
                   "the daemon is stopping and takes no new requests");
         return;
     }
-    if (d->in_flight >= d->opt.queue_depth) {
+    int in_hand = d->in_flight + d->inline_taken;
+    if (in_hand >= d->opt.queue_depth) {
         char msg[128];
-        snprintf(msg, sizeof msg, "the queue is full: %d requests in hand (queue_depth %d)",
-                 d->in_flight, d->opt.queue_depth);
+        snprintf(msg, sizeof msg, "the queue is full: %d requests in hand (queue_depth %d)", in_hand,
+                 d->opt.queue_depth);
         reply_now(d, &req, channel, TRIOCT_ERR_BUSY, msg);
+        return;
+    }
+    if (!d->opt.ordered && answers_inline(d, &req)) {
+        d->inline_taken++;
+        answer_inline(d, &req, channel, rbuf->data, size, received_hr);
         return;
     }
     request_job *job = malloc(sizeof *job + size);
@@ -557,6 +608,7 @@ static void on_lcm_readable(uv_poll_t *handle, int status, int events)
     }
     /* lcm_handle on a descriptor with nothing queued blocks, fails, or (memq) crashes, and
      * libuv may call us when nothing is there: ask poll(2) before every single message. */
+    d->inline_taken = 0;
     for (int i = 0; i < DAEMON_PUMP_BUDGET && d->polling && !d->wakeup_over; i++) {
         struct pollfd p = {.fd = d->lcm_fd, .events = POLLIN, .revents = 0};
         int r = poll(&p, 1, 0);
@@ -572,6 +624,7 @@ static void on_lcm_readable(uv_poll_t *handle, int status, int events)
             break;
         }
     }
+    d->inline_taken = 0; /* the wake-up is over: what it answered is no longer in hand */
     if (d->opt.ordered) {
         if (d->polling) {
             uv_poll_stop(&d->poll);
@@ -623,6 +676,13 @@ static void ordered_run(daemon *d)
             start_reload(d);
             if (d->state != TRIOCT_STATUS_T_RELOADING)
                 d->reload_in_order = 0; /* done at once, or refused (and logged) */
+            continue;
+        }
+        if (!job->alone && answers_inline(d, &job->req)) {
+            /* A query among queries: answering it now is answering it side by side. */
+            answer_inline(d, &job->req, job->channel, job->bytes, job->size, job->received_hr);
+            d->in_flight--;
+            free(job);
             continue;
         }
         int rc = uv_queue_work(&d->loop, &job->work, work_request, after_request);

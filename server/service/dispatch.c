@@ -3,6 +3,7 @@
  * the header is the handlers' (dispatch_query.c, dispatch_admin.c). */
 #include <ctype.h>
 #include <limits.h>
+#include <math.h>
 #include <stdarg.h>
 #include <stdio.h>
 #include <string.h>
@@ -70,6 +71,54 @@ static const wire_type wire_of[REQUEST_TYPE_COUNT] = {
     [REQUEST_MESH] = WIRE_MESH_REQUEST,
     [REQUEST_ADMIN] = WIRE_ADMIN_REQUEST,
 };
+
+/* Offsets after the header of the fields dispatch_is_small reads: ray_request_t (and v1)
+ * detail, accuracy, tmin, tmax, max_hits, then num_rays; triangle_request_t detail,
+ * accuracy, then num_triangles and the triangles, nine doubles each. */
+#define RAY_COUNT_AT 22
+#define TRIANGLE_COUNT_AT 2
+#define TRIANGLE_BYTES 72
+
+/* The longest side of the bounding boxes of count wire triangles at bytes + at; NaN when a
+ * coordinate is not finite. wire_check has vouched for the bytes. */
+static double triangles_extent(const void *bytes, int at, int left, int32_t count)
+{
+    double extent = 0.0;
+    for (int32_t t = 0; t < count; t++) {
+        double v[9];
+        if (__double_decode_array(bytes, at + TRIANGLE_BYTES * t, left - TRIANGLE_BYTES * t, v, 9) !=
+            TRIANGLE_BYTES)
+            return NAN;
+        for (int k = 0; k < 9; k++)
+            if (!isfinite(v[k]))
+                return NAN;
+        for (int axis = 0; axis < 3; axis++) {
+            double lo = fmin(v[axis], fmin(v[3 + axis], v[6 + axis]));
+            double hi = fmax(v[axis], fmax(v[3 + axis], v[6 + axis]));
+            extent = fmax(extent, hi - lo);
+        }
+    }
+    return extent;
+}
+
+/* Reads what dispatch_is_small weighs: the item count and, for a few triangles, their size.
+ * at is where the field after the header begins. */
+static void peek_cost(dispatch_request *req, const void *bytes, int at, int size)
+{
+    req->items = 0;
+    req->extent = INFINITY;
+    int count_at = req->type == REQUEST_RAY ? RAY_COUNT_AT : req->type == REQUEST_TRIANGLE ? TRIANGLE_COUNT_AT : -1;
+    if (count_at < 0)
+        return;
+    int32_t items = 0;
+    if (__int32_t_decode_array(bytes, at + count_at, size - at - count_at, &items, 1) != 4)
+        return;
+    req->items = items;
+    if (req->type == REQUEST_TRIANGLE && items <= DISPATCH_INLINE_MAX_TRIANGLES) {
+        int first = at + count_at + 4;
+        req->extent = triangles_extent(bytes, first, size - first, items);
+    }
+}
 
 /* Peeks and, on PEEK_REQUEST, leaves the decoded header in *hdr for the caller to clean up.
  * The header decoder is safe here: wire_check has vouched for every byte it reads. */
@@ -142,6 +191,7 @@ static dispatch_peek_result peek(const dispatch_ctx *ctx, const char *channel, c
         req->admin_op = after;
     else
         req->detail = after;
+    peek_cost(req, bytes, 8 + len, (int)size);
     return PEEK_REQUEST;
 }
 
@@ -153,6 +203,30 @@ dispatch_peek_result dispatch_peek(const dispatch_ctx *ctx, const char *channel,
     if (r == PEEK_REQUEST)
         __trioct_request_header_t_decode_array_cleanup(&hdr, 1);
     return r;
+}
+
+int dispatch_is_small(dispatch_ctx *ctx, const dispatch_request *req)
+{
+    switch (req->type) {
+    case REQUEST_RAY:
+        return req->items <= DISPATCH_INLINE_MAX_RAYS;
+    case REQUEST_TRIANGLE: {
+        if (req->items > DISPATCH_INLINE_MAX_TRIANGLES)
+            return 0;
+        if (req->items == 0)
+            return 1;
+        world *w = registry_acquire(ctx->worlds, req->channel_name);
+        if (!w)
+            return 1;
+        octree_info info;
+        octree_get_info(w->tree, &info);
+        world_release(w);
+        /* NaN (a coordinate not finite) is not small: the workers answer it, with an error. */
+        return req->extent <= DISPATCH_INLINE_MAX_TRIANGLE_LEAVES * info.resolution;
+    }
+    default:
+        return 0;
+    }
 }
 
 /* ---------- replies ---------- */

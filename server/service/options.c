@@ -36,6 +36,7 @@ enum {
     LONGOPT_STATUS_INTERVAL,
     LONGOPT_EXIT_AT_EOF,
     LONGOPT_ORDERED,
+    LONGOPT_NO_INLINE,
 };
 
 static const struct option long_options[] = {
@@ -51,6 +52,7 @@ static const struct option long_options[] = {
     {"status-interval", required_argument, NULL, LONGOPT_STATUS_INTERVAL},
     {"exit-at-eof", no_argument, NULL, LONGOPT_EXIT_AT_EOF},
     {"ordered", no_argument, NULL, LONGOPT_ORDERED},
+    {"no-inline", no_argument, NULL, LONGOPT_NO_INLINE},
     {"help", no_argument, NULL, 'h'},
     {"version", no_argument, NULL, 'V'},
     {NULL, 0, NULL, 0},
@@ -251,6 +253,9 @@ options_action options_parse_args(daemon_options *opt, int argc, char **argv, ch
         case LONGOPT_ORDERED:
             opt->ordered = 1;
             break;
+        case LONGOPT_NO_INLINE:
+            opt->no_inline = 1;
+            break;
         case ':':
             snprintf(err, err_len, "option '%s' needs a value", argv[optind - 1]);
             return OPTIONS_ERROR;
@@ -424,6 +429,8 @@ void options_usage(FILE *out, const char *argv0)
             "      --ordered             for replays: answer as one thread would, whatever\n"
             "                            --threads; <prefix>_RELOAD_<name> reloads the scene\n"
             "                            and <prefix>_STOP_<name> stops, at that point\n"
+            "      --no-inline           hand every request to the workers, even those small\n"
+            "                            enough to answer on the loop thread as they come\n"
             "  -h, --help                this text\n"
             "  -V, --version             the version\n"
             "\n"

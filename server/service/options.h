@@ -16,6 +16,7 @@
  *       --status-interval MS status_interval   1000
  *       --exit-at-eof       -                  off
  *       --ordered           -                  off
+ *       --no-inline         -                  off (small requests answered on the loop)
  *
  * A relative world_dir in the scene is relative to the scene file's directory; on the
  * command line, to the working directory. */
@@ -69,6 +70,7 @@ typedef struct daemon_options {
     int status_interval_ms;
     int exit_at_eof;   /* file:// input: finish the work in hand and exit 0 at its end */
     int ordered;       /* replays: answers as one thread gives them, whatever threads (daemon.c) */
+    int no_inline;     /* every request to the workers, the small ones too (daemon.c) */
     unsigned from_cli; /* OPT_* bits set on the command line: a reload keeps them */
 } daemon_options;
 
