@@ -25,6 +25,7 @@
  * range of that derivation (huge coordinates or matrix entries) take the per-triangle
  * path instead, which needs no such bound. */
 #include <math.h>
+#include <stddef.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -48,6 +49,7 @@
  * matrix they are still axes, and a separation along any axis is a proof. Every axis is
  * exact: a column is three matrix entries, and e_k x c permutes and negates them. */
 enum { AXES = 15 };
+#define TESTED_AXES 6
 
 typedef struct pose_frame {
     const pose *at;
@@ -156,47 +158,112 @@ static int pose_frame_make(pose_frame *f, const octree *world, const octree *sha
     return 1;
 }
 
-/* 1 when the world box wb grown by g and the image of the shape box sb are proven apart. */
-static inline int pair_apart(const pose_frame *f, box3 wb, box3 sb)
+/* The test splits in two sides, so that an expansion computes the side of the node it
+ * keeps once for its eight children. Along axis a, a box's side is the projection of its
+ * centre, fl(L_a . centre) (for the world's axes the coordinate itself), and its radius;
+ * the world box's radius includes g. Two boxes are apart along a when
+ *   |fl(p_shape - p_world)| > fl(fl(r_shape + r_world) + m_a).
+ * Rounding, with the bounds of pose_frame_make: the posed centre C is off by 5.01u T_k,
+ * the world centre by u M_w; the two projections round by gamma_3 of their terms' sums
+ * and their difference by u of its operands, in all at most
+ *   (5.01 + 3.02 + 1) u sum |L_k| T_k + (1 + 3.01 + 1) u sum |L_k| M_w < 9.1u span,
+ * and the radii are each a sum of three nonnegative products over inputs off by u, plus
+ * one addition: 9u of the radius, below m_a's share. */
+typedef struct box_side {
+    double p[AXES], r[AXES];
+} box_side;
+
+static inline void shape_side_of(const pose_frame *f, box3 sb, box_side *s)
 {
     const double *r = f->at->r;
     double cs[3] = {0.5 * (sb.lo.x + sb.hi.x), 0.5 * (sb.lo.y + sb.hi.y), 0.5 * (sb.lo.z + sb.hi.z)};
     double hs[3] = {0.5 * (sb.hi.x - sb.lo.x), 0.5 * (sb.hi.y - sb.lo.y), 0.5 * (sb.hi.z - sb.lo.z)};
-    double cw[3] = {0.5 * (wb.lo.x + wb.hi.x), 0.5 * (wb.lo.y + wb.hi.y), 0.5 * (wb.lo.z + wb.hi.z)};
-    double hg[3] = {0.5 * (wb.hi.x - wb.lo.x) + f->widen[0], 0.5 * (wb.hi.y - wb.lo.y) + f->widen[1],
-                    0.5 * (wb.hi.z - wb.lo.z) + f->widen[2]};
     /* The centre posed as octree_apply_pose poses a vertex (the bound assumes this order). */
-    double d[3] = {r[0] * cs[0] + r[1] * cs[1] + r[2] * cs[2] + f->at->t.x - cw[0],
-                   r[3] * cs[0] + r[4] * cs[1] + r[5] * cs[2] + f->at->t.y - cw[1],
-                   r[6] * cs[0] + r[7] * cs[1] + r[8] * cs[2] + f->at->t.z - cw[2]};
-    /* The world's axes first: they reject most pairs, and their projections are plain. */
-    for (int k = 0; k < 3; k++) {
-        const double *q = f->reach[k];
-        if (fabs(d[k]) > hg[k] + q[0] * hs[0] + q[1] * hs[1] + q[2] * hs[2] + f->margin[k])
-            return 1;
+    double c[3] = {r[0] * cs[0] + r[1] * cs[1] + r[2] * cs[2] + f->at->t.x,
+                   r[3] * cs[0] + r[4] * cs[1] + r[5] * cs[2] + f->at->t.y,
+                   r[6] * cs[0] + r[7] * cs[1] + r[8] * cs[2] + f->at->t.z};
+    for (int a = 0; a < TESTED_AXES; a++) {
+        const double *l = f->axis[a], *q = f->reach[a];
+        s->p[a] = a < 3 ? c[a] : l[0] * c[0] + l[1] * c[1] + l[2] * c[2];
+        s->r[a] = q[0] * hs[0] + q[1] * hs[1] + q[2] * hs[2];
     }
-    for (int a = 3; a < AXES; a++) {
-        const double *l = f->axis[a], *la = f->axis_abs[a], *q = f->reach[a];
-        double p = l[0] * d[0] + l[1] * d[1] + l[2] * d[2];
-        if (fabs(p) > la[0] * hg[0] + la[1] * hg[1] + la[2] * hg[2] + q[0] * hs[0] + q[1] * hs[1] + q[2] * hs[2] +
-                          f->margin[a])
+}
+
+static inline void world_side_of(const pose_frame *f, box3 wb, box_side *w)
+{
+    double c[3] = {0.5 * (wb.lo.x + wb.hi.x), 0.5 * (wb.lo.y + wb.hi.y), 0.5 * (wb.lo.z + wb.hi.z)};
+    double h[3] = {0.5 * (wb.hi.x - wb.lo.x) + f->widen[0], 0.5 * (wb.hi.y - wb.lo.y) + f->widen[1],
+                   0.5 * (wb.hi.z - wb.lo.z) + f->widen[2]};
+    for (int a = 0; a < TESTED_AXES; a++) {
+        const double *l = f->axis[a], *la = f->axis_abs[a];
+        w->p[a] = a < 3 ? c[a] : l[0] * c[0] + l[1] * c[1] + l[2] * c[2];
+        w->r[a] = la[0] * h[0] + la[1] * h[1] + la[2] * h[2];
+    }
+}
+
+/* A world box against a shape box's side, the world's side computed axis by axis so that
+ * the first separating axis ends the test (the same values world_side_of computes). */
+static inline int world_box_apart(const pose_frame *f, box3 wb, const box_side *s)
+{
+    double c[3] = {0.5 * (wb.lo.x + wb.hi.x), 0.5 * (wb.lo.y + wb.hi.y), 0.5 * (wb.lo.z + wb.hi.z)};
+    double h[3] = {0.5 * (wb.hi.x - wb.lo.x) + f->widen[0], 0.5 * (wb.hi.y - wb.lo.y) + f->widen[1],
+                   0.5 * (wb.hi.z - wb.lo.z) + f->widen[2]};
+    for (int k = 0; k < 3; k++)
+        if (fabs(s->p[k] - c[k]) > s->r[k] + h[k] + f->margin[k])
+            return 1;
+    for (int a = 3; a < TESTED_AXES; a++) {
+        const double *l = f->axis[a], *la = f->axis_abs[a];
+        double p = l[0] * c[0] + l[1] * c[1] + l[2] * c[2];
+        double r = la[0] * h[0] + la[1] * h[1] + la[2] * h[2];
+        if (fabs(s->p[a] - p) > s->r[a] + r + f->margin[a])
             return 1;
     }
     return 0;
 }
 
+/* A shape box against a world box's side, likewise. */
+static inline int shape_box_apart(const pose_frame *f, box3 sb, const box_side *w)
+{
+    const double *r = f->at->r;
+    double cs[3] = {0.5 * (sb.lo.x + sb.hi.x), 0.5 * (sb.lo.y + sb.hi.y), 0.5 * (sb.lo.z + sb.hi.z)};
+    double hs[3] = {0.5 * (sb.hi.x - sb.lo.x), 0.5 * (sb.hi.y - sb.lo.y), 0.5 * (sb.hi.z - sb.lo.z)};
+    double c[3] = {r[0] * cs[0] + r[1] * cs[1] + r[2] * cs[2] + f->at->t.x,
+                   r[3] * cs[0] + r[4] * cs[1] + r[5] * cs[2] + f->at->t.y,
+                   r[6] * cs[0] + r[7] * cs[1] + r[8] * cs[2] + f->at->t.z};
+    for (int a = 0; a < TESTED_AXES; a++) {
+        const double *l = f->axis[a], *q = f->reach[a];
+        double p = a < 3 ? c[a] : l[0] * c[0] + l[1] * c[1] + l[2] * c[2];
+        double rs = q[0] * hs[0] + q[1] * hs[1] + q[2] * hs[2];
+        if (fabs(p - w->p[a]) > rs + w->r[a] + f->margin[a])
+            return 1;
+    }
+    return 0;
+}
+
+static inline int boxes_apart(box3 a, box3 b)
+{
+    return a.lo.x > b.hi.x || a.lo.y > b.hi.y || a.lo.z > b.hi.z || a.hi.x < b.lo.x || a.hi.y < b.lo.y ||
+           a.hi.z < b.lo.z;
+}
+
+static inline box3 box_grown(box3 b, double g)
+{
+    return (box3){vec3_sub(b.lo, (vec3){g, g, g}), vec3_add(b.hi, (vec3){g, g, g})};
+}
+
 /* ---------- per-call scratch ---------- */
 
-/* A shape triangle under the current pose: its posed vertices, bounds and (exact mode) the
- * query side of the exact test, computed when a leaf pair first needs it. */
+/* A shape triangle under the current pose: its posed vertices and bounds, computed when a
+ * leaf first needs them, and (exact mode) the query side of the exact test, computed when
+ * the triangle is first tested. */
 typedef struct posed_triangle {
-    tri_tri_query query; /* v and box in every mode; plane, axis and turn in exact mode */
+    tri_tri_query query; /* v and box always; plane, axis and turn once prepared */
     triangle_box box;    /* outward float box against the world's triangle boxes */
 } posed_triangle;
 
 /* Internal (shape, world) id pairs tested under the current pose: a triangle sits in
  * several leaves, so the same pair can meet in several leaf pairs. */
-#define PAIR_SET_INLINE 1024
+#define PAIR_SET_INLINE 256
 #define PAIR_EMPTY UINT64_MAX
 
 typedef struct pair_set {
@@ -213,13 +280,19 @@ typedef struct pair_entry {
 typedef struct shape_scratch {
     const octree *world, *shape;
     accuracy_mode mode;
+    uint32_t epoch; /* the current pose's stamp */
+    /* Per shape triangle (allocated on first need): posed[q] holds the current pose when
+     * posed_stamp[q] == epoch, and its exact query side when prepared_stamp[q] == epoch. */
     posed_triangle *posed;
-    uint32_t *stamp; /* stamp[q] == epoch: posed[q] is computed for the current pose */
-    uint32_t epoch;
+    uint32_t *posed_stamp, *prepared_stamp;
+    /* Per shape node: the bounds of a leaf's posed triangles, when leaf_stamp == epoch. */
+    box3 *leaf_bounds;
+    uint32_t *leaf_stamp;
     pair_entry *stack;
     pair_set tested;
     uint64_t *hits; /* (caller's shape id << 32 | caller's world id) */
     size_t hit_count, hit_capacity;
+    int out_of_memory;
 } shape_scratch;
 
 static void pair_set_clear(pair_set *s)
@@ -294,21 +367,19 @@ static size_t stack_capacity(const octree *world, const octree *shape)
 
 static shape_scratch *scratch_new(const octree *world, const octree *shape, accuracy_mode mode)
 {
-    shape_scratch *s = calloc(1, sizeof *s);
+    shape_scratch *s = malloc(sizeof *s);
     if (!s)
         return NULL;
-    size_t n = shape->triangle_count;
+    memset(s, 0, offsetof(shape_scratch, tested));
     s->world = world;
     s->shape = shape;
     s->mode = mode;
-    s->posed = malloc(n * sizeof *s->posed);
-    s->stamp = calloc(n, sizeof *s->stamp);
-    s->stack = malloc(stack_capacity(world, shape) * sizeof *s->stack);
+    s->hits = NULL;
+    s->hit_count = s->hit_capacity = 0;
+    s->out_of_memory = 0;
     pair_set_init(&s->tested);
-    if (!s->posed || !s->stamp || !s->stack) {
-        free(s->posed);
-        free(s->stamp);
-        free(s->stack);
+    s->stack = malloc(stack_capacity(world, shape) * sizeof *s->stack);
+    if (!s->stack) {
         free(s);
         return NULL;
     }
@@ -322,41 +393,89 @@ static void scratch_free(shape_scratch *s)
     if (s->tested.slots != s->tested.inline_slots)
         free(s->tested.slots);
     free(s->posed);
-    free(s->stamp);
+    free(s->posed_stamp);
+    free(s->prepared_stamp);
+    free(s->leaf_bounds);
+    free(s->leaf_stamp);
     free(s->stack);
     free(s->hits);
     free(s);
+}
+
+/* The per-triangle and per-node arrays, on the first pose that reaches a shape leaf. */
+static int scratch_arrays(shape_scratch *s)
+{
+    if (s->posed)
+        return 0;
+    size_t n = s->shape->triangle_count, nodes = s->shape->node_count;
+    s->posed = malloc(n * sizeof *s->posed);
+    s->posed_stamp = calloc(n, sizeof *s->posed_stamp);
+    s->prepared_stamp = calloc(n, sizeof *s->prepared_stamp);
+    s->leaf_bounds = malloc(nodes * sizeof *s->leaf_bounds);
+    s->leaf_stamp = calloc(nodes, sizeof *s->leaf_stamp);
+    if (s->posed && s->posed_stamp && s->prepared_stamp && s->leaf_bounds && s->leaf_stamp)
+        return 0;
+    free(s->posed);
+    free(s->posed_stamp);
+    free(s->prepared_stamp);
+    free(s->leaf_bounds);
+    free(s->leaf_stamp);
+    s->posed = NULL;
+    return -1;
 }
 
 /* Starts a pose: no shape triangle is posed yet, no pair tested, no hit. */
 static void scratch_next_pose(shape_scratch *s)
 {
     if (++s->epoch == 0) {
-        memset(s->stamp, 0, s->shape->triangle_count * sizeof *s->stamp);
+        if (s->posed) {
+            memset(s->posed_stamp, 0, s->shape->triangle_count * sizeof *s->posed_stamp);
+            memset(s->prepared_stamp, 0, s->shape->triangle_count * sizeof *s->prepared_stamp);
+            memset(s->leaf_stamp, 0, s->shape->node_count * sizeof *s->leaf_stamp);
+        }
         s->epoch = 1;
     }
     pair_set_clear(&s->tested);
     s->hit_count = 0;
 }
 
+/* Shape triangle q under the pose (scratch_arrays done). */
 static posed_triangle *posed_get(shape_scratch *s, const pose *at, uint32_t q)
 {
     posed_triangle *p = &s->posed[q];
-    if (s->stamp[q] == s->epoch)
+    if (s->posed_stamp[q] == s->epoch)
         return p;
-    s->stamp[q] = s->epoch;
+    s->posed_stamp[q] = s->epoch;
     const vec3 *local = octree_triangle_at(s->shape, q);
-    vec3 v[3] = {octree_apply_pose(at, local[0]), octree_apply_pose(at, local[1]), octree_apply_pose(at, local[2])};
-    if (s->mode == ACCURACY_EXACT) {
-        tri_tri_query_prepare(&p->query, v);
-    } else {
-        for (int k = 0; k < 3; k++)
-            p->query.v[k] = v[k];
-        p->query.box = (box3){vec3_min(vec3_min(v[0], v[1]), v[2]), vec3_max(vec3_max(v[0], v[1]), v[2])};
-    }
+    vec3 *v = p->query.v;
+    for (int k = 0; k < 3; k++)
+        v[k] = octree_apply_pose(at, local[k]);
+    p->query.box = (box3){vec3_min(vec3_min(v[0], v[1]), v[2]), vec3_max(vec3_max(v[0], v[1]), v[2])};
     if (s->mode == ACCURACY_EXACT && s->world->triangle_boxes)
         p->box = triangle_box_around(p->query.box.lo, p->query.box.hi, s->world->world.lo);
     return p;
+}
+
+/* The bounds of shape leaf `node`'s posed triangles; NULL when memory ran out. */
+static const box3 *leaf_bounds_get(shape_scratch *s, const pose *at, uint32_t node)
+{
+    if (scratch_arrays(s) != 0) {
+        s->out_of_memory = 1;
+        return NULL;
+    }
+    box3 *b = &s->leaf_bounds[node];
+    if (s->leaf_stamp[node] == s->epoch)
+        return b;
+    s->leaf_stamp[node] = s->epoch;
+    octree_node n = s->shape->nodes[node];
+    const uint32_t *items = s->shape->leaf_items + n.first;
+    *b = posed_get(s, at, items[0])->query.box;
+    for (uint32_t i = 1; i < n.count; i++) {
+        box3 qb = posed_get(s, at, items[i])->query.box;
+        b->lo = vec3_min(b->lo, qb.lo);
+        b->hi = vec3_max(b->hi, qb.hi);
+    }
+    return b;
 }
 
 /* ---------- candidate pairs ---------- */
@@ -372,7 +491,7 @@ typedef struct pose_query {
 
 /* Tests shape triangle q (posed) against world triangle w once per pose, records a
  * contact; 1 when the query is over (its first contact for yes/no, or out of memory). */
-static inline int take_pair(pose_query *pq, const posed_triangle *p, uint32_t q, uint32_t w)
+static inline int take_pair(pose_query *pq, posed_triangle *p, uint32_t q, uint32_t w)
 {
     shape_scratch *s = pq->s;
     int fresh = pair_set_insert(&s->tested, (uint64_t)q << 32 | w);
@@ -384,9 +503,18 @@ static inline int take_pair(pose_query *pq, const posed_triangle *p, uint32_t q,
     }
     pq->stats->candidates_tested++;
     const vec3 *wt = octree_triangle_at(s->world, w);
-    int touch = s->mode == ACCURACY_SEED   ? tri_tri_overlap_seed(p->query.v, wt, s->world->seed_epsilon)
-                : s->mode == ACCURACY_FAST ? tri_tri_overlap_fast(p->query.v, wt)
-                                           : tri_tri_overlap_exact_query(&p->query, wt);
+    int touch;
+    if (s->mode == ACCURACY_EXACT) {
+        if (s->prepared_stamp[q] != s->epoch) {
+            vec3 v[3] = {p->query.v[0], p->query.v[1], p->query.v[2]};
+            tri_tri_query_prepare(&p->query, v);
+            s->prepared_stamp[q] = s->epoch;
+        }
+        touch = tri_tri_overlap_exact_query(&p->query, wt);
+    } else {
+        touch = s->mode == ACCURACY_SEED ? tri_tri_overlap_seed(p->query.v, wt, s->world->seed_epsilon)
+                                         : tri_tri_overlap_fast(p->query.v, wt);
+    }
     if (!touch)
         return 0;
     pq->any = 1;
@@ -400,28 +528,37 @@ static inline int take_pair(pose_query *pq, const posed_triangle *p, uint32_t q,
     return 0;
 }
 
-static inline int boxes_apart(box3 a, box3 b)
+/* The bounds of a world leaf's triangles within its box: every contact a pair of leaves
+ * can hold lies in a world triangle and in the leaf's box, so in these. */
+static box3 world_leaf_content(const octree *world, octree_node n, box3 cell)
 {
-    return a.lo.x > b.hi.x || a.lo.y > b.hi.y || a.lo.z > b.hi.z || a.hi.x < b.lo.x || a.hi.y < b.lo.y ||
-           a.hi.z < b.lo.z;
+    const uint32_t *items = world->leaf_items + n.first;
+    const vec3 *t = octree_triangle_at(world, items[0]);
+    box3 b = {vec3_min(vec3_min(t[0], t[1]), t[2]), vec3_max(vec3_max(t[0], t[1]), t[2])};
+    for (uint32_t i = 1; i < n.count; i++) {
+        t = octree_triangle_at(world, items[i]);
+        b.lo = vec3_min(b.lo, vec3_min(vec3_min(t[0], t[1]), t[2]));
+        b.hi = vec3_max(b.hi, vec3_max(vec3_max(t[0], t[1]), t[2]));
+    }
+    return (box3){vec3_max(b.lo, cell.lo), vec3_min(b.hi, cell.hi)};
 }
 
 /* A world leaf against a shape leaf. A shape triangle whose bounds, grown by the slack,
- * miss the world leaf's box need not be tested there: a contact with any world triangle
- * (a point of it within the slack of the shape triangle) lies in some world leaf its grown
- * bounds meet, and that leaf's pair with the shape leaf holding the preimage is reached
- * too. Exact mode skips a world triangle whose outward box is strictly apart from the
- * shape triangle's, as triangle queries do. Returns 1 when the query is over. */
-static int leaf_pair(pose_query *pq, octree_node wn, box3 wb, octree_node sn)
+ * miss the world leaf's content need not be tested there: a contact with any world
+ * triangle (a point of it within the slack of the shape triangle) lies in some world leaf
+ * whose content its grown bounds meet, and that leaf's pair with the shape leaf holding
+ * the preimage is reached too. Exact mode skips a world triangle whose outward box is
+ * strictly apart from the shape triangle's, as triangle queries do. Returns 1 when the
+ * query is over. */
+static int leaf_pair(pose_query *pq, octree_node wn, box3 content, octree_node sn)
 {
     shape_scratch *s = pq->s;
     const octree *world = s->world;
     const triangle_box *boxes = s->mode == ACCURACY_EXACT ? world->triangle_boxes : NULL;
     for (uint32_t i = 0; i < sn.count; i++) {
         uint32_t q = s->shape->leaf_items[sn.first + i];
-        const posed_triangle *p = posed_get(s, pq->at, q);
-        box3 qb = p->query.box;
-        if (boxes_apart(qb, wb))
+        posed_triangle *p = posed_get(s, pq->at, q);
+        if (boxes_apart(p->query.box, content))
             continue;
         for (uint32_t j = 0; j < wn.count; j++) {
             uint32_t w = world->leaf_items[wn.first + j];
@@ -434,16 +571,23 @@ static int leaf_pair(pose_query *pq, octree_node wn, box3 wb, octree_node sn)
     return 0;
 }
 
-static double box_side(box3 b) { return b.hi.x - b.lo.x; }
+static double box_width(box3 b) { return b.hi.x - b.lo.x; }
 
-/* The two trees together from their roots (see the top of the file). */
+/* The two trees together from their roots (see the top of the file). Where one node of a
+ * pair is a leaf its tight bounds stand in for its box: a shape leaf's posed triangles'
+ * bounds (exact doubles, compared exactly), a world leaf's content. */
 static void descend(pose_query *pq, const pose_frame *f)
 {
     shape_scratch *s = pq->s;
     const octree *world = s->world, *shape = s->shape;
     query_stats *stats = pq->stats;
+    double g = f->grow;
     stats->nodes_visited++;
-    if (world->nodes[0].count == 0 || shape->nodes[0].count == 0 || pair_apart(f, world->world, shape->world))
+    if (world->nodes[0].count == 0 || shape->nodes[0].count == 0)
+        return;
+    box_side side;
+    shape_side_of(f, shape->world, &side);
+    if (world_box_apart(f, world->world, &side))
         return;
     pair_entry *stack = s->stack;
     size_t top = 0;
@@ -454,36 +598,46 @@ static void descend(pose_query *pq, const pose_frame *f)
         int world_leaf = wn.count != NODE_INTERIOR, shape_leaf = sn.count != NODE_INTERIOR;
         if (world_leaf && shape_leaf) {
             stats->leaves_visited++;
-            box3 wb = e.world_box;
-            if (f->grow > 0.0)
-                wb = (box3){vec3_sub(wb.lo, (vec3){f->grow, f->grow, f->grow}),
-                            vec3_add(wb.hi, (vec3){f->grow, f->grow, f->grow})};
-            if (leaf_pair(pq, wn, wb, sn))
+            const box3 *sb = leaf_bounds_get(s, pq->at, e.shape_node);
+            if (!sb) {
+                pq->status = OCTREE_ERR_NOMEM;
+                return;
+            }
+            box3 content = box_grown(world_leaf_content(world, wn, e.world_box), g);
+            if (!boxes_apart(*sb, content) && leaf_pair(pq, wn, content, sn))
                 return;
             continue;
         }
         /* The larger node splits, so the two boxes stay of a size. */
-        int split_world = shape_leaf || (!world_leaf && box_side(e.world_box) >= f->scale * box_side(e.shape_box));
+        int split_world = shape_leaf || (!world_leaf && box_width(e.world_box) >= f->scale * box_width(e.shape_box));
         if (split_world) {
             vec3 c = octree_split_point(world, e.world_box);
             const octree_node *kids = &world->nodes[wn.first];
+            const box3 *sb = NULL;
+            if (shape_leaf && !(sb = leaf_bounds_get(s, pq->at, e.shape_node))) {
+                pq->status = OCTREE_ERR_NOMEM;
+                return;
+            }
+            if (!shape_leaf)
+                shape_side_of(f, e.shape_box, &side);
             for (int k = 0; k < 8; k++) {
                 if (kids[k].count == 0)
                     continue;
                 box3 cb = box_child(e.world_box, c, box_octant_upper_bits[k]);
                 stats->nodes_visited++;
-                if (!pair_apart(f, cb, e.shape_box))
+                if (shape_leaf ? !boxes_apart(box_grown(cb, g), *sb) : !world_box_apart(f, cb, &side))
                     stack[top++] = (pair_entry){wn.first + (uint32_t)k, e.shape_node, cb, e.shape_box};
             }
         } else {
             vec3 c = octree_split_point(shape, e.shape_box);
             const octree_node *kids = &shape->nodes[sn.first];
+            world_side_of(f, world_leaf ? world_leaf_content(world, wn, e.world_box) : e.world_box, &side);
             for (int k = 0; k < 8; k++) {
                 if (kids[k].count == 0)
                     continue;
                 box3 cb = box_child(e.shape_box, c, box_octant_upper_bits[k]);
                 stats->nodes_visited++;
-                if (!pair_apart(f, e.world_box, cb))
+                if (!shape_box_apart(f, cb, &side))
                     stack[top++] = (pair_entry){e.world_node, sn.first + (uint32_t)k, e.world_box, cb};
             }
         }
@@ -500,8 +654,12 @@ static int mode_candidates(pose_query *pq, double *grow)
     shape_scratch *s = pq->s;
     const octree *world = s->world;
     *grow = 0.0;
+    if (scratch_arrays(s) != 0) {
+        pq->status = OCTREE_ERR_NOMEM;
+        return 1;
+    }
     for (uint32_t q = 0; q < s->shape->triangle_count; q++) {
-        const posed_triangle *p = posed_get(s, pq->at, q);
+        posed_triangle *p = posed_get(s, pq->at, q);
         double slack = s->mode == ACCURACY_FAST ? octree_fast_triangle_slack(world, p->query.v)
                                                 : octree_seed_triangle_slack(world, p->query.v);
         size_t extra = 0;
