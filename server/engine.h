@@ -232,10 +232,25 @@ typedef struct mesh_output {
     size_t capacity;
 } mesh_output;
 
-/* Query mesh under a pose against the world: yes/no (all_pairs = 0) or every pair. */
+/* Query mesh under a pose against the world: yes/no (all_pairs = 0) or every pair. The
+ * shape is built into its own octree for the call (octree_mesh_tree's path) unless it is
+ * too small for that to pay or its tree cannot be built; the answers are the same. */
 octree_status octree_mesh(const octree *tree, const mesh_view *shape, const pose *at,
                           int all_pairs, accuracy_mode mode, mesh_output *out,
                           query_stats *stats);
+
+/* The same query with the shape built once into its own octree (octree_build over the
+ * shape in its local frame; a registered shape's tree lives as long as its world): the
+ * world tree and the shape tree are descended together, so a pose costs what the part of
+ * the shape near the world costs. Answers, ids and truncation are exactly octree_mesh's
+ * for the mesh the shape tree was built from, in every mode; query_triangle is that
+ * mesh's triangle index. Stats count node pairs tested (nodes_visited), leaf pairs
+ * (leaves_visited) and triangle pairs tested (candidates_tested). OCTREE_ERR_INVALID for
+ * a NULL tree, pose or output or an unknown mode, OCTREE_ERR_NONFINITE for a pose with a
+ * NaN or infinite entry, or for a posed vertex that overflows. */
+octree_status octree_mesh_tree(const octree *world, const octree *shape, const pose *at,
+                               int all_pairs, accuracy_mode mode, mesh_output *out,
+                               query_stats *stats);
 
 /* ---------- batches ---------- */
 /* Each item gets its own status in statuses[i] and its own output; the batch returns
@@ -247,9 +262,14 @@ octree_status octree_ray_batch(const octree *tree, const ray_input *rays, size_t
 octree_status octree_triangle_batch(const octree *tree, const vec3 (*tris)[3], size_t count,
                                     tri_detail detail, accuracy_mode mode, tri_output *outs,
                                     octree_status *statuses, query_stats *stats);
-/* One shape at many poses. */
+/* One shape at many poses; the shape's tree is built once for the batch (see octree_mesh). */
 octree_status octree_mesh_batch(const octree *tree, const mesh_view *shape, const pose *poses, size_t count,
                                 int all_pairs, accuracy_mode mode, mesh_output *outs,
                                 octree_status *statuses, query_stats *stats);
+/* One shape tree at many poses, as octree_mesh_tree answers each. */
+octree_status octree_mesh_tree_batch(const octree *world, const octree *shape, const pose *poses,
+                                     size_t count, int all_pairs, accuracy_mode mode,
+                                     mesh_output *outs, octree_status *statuses,
+                                     query_stats *stats);
 
 #endif

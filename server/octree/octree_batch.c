@@ -49,9 +49,21 @@ octree_status octree_triangle_batch(const octree *tree, const vec3 (*tris)[3], s
     BATCH_LOOP(octree_triangle(tree, tris[i], detail, mode, &outs[i], stats));
 }
 
+/* The shape's tree is built once for all the poses (when it pays and the shape is valid;
+ * an invalid shape gets, pose by pose, the status octree_mesh gives it). */
 octree_status octree_mesh_batch(const octree *tree, const mesh_view *shape, const pose *poses, size_t count,
                                 int all_pairs, accuracy_mode mode, mesh_output *outs, octree_status *statuses,
                                 query_stats *stats)
 {
-    BATCH_LOOP(octree_mesh(tree, shape, &poses[i], all_pairs, mode, &outs[i], stats));
+    static const pose identity = {{1, 0, 0, 0, 1, 0, 0, 0, 1}, {0, 0, 0}};
+    octree *shape_tree = NULL;
+    if (count && octree_mesh_check(shape, &identity, mode) == OCTREE_OK)
+        shape_tree = octree_shape_tree_for(shape, count);
+    if (shape_tree) {
+        octree_status st = octree_mesh_tree_batch(tree, shape_tree, poses, count, all_pairs, mode, outs, statuses,
+                                                  stats);
+        octree_free(shape_tree);
+        return st;
+    }
+    BATCH_LOOP(octree_mesh_as_triangles(tree, shape, &poses[i], all_pairs, mode, &outs[i], stats));
 }

@@ -223,6 +223,37 @@ octree_status octree_ray_packets(const struct octree *tree, const ray_input *ray
                                  accuracy_mode mode, ray_output *outs, octree_status *statuses,
                                  query_stats *stats);
 
+/* A shape vertex under a pose, p' = R p + t, rounded to doubles once. Every mesh query
+ * poses vertices through this one expression, so the per-triangle path and the shape-tree
+ * path test the same doubles and give the same answers. */
+static inline vec3 octree_apply_pose(const pose *at, vec3 p)
+{
+    const double *r = at->r;
+    return (vec3){r[0] * p.x + r[1] * p.y + r[2] * p.z + at->t.x, r[3] * p.x + r[4] * p.y + r[5] * p.z + at->t.y,
+                  r[6] * p.x + r[7] * p.y + r[8] * p.z + at->t.z};
+}
+
+/* octree_mesh's argument checks: OCTREE_OK, or the status octree_mesh returns for them. */
+octree_status octree_mesh_check(const mesh_view *shape, const pose *at, accuracy_mode mode);
+
+/* The caller's shape triangle i, in the shape's local frame. */
+typedef void (*octree_shape_triangle_fn)(const void *shape, size_t i, vec3 out[3]);
+
+/* The per-triangle mesh query: each posed shape triangle, in the caller's order, searched
+ * from the root as octree_triangle searches it. Pairs name shape triangles by their index
+ * i. The arguments are checked already (octree_mesh_check). */
+octree_status octree_mesh_per_triangle(const struct octree *tree, const void *shape, size_t triangle_count,
+                                       octree_shape_triangle_fn triangle_of, const pose *at, int all_pairs,
+                                       accuracy_mode mode, mesh_output *out, query_stats *stats);
+
+/* The shape's own octree for a mesh query of `poses` poses, or NULL when the per-triangle
+ * path is the better one (a tiny shape) or the tree cannot be built. */
+octree *octree_shape_tree_for(const mesh_view *shape, size_t poses);
+
+/* octree_mesh by the per-triangle path, whatever the shape. */
+octree_status octree_mesh_as_triangles(const struct octree *tree, const mesh_view *shape, const pose *at,
+                                       int all_pairs, accuracy_mode mode, mesh_output *out, query_stats *stats);
+
 /* Deepest traversal stack a query needs: 7 siblings waiting per level plus the node. */
 #define OCTREE_STACK_MAX (8 * (OCTREE_MAX_DEPTH_CAP + 1) + 1)
 

@@ -286,15 +286,7 @@ octree_status octree_triangle(const octree *tree, const vec3 tri[3], tri_detail 
     return st;
 }
 
-static vec3 apply_pose(const pose *at, vec3 p)
-{
-    const double *r = at->r;
-    return (vec3){r[0] * p.x + r[1] * p.y + r[2] * p.z + at->t.x, r[3] * p.x + r[4] * p.y + r[5] * p.z + at->t.y,
-                  r[6] * p.x + r[7] * p.y + r[8] * p.z + at->t.z};
-}
-
-octree_status octree_mesh(const octree *tree, const mesh_view *shape, const pose *at, int all_pairs,
-                          accuracy_mode mode, mesh_output *out, query_stats *stats)
+octree_status octree_mesh_check(const mesh_view *shape, const pose *at, accuracy_mode mode)
 {
     if (!shape || !at || (shape->triangle_count && (!shape->indices || !shape->vertices)) || !valid_mode(mode))
         return OCTREE_ERR_INVALID;
@@ -309,6 +301,13 @@ octree_status octree_mesh(const octree *tree, const mesh_view *shape, const pose
         if (!vec3_is_finite(shape->vertices[shape->indices[i]]))
             return OCTREE_ERR_NONFINITE;
     }
+    return OCTREE_OK;
+}
+
+octree_status octree_mesh_per_triangle(const octree *tree, const void *shape, size_t triangle_count,
+                                       octree_shape_triangle_fn triangle_of, const pose *at, int all_pairs,
+                                       accuracy_mode mode, mesh_output *out, query_stats *stats)
+{
     uint64_t fallbacks_before = predicates_fallback_count();
     query_stats local = {0};
     out->hit = 0;
@@ -316,12 +315,13 @@ octree_status octree_mesh(const octree *tree, const mesh_view *shape, const pose
     out->truncated = 0;
     octree_status st = OCTREE_OK;
     id_list hits = {0};
-    for (size_t i = 0; i < shape->triangle_count && st == OCTREE_OK; i++) {
+    for (size_t i = 0; i < triangle_count && st == OCTREE_OK; i++) {
         /* The posed triangle is rounded to doubles once; every decision after that is
          * exact on those doubles. */
-        vec3 q[3];
+        vec3 local_tri[3], q[3];
+        triangle_of(shape, i, local_tri);
         for (int k = 0; k < 3; k++)
-            q[k] = apply_pose(at, shape->vertices[shape->indices[3 * i + (size_t)k]]);
+            q[k] = octree_apply_pose(at, local_tri[k]);
         if (!vec3_is_finite(q[0]) || !vec3_is_finite(q[1]) || !vec3_is_finite(q[2])) {
             st = OCTREE_ERR_NONFINITE;
             break;

@@ -1,0 +1,865 @@
+/* Mesh queries with the query shape built into an octree of its own: the world tree and the
+ * shape tree (the same fixed-resolution builder, the shape in its local frame) descended
+ * together, pose by pose.
+ *
+ * Invariant: a pair (world node W, shape node S) is on the stack only if the world box of
+ * W, grown on each axis by g (the pose's rounding bound e plus the mode's slack), may meet
+ * the image R S + t of S's local box, i.e. no separating axis among the 15 of a box and a
+ * parallelepiped proves them apart by more than the test's own rounding bound. So every
+ * pair of leaves that could hold a contact is reached, and a contact is reported exactly
+ * when the mode's final test accepts the pair: the answers are octree_mesh's.
+ *
+ * Why such a pair of leaves is reached. A posed vertex is fl(R p + t), within e of the
+ * real R p + t on each axis (e from the pose and the shape's extent, below). A point x of
+ * a posed triangle q is the same convex combination of its posed vertices as a point y of
+ * q's local triangle is of the local ones, so x lies within e of R y + t. y lies in a
+ * shape leaf listing q (membership is exact and closed), and R y + t in the image of that
+ * leaf's box and of all its ancestors'. In exact mode a contact point x of q and a world
+ * triangle w lies in a world leaf listing w; in fast and seed mode, w has a point within
+ * the mode's slack of x (octree_modes.c). Either way the world leaf's box grown by g meets
+ * the shape leaf's image, as do all their ancestors' boxes: no pair on the way is dropped.
+ *
+ * The separating-axis test is computed in double and rejects a pair only when the
+ * computed separation exceeds a bound on its rounding error (pose_frame_make has the
+ * derivation), so a pair whose exact boxes touch is never dropped. Poses outside the
+ * range of that derivation (huge coordinates or matrix entries) take the per-triangle
+ * path instead, which needs no such bound. */
+#include <math.h>
+#include <stddef.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "../geom/predicates.h"
+#include "../geom/tri_tri.h"
+#include "octree_internal.h"
+#include "octree_modes.h"
+
+#define U 0x1p-53
+/* Absolute error a subnormal result can add, magnified by factors within the range below
+ * (matrix entries up to 2^32, a few dozen operations): far below 2^-900. */
+#define UNDERFLOW_PAD 0x1p-900
+/* The range the error bounds are derived for: matrix entries up to 2^32, coordinates,
+ * translations and slacks up to 2^400, so no product or sum of the test overflows. */
+#define POSE_ENTRY_MAX 0x1p32
+#define POSE_RANGE_MAX 0x1p400
+
+/* The 15 candidate separating axes: the world's three, the pose's three columns (the
+ * shape box's edges in the world frame) and the nine cross products of one of each. For
+ * a rotation these are the box-box axes of the separating-axis theorem; for any other
+ * matrix they are still axes, and a separation along any axis is a proof. Every axis is
+ * exact: a column is three matrix entries, and e_k x c permutes and negates them. */
+enum { AXES = 15 };
+#define TESTED_AXES 6
+
+typedef struct pose_frame {
+    const pose *at;
+    double axis[AXES][3];
+    double axis_abs[AXES][3];
+    /* reach[a][i] >= |axis_a . column_i|: the shape box's half side i projects to
+     * reach[a][i] times it. */
+    double reach[AXES][3];
+    double margin[AXES];  /* the rounding bound of the test along each axis */
+    double widen[3];      /* g: e plus the mode's slack, per world axis */
+    double grow;          /* the mode's slack (0 in exact mode) */
+    double scale;         /* how much the pose stretches a shape length, for the split choice */
+} pose_frame;
+
+static double max_abs3(double a, double b, double c) { return fmax(fabs(a), fmax(fabs(b), fabs(c))); }
+
+/* The frame of one pose, or 0 when the pose or the trees are outside the range of the
+ * error bounds below (the caller then takes the per-triangle path).
+ *
+ * Error bounds, u = 2^-53, all quantities within the range above. Let M_s[i] be the
+ * largest |coordinate i| of the shape's cube (every local vertex and node centre is
+ * inside it), M_w the largest |coordinate| of the world's cube, and
+ *   T_k = sum_i |R_ki| M_s[i] + |t_k|.
+ * Posed vertex: fl(R p + t)_k is a four-term sum of three products and t_k, evaluated left
+ * to right: off by at most gamma_4 T_k < 4.01u T_k; e_k = 5u T_k + pad.
+ * Per pair, the centres cs = fl(0.5 fl(lo + hi)) and cw are off by u |cs| and u |cw|, the
+ * halves hs, hw by u of themselves; C = fl(R cs + t) is off from the real R cs* + t by
+ * gamma_4 T_k + u T_k, and D = fl(C - cw) from the real D* by
+ *   u (T_k + M_w) + 5.01u T_k + u M_w < 7u (T_k + M_w).
+ * The projection p = fl(L . D) (at most three terms, L exact) is then off from L . D* by
+ * gamma_3 sum |L_k| |D_k| + sum |L_k| 7u (T_k + M_w) < 10.1u sum |L_k| (T_k + M_w).
+ * The radius r = fl(sum_k |L_k| (hw_k + g_k) + sum_i reach_i hs_i), six nonnegative
+ * products summed, with inputs off by u and reach an upper bound, is below the real
+ * radius less 9u r, and r is at most R_max, the same sum over the roots' halves. The
+ * comparison |p| > fl(r + m) loses u (r + m). So with
+ *   m = 16u (sum_k |L_k| (T_k + M_w) + R_max) + pad
+ * (computing m itself rounds by a few u of m, which 16 against 10.1 and 9 covers),
+ * |p| > fl(r + m) proves |L . D*| exceeds the real radius: the exact sets are apart. */
+static int pose_frame_make(pose_frame *f, const octree *world, const octree *shape, const pose *at, double grow)
+{
+    const double *r = at->r;
+    for (int k = 0; k < 9; k++)
+        if (!(fabs(r[k]) <= POSE_ENTRY_MAX))
+            return 0;
+    double t[3] = {at->t.x, at->t.y, at->t.z};
+    box3 sw = shape->world, ww = world->world;
+    double ms[3] = {fmax(fabs(sw.lo.x), fabs(sw.hi.x)), fmax(fabs(sw.lo.y), fabs(sw.hi.y)),
+                    fmax(fabs(sw.lo.z), fabs(sw.hi.z))};
+    double mw = fmax(max_abs3(ww.lo.x, ww.lo.y, ww.lo.z), max_abs3(ww.hi.x, ww.hi.y, ww.hi.z));
+    if (!(max_abs3(ms[0], ms[1], ms[2]) <= POSE_RANGE_MAX) || !(mw <= POSE_RANGE_MAX) ||
+        !(max_abs3(t[0], t[1], t[2]) <= POSE_RANGE_MAX) || !(grow >= 0.0 && grow <= POSE_RANGE_MAX))
+        return 0;
+    f->at = at;
+    f->grow = grow;
+    double tk[3];
+    for (int k = 0; k < 3; k++) {
+        tk[k] = fabs(r[3 * k]) * ms[0] + fabs(r[3 * k + 1]) * ms[1] + fabs(r[3 * k + 2]) * ms[2] + fabs(t[k]);
+        f->widen[k] = 5 * U * tk[k] + UNDERFLOW_PAD + grow;
+    }
+    double col[3][3];
+    for (int i = 0; i < 3; i++)
+        for (int k = 0; k < 3; k++)
+            col[i][k] = r[3 * k + i];
+    int a = 0;
+    for (int k = 0; k < 3; k++, a++)
+        for (int j = 0; j < 3; j++)
+            f->axis[a][j] = j == k;
+    for (int i = 0; i < 3; i++, a++)
+        for (int j = 0; j < 3; j++)
+            f->axis[a][j] = col[i][j];
+    for (int k = 0; k < 3; k++)
+        for (int i = 0; i < 3; i++, a++) {
+            const double *c = col[i];
+            double *l = f->axis[a];
+            /* e_k x c */
+            l[0] = k == 0 ? 0.0 : k == 1 ? c[2] : -c[1];
+            l[1] = k == 0 ? -c[2] : k == 1 ? 0.0 : c[0];
+            l[2] = k == 0 ? c[1] : k == 1 ? -c[0] : 0.0;
+        }
+    double hw[3] = {0.5 * (ww.hi.x - ww.lo.x), 0.5 * (ww.hi.y - ww.lo.y), 0.5 * (ww.hi.z - ww.lo.z)};
+    double hs[3] = {0.5 * (sw.hi.x - sw.lo.x), 0.5 * (sw.hi.y - sw.lo.y), 0.5 * (sw.hi.z - sw.lo.z)};
+    for (a = 0; a < AXES; a++) {
+        const double *l = f->axis[a];
+        double span = 0.0, radius = 0.0;
+        for (int k = 0; k < 3; k++) {
+            f->axis_abs[a][k] = fabs(l[k]);
+            span += fabs(l[k]) * (tk[k] + mw);
+            radius += fabs(l[k]) * (hw[k] + f->widen[k]);
+        }
+        for (int i = 0; i < 3; i++) {
+            const double *c = col[i];
+            double dot = l[0] * c[0] + l[1] * c[1] + l[2] * c[2];
+            double abs_sum = fabs(l[0] * c[0]) + fabs(l[1] * c[1]) + fabs(l[2] * c[2]);
+            /* gamma_3 abs_sum bounds the dot's rounding; 8u covers it and this sum's own. */
+            f->reach[a][i] = fabs(dot) + 8 * U * abs_sum + UNDERFLOW_PAD;
+            radius += f->reach[a][i] * hs[i];
+        }
+        f->margin[a] = 16 * U * (span + radius) + UNDERFLOW_PAD;
+        if (!isfinite(f->margin[a]))
+            return 0;
+    }
+    double scale = 0.0;
+    for (int i = 0; i < 3; i++)
+        scale = fmax(scale, max_abs3(col[i][0], col[i][1], col[i][2]));
+    f->scale = scale;
+    return 1;
+}
+
+/* The test splits in two sides, so that an expansion computes the side of the node it
+ * keeps once for its eight children. Along axis a, a box's side is the projection of its
+ * centre, fl(L_a . centre) (for the world's axes the coordinate itself), and its radius;
+ * the world box's radius includes g. Two boxes are apart along a when
+ *   |fl(p_shape - p_world)| > fl(fl(r_shape + r_world) + m_a).
+ * Rounding, with the bounds of pose_frame_make: the posed centre C is off by 5.01u T_k,
+ * the world centre by u M_w; the two projections round by gamma_3 of their terms' sums
+ * and their difference by u of its operands, in all at most
+ *   (5.01 + 3.02 + 1) u sum |L_k| T_k + (1 + 3.01 + 1) u sum |L_k| M_w < 9.1u span,
+ * and the radii are each a sum of three nonnegative products over inputs off by u, plus
+ * one addition: 9u of the radius, below m_a's share. */
+typedef struct box_side {
+    double p[AXES], r[AXES];
+} box_side;
+
+static inline void shape_side_of(const pose_frame *f, box3 sb, box_side *s)
+{
+    const double *r = f->at->r;
+    double cs[3] = {0.5 * (sb.lo.x + sb.hi.x), 0.5 * (sb.lo.y + sb.hi.y), 0.5 * (sb.lo.z + sb.hi.z)};
+    double hs[3] = {0.5 * (sb.hi.x - sb.lo.x), 0.5 * (sb.hi.y - sb.lo.y), 0.5 * (sb.hi.z - sb.lo.z)};
+    /* The centre posed as octree_apply_pose poses a vertex (the bound assumes this order). */
+    double c[3] = {r[0] * cs[0] + r[1] * cs[1] + r[2] * cs[2] + f->at->t.x,
+                   r[3] * cs[0] + r[4] * cs[1] + r[5] * cs[2] + f->at->t.y,
+                   r[6] * cs[0] + r[7] * cs[1] + r[8] * cs[2] + f->at->t.z};
+    for (int a = 0; a < TESTED_AXES; a++) {
+        const double *l = f->axis[a], *q = f->reach[a];
+        s->p[a] = a < 3 ? c[a] : l[0] * c[0] + l[1] * c[1] + l[2] * c[2];
+        s->r[a] = q[0] * hs[0] + q[1] * hs[1] + q[2] * hs[2];
+    }
+}
+
+static inline void world_side_of(const pose_frame *f, box3 wb, box_side *w)
+{
+    double c[3] = {0.5 * (wb.lo.x + wb.hi.x), 0.5 * (wb.lo.y + wb.hi.y), 0.5 * (wb.lo.z + wb.hi.z)};
+    double h[3] = {0.5 * (wb.hi.x - wb.lo.x) + f->widen[0], 0.5 * (wb.hi.y - wb.lo.y) + f->widen[1],
+                   0.5 * (wb.hi.z - wb.lo.z) + f->widen[2]};
+    for (int a = 0; a < TESTED_AXES; a++) {
+        const double *l = f->axis[a], *la = f->axis_abs[a];
+        w->p[a] = a < 3 ? c[a] : l[0] * c[0] + l[1] * c[1] + l[2] * c[2];
+        w->r[a] = la[0] * h[0] + la[1] * h[1] + la[2] * h[2];
+    }
+}
+
+/* A world box against a shape box's side, the world's side computed axis by axis so that
+ * the first separating axis ends the test (the same values world_side_of computes). */
+static inline int world_box_apart(const pose_frame *f, box3 wb, const box_side *s)
+{
+    double c[3] = {0.5 * (wb.lo.x + wb.hi.x), 0.5 * (wb.lo.y + wb.hi.y), 0.5 * (wb.lo.z + wb.hi.z)};
+    double h[3] = {0.5 * (wb.hi.x - wb.lo.x) + f->widen[0], 0.5 * (wb.hi.y - wb.lo.y) + f->widen[1],
+                   0.5 * (wb.hi.z - wb.lo.z) + f->widen[2]};
+    for (int k = 0; k < 3; k++)
+        if (fabs(s->p[k] - c[k]) > s->r[k] + h[k] + f->margin[k])
+            return 1;
+    for (int a = 3; a < TESTED_AXES; a++) {
+        const double *l = f->axis[a], *la = f->axis_abs[a];
+        double p = l[0] * c[0] + l[1] * c[1] + l[2] * c[2];
+        double r = la[0] * h[0] + la[1] * h[1] + la[2] * h[2];
+        if (fabs(s->p[a] - p) > s->r[a] + r + f->margin[a])
+            return 1;
+    }
+    return 0;
+}
+
+/* A shape box against a world box's side, likewise. */
+static inline int shape_box_apart(const pose_frame *f, box3 sb, const box_side *w)
+{
+    const double *r = f->at->r;
+    double cs[3] = {0.5 * (sb.lo.x + sb.hi.x), 0.5 * (sb.lo.y + sb.hi.y), 0.5 * (sb.lo.z + sb.hi.z)};
+    double hs[3] = {0.5 * (sb.hi.x - sb.lo.x), 0.5 * (sb.hi.y - sb.lo.y), 0.5 * (sb.hi.z - sb.lo.z)};
+    double c[3] = {r[0] * cs[0] + r[1] * cs[1] + r[2] * cs[2] + f->at->t.x,
+                   r[3] * cs[0] + r[4] * cs[1] + r[5] * cs[2] + f->at->t.y,
+                   r[6] * cs[0] + r[7] * cs[1] + r[8] * cs[2] + f->at->t.z};
+    for (int a = 0; a < TESTED_AXES; a++) {
+        const double *l = f->axis[a], *q = f->reach[a];
+        double p = a < 3 ? c[a] : l[0] * c[0] + l[1] * c[1] + l[2] * c[2];
+        double rs = q[0] * hs[0] + q[1] * hs[1] + q[2] * hs[2];
+        if (fabs(p - w->p[a]) > rs + w->r[a] + f->margin[a])
+            return 1;
+    }
+    return 0;
+}
+
+static inline int boxes_apart(box3 a, box3 b)
+{
+    return a.lo.x > b.hi.x || a.lo.y > b.hi.y || a.lo.z > b.hi.z || a.hi.x < b.lo.x || a.hi.y < b.lo.y ||
+           a.hi.z < b.lo.z;
+}
+
+static inline box3 box_grown(box3 b, double g)
+{
+    return (box3){vec3_sub(b.lo, (vec3){g, g, g}), vec3_add(b.hi, (vec3){g, g, g})};
+}
+
+/* ---------- per-call scratch ---------- */
+
+/* A shape triangle under the current pose: its posed vertices and bounds, computed when a
+ * leaf first needs them, and (exact mode) the query side of the exact test, computed when
+ * the triangle is first tested. */
+typedef struct posed_triangle {
+    tri_tri_query query; /* v and box always; plane, axis and turn once prepared */
+    triangle_box box;    /* outward float box against the world's triangle boxes */
+} posed_triangle;
+
+/* Internal (shape, world) id pairs tested under the current pose: a triangle sits in
+ * several leaves, so the same pair can meet in several leaf pairs. */
+#define PAIR_SET_INLINE 256
+#define PAIR_EMPTY UINT64_MAX
+
+typedef struct pair_set {
+    uint64_t *slots;
+    size_t mask, count;
+    uint64_t inline_slots[PAIR_SET_INLINE];
+} pair_set;
+
+typedef struct pair_entry {
+    uint32_t world_node, shape_node;
+    box3 world_box, shape_box;
+} pair_entry;
+
+typedef struct shape_scratch {
+    const octree *world, *shape;
+    accuracy_mode mode;
+    uint32_t epoch; /* the current pose's stamp */
+    /* Per shape triangle (allocated on first need): posed[q] holds the current pose when
+     * posed_stamp[q] == epoch, and its exact query side when prepared_stamp[q] == epoch. */
+    posed_triangle *posed;
+    uint32_t *posed_stamp, *prepared_stamp;
+    /* Per shape node: the bounds of a leaf's posed triangles, when leaf_stamp == epoch. */
+    box3 *leaf_bounds;
+    uint32_t *leaf_stamp;
+    pair_entry *stack;
+    pair_set tested;
+    uint64_t *hits; /* (caller's shape id << 32 | caller's world id) */
+    size_t hit_count, hit_capacity;
+    int out_of_memory;
+} shape_scratch;
+
+static void pair_set_clear(pair_set *s)
+{
+    if (s->count)
+        memset(s->slots, 0xff, (s->mask + 1) * sizeof *s->slots);
+    s->count = 0;
+}
+
+static void pair_set_init(pair_set *s)
+{
+    s->slots = s->inline_slots;
+    s->mask = PAIR_SET_INLINE - 1;
+    s->count = 1;
+    pair_set_clear(s);
+}
+
+static size_t pair_slot(uint64_t key, size_t mask) { return (size_t)((key * 0x9E3779B97F4A7C15ull) >> 40) & mask; }
+
+static int pair_set_grow(pair_set *s)
+{
+    size_t cap = 2 * (s->mask + 1);
+    uint64_t *slots = malloc(cap * sizeof *slots);
+    if (!slots)
+        return -1;
+    memset(slots, 0xff, cap * sizeof *slots);
+    for (size_t i = 0; i <= s->mask; i++) {
+        uint64_t key = s->slots[i];
+        if (key == PAIR_EMPTY)
+            continue;
+        size_t k = pair_slot(key, cap - 1);
+        while (slots[k] != PAIR_EMPTY)
+            k = (k + 1) & (cap - 1);
+        slots[k] = key;
+    }
+    if (s->slots != s->inline_slots)
+        free(s->slots);
+    s->slots = slots;
+    s->mask = cap - 1;
+    return 0;
+}
+
+/* 1 when added, 0 when there already, -1 when memory ran out. */
+static inline int pair_set_insert(pair_set *s, uint64_t key)
+{
+    size_t k = pair_slot(key, s->mask);
+    for (;;) {
+        uint64_t x = s->slots[k];
+        if (x == key)
+            return 0;
+        if (x == PAIR_EMPTY)
+            break;
+        k = (k + 1) & s->mask;
+    }
+    if (2 * (s->count + 1) > s->mask + 1) {
+        if (pair_set_grow(s) != 0)
+            return -1;
+        k = pair_slot(key, s->mask);
+        while (s->slots[k] != PAIR_EMPTY)
+            k = (k + 1) & s->mask;
+    }
+    s->slots[k] = key;
+    s->count++;
+    return 1;
+}
+
+/* Stack entries: each pop pushes at most 8, and each push goes one level down one tree. */
+static size_t stack_capacity(const octree *world, const octree *shape)
+{
+    return 8 * ((size_t)world->info.max_level + (size_t)shape->info.max_level + 2) + 1;
+}
+
+static shape_scratch *scratch_new(const octree *world, const octree *shape, accuracy_mode mode)
+{
+    shape_scratch *s = malloc(sizeof *s);
+    if (!s)
+        return NULL;
+    memset(s, 0, offsetof(shape_scratch, tested));
+    s->world = world;
+    s->shape = shape;
+    s->mode = mode;
+    s->hits = NULL;
+    s->hit_count = s->hit_capacity = 0;
+    s->out_of_memory = 0;
+    pair_set_init(&s->tested);
+    s->stack = malloc(stack_capacity(world, shape) * sizeof *s->stack);
+    if (!s->stack) {
+        free(s);
+        return NULL;
+    }
+    return s;
+}
+
+static void scratch_free(shape_scratch *s)
+{
+    if (!s)
+        return;
+    if (s->tested.slots != s->tested.inline_slots)
+        free(s->tested.slots);
+    free(s->posed);
+    free(s->posed_stamp);
+    free(s->prepared_stamp);
+    free(s->leaf_bounds);
+    free(s->leaf_stamp);
+    free(s->stack);
+    free(s->hits);
+    free(s);
+}
+
+/* The per-triangle and per-node arrays, on the first pose that reaches a shape leaf. */
+static int scratch_arrays(shape_scratch *s)
+{
+    if (s->posed)
+        return 0;
+    size_t n = s->shape->triangle_count, nodes = s->shape->node_count;
+    s->posed = malloc(n * sizeof *s->posed);
+    s->posed_stamp = calloc(n, sizeof *s->posed_stamp);
+    s->prepared_stamp = calloc(n, sizeof *s->prepared_stamp);
+    s->leaf_bounds = malloc(nodes * sizeof *s->leaf_bounds);
+    s->leaf_stamp = calloc(nodes, sizeof *s->leaf_stamp);
+    if (s->posed && s->posed_stamp && s->prepared_stamp && s->leaf_bounds && s->leaf_stamp)
+        return 0;
+    free(s->posed);
+    free(s->posed_stamp);
+    free(s->prepared_stamp);
+    free(s->leaf_bounds);
+    free(s->leaf_stamp);
+    s->posed = NULL;
+    return -1;
+}
+
+/* Starts a pose: no shape triangle is posed yet, no pair tested, no hit. */
+static void scratch_next_pose(shape_scratch *s)
+{
+    if (++s->epoch == 0) {
+        if (s->posed) {
+            memset(s->posed_stamp, 0, s->shape->triangle_count * sizeof *s->posed_stamp);
+            memset(s->prepared_stamp, 0, s->shape->triangle_count * sizeof *s->prepared_stamp);
+            memset(s->leaf_stamp, 0, s->shape->node_count * sizeof *s->leaf_stamp);
+        }
+        s->epoch = 1;
+    }
+    pair_set_clear(&s->tested);
+    s->hit_count = 0;
+}
+
+/* Shape triangle q under the pose (scratch_arrays done). */
+static posed_triangle *posed_get(shape_scratch *s, const pose *at, uint32_t q)
+{
+    posed_triangle *p = &s->posed[q];
+    if (s->posed_stamp[q] == s->epoch)
+        return p;
+    s->posed_stamp[q] = s->epoch;
+    const vec3 *local = octree_triangle_at(s->shape, q);
+    vec3 *v = p->query.v;
+    for (int k = 0; k < 3; k++)
+        v[k] = octree_apply_pose(at, local[k]);
+    p->query.box = (box3){vec3_min(vec3_min(v[0], v[1]), v[2]), vec3_max(vec3_max(v[0], v[1]), v[2])};
+    if (s->mode == ACCURACY_EXACT && s->world->triangle_boxes)
+        p->box = triangle_box_around(p->query.box.lo, p->query.box.hi, s->world->world.lo);
+    return p;
+}
+
+/* The bounds of shape leaf `node`'s posed triangles; NULL when memory ran out. */
+static const box3 *leaf_bounds_get(shape_scratch *s, const pose *at, uint32_t node)
+{
+    if (scratch_arrays(s) != 0) {
+        s->out_of_memory = 1;
+        return NULL;
+    }
+    box3 *b = &s->leaf_bounds[node];
+    if (s->leaf_stamp[node] == s->epoch)
+        return b;
+    s->leaf_stamp[node] = s->epoch;
+    octree_node n = s->shape->nodes[node];
+    const uint32_t *items = s->shape->leaf_items + n.first;
+    *b = posed_get(s, at, items[0])->query.box;
+    for (uint32_t i = 1; i < n.count; i++) {
+        box3 qb = posed_get(s, at, items[i])->query.box;
+        b->lo = vec3_min(b->lo, qb.lo);
+        b->hi = vec3_max(b->hi, qb.hi);
+    }
+    return b;
+}
+
+/* ---------- candidate pairs ---------- */
+
+typedef struct pose_query {
+    shape_scratch *s;
+    const pose *at;
+    int all_pairs;
+    int any;
+    octree_status status;
+    query_stats *stats;
+} pose_query;
+
+/* Tests shape triangle q (posed) against world triangle w once per pose, records a
+ * contact; 1 when the query is over (its first contact for yes/no, or out of memory). */
+static inline int take_pair(pose_query *pq, posed_triangle *p, uint32_t q, uint32_t w)
+{
+    shape_scratch *s = pq->s;
+    int fresh = pair_set_insert(&s->tested, (uint64_t)q << 32 | w);
+    if (fresh == 0)
+        return 0;
+    if (fresh < 0) {
+        pq->status = OCTREE_ERR_NOMEM;
+        return 1;
+    }
+    pq->stats->candidates_tested++;
+    const vec3 *wt = octree_triangle_at(s->world, w);
+    int touch;
+    if (s->mode == ACCURACY_EXACT) {
+        if (s->prepared_stamp[q] != s->epoch) {
+            vec3 v[3] = {p->query.v[0], p->query.v[1], p->query.v[2]};
+            tri_tri_query_prepare(&p->query, v);
+            s->prepared_stamp[q] = s->epoch;
+        }
+        touch = tri_tri_overlap_exact_query(&p->query, wt);
+    } else {
+        touch = s->mode == ACCURACY_SEED ? tri_tri_overlap_seed(p->query.v, wt, s->world->seed_epsilon)
+                                         : tri_tri_overlap_fast(p->query.v, wt);
+    }
+    if (!touch)
+        return 0;
+    pq->any = 1;
+    if (!pq->all_pairs)
+        return 1;
+    if (array_reserve((void **)&s->hits, &s->hit_capacity, s->hit_count + 1, sizeof *s->hits, 64) != 0) {
+        pq->status = OCTREE_ERR_NOMEM;
+        return 1;
+    }
+    s->hits[s->hit_count++] = (uint64_t)s->shape->original_id[q] << 32 | s->world->original_id[w];
+    return 0;
+}
+
+/* The bounds of a world leaf's triangles within its box: every contact a pair of leaves
+ * can hold lies in a world triangle and in the leaf's box, so in these. */
+static box3 world_leaf_content(const octree *world, octree_node n, box3 cell)
+{
+    const uint32_t *items = world->leaf_items + n.first;
+    const vec3 *t = octree_triangle_at(world, items[0]);
+    box3 b = {vec3_min(vec3_min(t[0], t[1]), t[2]), vec3_max(vec3_max(t[0], t[1]), t[2])};
+    for (uint32_t i = 1; i < n.count; i++) {
+        t = octree_triangle_at(world, items[i]);
+        b.lo = vec3_min(b.lo, vec3_min(vec3_min(t[0], t[1]), t[2]));
+        b.hi = vec3_max(b.hi, vec3_max(vec3_max(t[0], t[1]), t[2]));
+    }
+    return (box3){vec3_max(b.lo, cell.lo), vec3_min(b.hi, cell.hi)};
+}
+
+/* A world leaf against a shape leaf. A shape triangle whose bounds, grown by the slack,
+ * miss the world leaf's content need not be tested there: a contact with any world
+ * triangle (a point of it within the slack of the shape triangle) lies in some world leaf
+ * whose content its grown bounds meet, and that leaf's pair with the shape leaf holding
+ * the preimage is reached too. Exact mode skips a world triangle whose outward box is
+ * strictly apart from the shape triangle's, as triangle queries do. Returns 1 when the
+ * query is over. */
+static int leaf_pair(pose_query *pq, octree_node wn, box3 content, octree_node sn)
+{
+    shape_scratch *s = pq->s;
+    const octree *world = s->world;
+    const triangle_box *boxes = s->mode == ACCURACY_EXACT ? world->triangle_boxes : NULL;
+    for (uint32_t i = 0; i < sn.count; i++) {
+        uint32_t q = s->shape->leaf_items[sn.first + i];
+        posed_triangle *p = posed_get(s, pq->at, q);
+        if (boxes_apart(p->query.box, content))
+            continue;
+        for (uint32_t j = 0; j < wn.count; j++) {
+            uint32_t w = world->leaf_items[wn.first + j];
+            if (boxes && triangle_boxes_apart(&boxes[w], &p->box))
+                continue;
+            if (take_pair(pq, p, q, w))
+                return 1;
+        }
+    }
+    return 0;
+}
+
+static double box_width(box3 b) { return b.hi.x - b.lo.x; }
+
+/* The two trees together from their roots (see the top of the file). Where one node of a
+ * pair is a leaf its tight bounds stand in for its box: a shape leaf's posed triangles'
+ * bounds (exact doubles, compared exactly), a world leaf's content. */
+static void descend(pose_query *pq, const pose_frame *f)
+{
+    shape_scratch *s = pq->s;
+    const octree *world = s->world, *shape = s->shape;
+    query_stats *stats = pq->stats;
+    double g = f->grow;
+    stats->nodes_visited++;
+    if (world->nodes[0].count == 0 || shape->nodes[0].count == 0)
+        return;
+    box_side side;
+    shape_side_of(f, shape->world, &side);
+    if (world_box_apart(f, world->world, &side))
+        return;
+    pair_entry *stack = s->stack;
+    size_t top = 0;
+    stack[top++] = (pair_entry){0, 0, world->world, shape->world};
+    while (top > 0) {
+        pair_entry e = stack[--top];
+        octree_node wn = world->nodes[e.world_node], sn = shape->nodes[e.shape_node];
+        int world_leaf = wn.count != NODE_INTERIOR, shape_leaf = sn.count != NODE_INTERIOR;
+        if (world_leaf && shape_leaf) {
+            stats->leaves_visited++;
+            const box3 *sb = leaf_bounds_get(s, pq->at, e.shape_node);
+            if (!sb) {
+                pq->status = OCTREE_ERR_NOMEM;
+                return;
+            }
+            box3 content = box_grown(world_leaf_content(world, wn, e.world_box), g);
+            if (!boxes_apart(*sb, content) && leaf_pair(pq, wn, content, sn))
+                return;
+            continue;
+        }
+        /* The larger node splits, so the two boxes stay of a size. */
+        int split_world = shape_leaf || (!world_leaf && box_width(e.world_box) >= f->scale * box_width(e.shape_box));
+        if (split_world) {
+            vec3 c = octree_split_point(world, e.world_box);
+            const octree_node *kids = &world->nodes[wn.first];
+            const box3 *sb = NULL;
+            if (shape_leaf && !(sb = leaf_bounds_get(s, pq->at, e.shape_node))) {
+                pq->status = OCTREE_ERR_NOMEM;
+                return;
+            }
+            if (!shape_leaf)
+                shape_side_of(f, e.shape_box, &side);
+            for (int k = 0; k < 8; k++) {
+                if (kids[k].count == 0)
+                    continue;
+                box3 cb = box_child(e.world_box, c, box_octant_upper_bits[k]);
+                stats->nodes_visited++;
+                if (shape_leaf ? !boxes_apart(box_grown(cb, g), *sb) : !world_box_apart(f, cb, &side))
+                    stack[top++] = (pair_entry){wn.first + (uint32_t)k, e.shape_node, cb, e.shape_box};
+            }
+        } else {
+            vec3 c = octree_split_point(shape, e.shape_box);
+            const octree_node *kids = &shape->nodes[sn.first];
+            world_side_of(f, world_leaf ? world_leaf_content(world, wn, e.world_box) : e.world_box, &side);
+            for (int k = 0; k < 8; k++) {
+                if (kids[k].count == 0)
+                    continue;
+                box3 cb = box_child(e.shape_box, c, box_octant_upper_bits[k]);
+                stats->nodes_visited++;
+                if (!shape_box_apart(f, cb, &side))
+                    stack[top++] = (pair_entry){e.world_node, sn.first + (uint32_t)k, e.world_box, cb};
+            }
+        }
+    }
+}
+
+/* Fast and seed mode: every shape triangle posed first, for the candidates outside the
+ * trees' lists (octree_triangle's rule, per shape triangle): with an infinite slack
+ * (a seed sliver, coordinates beyond the derivations) every world triangle; in seed mode
+ * the world's sliver list; in fast mode, for a sliver, the same list. Returns 1 when the
+ * query is over, and the largest finite slack in *grow. */
+static int mode_candidates(pose_query *pq, double *grow)
+{
+    shape_scratch *s = pq->s;
+    const octree *world = s->world;
+    *grow = 0.0;
+    if (scratch_arrays(s) != 0) {
+        pq->status = OCTREE_ERR_NOMEM;
+        return 1;
+    }
+    for (uint32_t q = 0; q < s->shape->triangle_count; q++) {
+        posed_triangle *p = posed_get(s, pq->at, q);
+        double slack = s->mode == ACCURACY_FAST ? octree_fast_triangle_slack(world, p->query.v)
+                                                : octree_seed_triangle_slack(world, p->query.v);
+        size_t extra = 0;
+        if (!(slack < INFINITY))
+            extra = world->triangle_count;
+        else if (s->mode == ACCURACY_SEED || octree_is_sliver(p->query.v))
+            extra = world->sliver_list_count;
+        for (size_t i = 0; i < extra; i++) {
+            uint32_t w = slack < INFINITY ? octree_sliver_list(world)[i] : (uint32_t)i;
+            if (take_pair(pq, p, q, w))
+                return 1;
+        }
+        if (slack < INFINITY)
+            *grow = fmax(*grow, slack);
+    }
+    return 0;
+}
+
+static int compare_u64(const void *a, const void *b)
+{
+    uint64_t x = *(const uint64_t *)a, y = *(const uint64_t *)b;
+    return (x > y) - (x < y);
+}
+
+typedef struct tree_in_caller_order {
+    const octree *shape;
+    uint32_t *internal; /* internal id of caller's triangle i */
+} tree_in_caller_order;
+
+static void triangle_in_caller_order(const void *ctx, size_t i, vec3 out[3])
+{
+    const tree_in_caller_order *c = ctx;
+    octree_triangle_vertices(c->shape, c->internal[i], out);
+}
+
+/* The per-triangle path over a shape tree's triangles, in the caller's order: for poses
+ * outside the frame's range. */
+static octree_status shape_fallback(const octree *world, const octree *shape, const pose *at, int all_pairs,
+                                    accuracy_mode mode, mesh_output *out, query_stats *stats)
+{
+    size_t n = shape->triangle_count;
+    tree_in_caller_order c = {shape, malloc(n * sizeof(uint32_t))};
+    if (!c.internal)
+        return OCTREE_ERR_NOMEM;
+    for (size_t i = 0; i < n; i++)
+        c.internal[shape->original_id[i]] = (uint32_t)i;
+    octree_status st =
+        octree_mesh_per_triangle(world, &c, n, triangle_in_caller_order, at, all_pairs, mode, out, stats);
+    free(c.internal);
+    return st;
+}
+
+static int valid_mode(accuracy_mode mode)
+{
+    return mode == ACCURACY_EXACT || mode == ACCURACY_SEED || mode == ACCURACY_FAST;
+}
+
+static octree_status check_pose(const pose *at)
+{
+    for (int k = 0; k < 9; k++)
+        if (!isfinite(at->r[k]))
+            return OCTREE_ERR_NONFINITE;
+    return vec3_is_finite(at->t) ? OCTREE_OK : OCTREE_ERR_NONFINITE;
+}
+
+/* One pose with the scratch of its call. */
+static octree_status mesh_tree_pose(shape_scratch *s, const pose *at, int all_pairs, mesh_output *out,
+                                    query_stats *stats)
+{
+    if (!at)
+        return OCTREE_ERR_INVALID;
+    octree_status st = check_pose(at);
+    if (st != OCTREE_OK)
+        return st;
+    uint64_t fallbacks_before = predicates_fallback_count();
+    query_stats local = {0};
+    scratch_next_pose(s);
+    pose_query pq = {s, at, all_pairs, 0, OCTREE_OK, &local};
+    double grow = 0.0;
+    int over = 0;
+    /* The frame's range is checked before anything is posed: outside it, the per-triangle
+     * path answers (and reports a posed coordinate that overflows as it always has). */
+    pose_frame f;
+    if (!pose_frame_make(&f, s->world, s->shape, at, 0.0))
+        return shape_fallback(s->world, s->shape, at, all_pairs, s->mode, out, stats);
+    if (s->mode != ACCURACY_EXACT)
+        over = mode_candidates(&pq, &grow);
+    if (!over && grow > 0.0 && !pose_frame_make(&f, s->world, s->shape, at, grow))
+        return shape_fallback(s->world, s->shape, at, all_pairs, s->mode, out, stats);
+    if (!over)
+        descend(&pq, &f);
+    out->hit = pq.any;
+    out->count = 0;
+    out->truncated = 0;
+    if (pq.status == OCTREE_OK && all_pairs) {
+        qsort(s->hits, s->hit_count, sizeof *s->hits, compare_u64);
+        size_t keep = s->hit_count < out->capacity ? s->hit_count : out->capacity;
+        for (size_t i = 0; i < keep; i++)
+            out->pairs[i] = (mesh_pair){(uint32_t)(s->hits[i] >> 32), (uint32_t)s->hits[i]};
+        out->count = s->hit_count;
+        out->truncated = s->hit_count > out->capacity;
+    }
+    query_stats_finish(stats, &local, fallbacks_before, predicates_fallback_count());
+    return pq.status;
+}
+
+/* Every pose of one call with one scratch. OCTREE_OK unless memory ran out for the
+ * scratch (then every status says so). */
+static octree_status mesh_tree_poses(const octree *world, const octree *shape, const pose *poses, size_t count,
+                                     int all_pairs, accuracy_mode mode, mesh_output *outs, octree_status *statuses,
+                                     query_stats *stats)
+{
+    if (!world || !shape || !valid_mode(mode) || !poses || !outs) {
+        for (size_t i = 0; i < count; i++)
+            statuses[i] = OCTREE_ERR_INVALID;
+        return OCTREE_OK;
+    }
+    shape_scratch *s = scratch_new(world, shape, mode);
+    if (!s) {
+        for (size_t i = 0; i < count; i++)
+            statuses[i] = OCTREE_ERR_NOMEM;
+        return OCTREE_ERR_NOMEM;
+    }
+    octree_status batch = OCTREE_OK;
+    for (size_t i = 0; i < count; i++) {
+        statuses[i] = mesh_tree_pose(s, &poses[i], all_pairs, &outs[i], stats);
+        if (statuses[i] == OCTREE_ERR_NOMEM)
+            batch = OCTREE_ERR_NOMEM;
+    }
+    scratch_free(s);
+    return batch;
+}
+
+octree_status octree_mesh_tree(const octree *world, const octree *shape, const pose *at, int all_pairs,
+                               accuracy_mode mode, mesh_output *out, query_stats *stats)
+{
+    octree_status st = OCTREE_OK;
+    mesh_tree_poses(world, shape, at, 1, all_pairs, mode, out, &st, stats);
+    return st;
+}
+
+octree_status octree_mesh_tree_batch(const octree *world, const octree *shape, const pose *poses, size_t count,
+                                     int all_pairs, accuracy_mode mode, mesh_output *outs, octree_status *statuses,
+                                     query_stats *stats)
+{
+    if (count == 0)
+        return OCTREE_OK;
+    return mesh_tree_poses(world, shape, poses, count, all_pairs, mode, outs, statuses, stats);
+}
+
+/* ---------- shapes given as meshes ---------- */
+
+/* Whether building the shape's tree for `poses` poses costs less than searching the world
+ * from the root for each posed triangle (bench/bench_shapes.c measures both). */
+#define SHAPE_TREE_MIN_TRIANGLES 8
+#define SHAPE_TREE_MIN_WORK 8
+
+static int shape_tree_pays(size_t triangles, size_t poses)
+{
+    return triangles >= SHAPE_TREE_MIN_TRIANGLES && poses * triangles >= SHAPE_TREE_MIN_WORK;
+}
+
+/* The shape's tree, or NULL when it cannot be built (over its budget, out of memory, an
+ * extent the builder refuses): the per-triangle path then answers. */
+octree *octree_shape_tree_for(const mesh_view *shape, size_t poses)
+{
+    if (!shape_tree_pays(shape->triangle_count, poses))
+        return NULL;
+    octree_def def = octree_default_def();
+    return octree_build(shape, &def, NULL);
+}
+
+static void triangle_of_view(const void *shape, size_t i, vec3 out[3])
+{
+    const mesh_view *v = shape;
+    for (int k = 0; k < 3; k++)
+        out[k] = v->vertices[v->indices[3 * i + (size_t)k]];
+}
+
+octree_status octree_mesh_as_triangles(const octree *tree, const mesh_view *shape, const pose *at, int all_pairs,
+                                       accuracy_mode mode, mesh_output *out, query_stats *stats)
+{
+    octree_status st = octree_mesh_check(shape, at, mode);
+    if (st != OCTREE_OK)
+        return st;
+    return octree_mesh_per_triangle(tree, shape, shape->triangle_count, triangle_of_view, at, all_pairs, mode, out,
+                                    stats);
+}
+
+octree_status octree_mesh(const octree *tree, const mesh_view *shape, const pose *at, int all_pairs,
+                          accuracy_mode mode, mesh_output *out, query_stats *stats)
+{
+    octree_status st = octree_mesh_check(shape, at, mode);
+    if (st != OCTREE_OK)
+        return st;
+    octree *shape_tree = octree_shape_tree_for(shape, 1);
+    if (!shape_tree)
+        return octree_mesh_per_triangle(tree, shape, shape->triangle_count, triangle_of_view, at, all_pairs, mode,
+                                        out, stats);
+    st = octree_mesh_tree(tree, shape_tree, at, all_pairs, mode, out, stats);
+    octree_free(shape_tree);
+    return st;
+}
