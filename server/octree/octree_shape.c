@@ -446,7 +446,8 @@ static posed_triangle *posed_get(shape_scratch *s, const pose *at, uint32_t q)
     if (s->posed_stamp[q] == s->epoch)
         return p;
     s->posed_stamp[q] = s->epoch;
-    const vec3 *local = octree_triangle_at(s->shape, q);
+    vec3 local[3];
+    octree_triangle_vertices(s->shape, q, local);
     vec3 *v = p->query.v;
     for (int k = 0; k < 3; k++)
         v[k] = octree_apply_pose(at, local[k]);
@@ -502,7 +503,8 @@ static inline int take_pair(pose_query *pq, posed_triangle *p, uint32_t q, uint3
         return 1;
     }
     pq->stats->candidates_tested++;
-    const vec3 *wt = octree_triangle_at(s->world, w);
+    vec3 wt[3];
+    octree_triangle_vertices(s->world, w, wt);
     int touch;
     if (s->mode == ACCURACY_EXACT) {
         if (s->prepared_stamp[q] != s->epoch) {
@@ -533,10 +535,11 @@ static inline int take_pair(pose_query *pq, posed_triangle *p, uint32_t q, uint3
 static box3 world_leaf_content(const octree *world, octree_node n, box3 cell)
 {
     const uint32_t *items = world->leaf_items + n.first;
-    const vec3 *t = octree_triangle_at(world, items[0]);
+    vec3 t[3];
+    octree_triangle_vertices(world, items[0], t);
     box3 b = {vec3_min(vec3_min(t[0], t[1]), t[2]), vec3_max(vec3_max(t[0], t[1]), t[2])};
     for (uint32_t i = 1; i < n.count; i++) {
-        t = octree_triangle_at(world, items[i]);
+        octree_triangle_vertices(world, items[i], t);
         b.lo = vec3_min(b.lo, vec3_min(vec3_min(t[0], t[1]), t[2]));
         b.hi = vec3_max(b.hi, vec3_max(vec3_max(t[0], t[1]), t[2]));
     }
