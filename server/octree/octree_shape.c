@@ -758,7 +758,8 @@ static octree_status mesh_tree_pose(shape_scratch *s, const pose *at, int all_pa
     out->count = 0;
     out->truncated = 0;
     if (pq.status == OCTREE_OK && all_pairs) {
-        qsort(s->hits, s->hit_count, sizeof *s->hits, compare_u64);
+        if (s->hit_count > 1)
+            qsort(s->hits, s->hit_count, sizeof *s->hits, compare_u64);
         size_t keep = s->hit_count < out->capacity ? s->hit_count : out->capacity;
         for (size_t i = 0; i < keep; i++)
             out->pairs[i] = (mesh_pair){(uint32_t)(s->hits[i] >> 32), (uint32_t)s->hits[i]};
