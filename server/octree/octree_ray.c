@@ -726,6 +726,14 @@ PREFETCH_HELPER void walk_prefetch_next(ray_walk *w, const octree *tree)
         prefetch_span(&tree->leaf_items[next.first], next.count * sizeof(uint32_t));
 }
 
+/* A leaf's candidates' corner indices, asked for before their vertices are. */
+PREFETCH_HELPER void prefetch_leaf_corners(const octree *tree, octree_node leaf)
+{
+    uint32_t n = leaf.count < PREFETCH_TRIANGLES_MAX ? leaf.count : PREFETCH_TRIANGLES_MAX;
+    for (uint32_t i = 0; i < n; i++)
+        __builtin_prefetch(tree->corners[tree->leaf_items[leaf.first + i]]);
+}
+
 /* A leaf's candidates' vertices, asked for one step before they are tested. */
 PREFETCH_HELPER void prefetch_leaf_triangles(const octree *tree, octree_node leaf)
 {
@@ -1052,7 +1060,8 @@ PREFETCH_HELPER void prefetch_compiled_child(const octree *tree, uint32_t ref)
 typedef struct compiled_walk {
     float_ray f;
     float lo, bound; /* [tmin, bound] rounded outward */
-    uint32_t pending_leaf; /* a leaf popped and counted, tested by the next step (pipelined) */
+    uint32_t pending_leaf; /* a leaf popped and counted, tested by a later step (pipelined) */
+    int pending_stage;     /* what the next step does for it (compiled_step) */
     size_t top;
     float_entry stack[FLOAT_STACK_MAX];
 } compiled_walk;
@@ -1106,7 +1115,20 @@ PREFETCH_HELPER void compiled_prefetch_next(compiled_walk *c, const octree *tree
         ray_walk *w, compiled_walk *c, const octree *tree, int pipelined)                                    \
     {                                                                                                         \
         if (pipelined && c->pending_leaf != NO_PENDING_LEAF) {                                                \
-            compiled_test_leaf(w, c, tree, tree->nodes[c->pending_leaf]);                                     \
+            octree_node leaf_ = tree->nodes[c->pending_leaf];                                                 \
+            /* A leaf in three steps: its triangles' corners asked for (its list came with the */         \
+            /* pop), then their vertices, then the tests, each arriving while other walks step. */        \
+            if (c->pending_stage == 0) {                                                                      \
+                prefetch_leaf_corners(tree, leaf_);                                                           \
+                c->pending_stage = 1;                                                                         \
+                return 1;                                                                                     \
+            }                                                                                                 \
+            if (c->pending_stage == 1) {                                                                      \
+                prefetch_leaf_triangles(tree, leaf_);                                                         \
+                c->pending_stage = 2;                                                                         \
+                return 1;                                                                                     \
+            }                                                                                                 \
+            compiled_test_leaf(w, c, tree, leaf_);                                                            \
             c->pending_leaf = NO_PENDING_LEAF;                                                                \
             if (w->done)                                                                                      \
                 return 0;                                                                                     \
@@ -1124,12 +1146,14 @@ PREFETCH_HELPER void compiled_prefetch_next(compiled_walk *c, const octree *tree
             uint32_t index = e.ref & ~TRAVERSAL_LEAF;                                                         \
             octree_node leaf = tree->nodes[index];                                                            \
             w->local.leaves_visited++;                                                                        \
-            /* Asked for together, so their misses overlap instead of coming one test at a time. */         \
-            prefetch_leaf_triangles(tree, leaf);                                                              \
             if (pipelined) {                                                                                  \
+                prefetch_span(&tree->leaf_items[leaf.first], leaf.count * sizeof(uint32_t));                  \
                 c->pending_leaf = index;                                                                      \
+                c->pending_stage = 0;                                                                         \
                 return 1;                                                                                     \
             }                                                                                                 \
+            /* Asked for together, so their misses overlap instead of coming one test at a time. */         \
+            prefetch_leaf_triangles(tree, leaf);                                                              \
             compiled_test_leaf(w, c, tree, leaf);                                                             \
             return !w->done && c->top > 0;                                                                    \
         }                                                                                                     \
