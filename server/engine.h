@@ -57,6 +57,11 @@ typedef struct octree_def {
      * triangles whose boxes are apart, so there a skip would change the answer. Ray queries
      * never read the boxes. 0 (the default): none. */
     int triangle_boxes;
+    /* 1: store each node's exact bounds of its triangles within its box (48 bytes a node),
+     * which mesh queries use on the shape side (octree_mesh_tree) to drop node pairs the
+     * node's box alone would keep; for a tree built as a query shape. Answers are the same
+     * either way. 0 (the default): none. */
+    int node_bounds;
     /* The most memory the build may hold, in bytes: its copy of the mesh, the nodes, the
      * leaf lists and the lists it holds while building, each growing array counted at the
      * capacity it is about to take. A build that would pass it stops with
@@ -123,6 +128,8 @@ typedef struct octree_info {
                                     part of bytes_total */
     size_t bytes_traversal;      /* the compiled form rays walk (96 bytes an interior node);
                                     part of bytes_total */
+    size_t bytes_node_bounds;    /* 48 per node with octree_def.node_bounds, else 0; part of
+                                    bytes_total */
     double build_seconds;
     accuracy_mode mode;
 } octree_info;

@@ -26,11 +26,13 @@ static uint64_t base_seed = 20261202;
 
 static const accuracy_mode modes[] = {ACCURACY_EXACT, ACCURACY_SEED, ACCURACY_FAST};
 
+/* boxes: 1 for triangle boxes (a world's), 2 for node bounds (a query shape's). */
 static octree *build_tree(const mesh_data *m, double resolution, int boxes, double seed_eps)
 {
     octree_def def = octree_default_def();
     def.resolution = resolution;
-    def.triangle_boxes = boxes;
+    def.triangle_boxes = boxes == 1;
+    def.node_bounds = boxes == 2;
     def.seed_epsilon = seed_eps;
     mesh_view v = mesh_data_view(m);
     octree_error err;
@@ -193,7 +195,9 @@ static void run_random_poses(scene *s, uint64_t seed, int boxes, int brute)
     printf("scene %s: world %zu triangles, shape %zu, seed %llu%s\n", s->name, s->world.triangle_count,
            s->shape.triangle_count, (unsigned long long)seed, boxes ? ", triangle boxes" : "");
     octree *world = build_tree(&s->world, 0, boxes, 1e-9);
-    octree *shape = build_tree(&s->shape, 0, 0, 1e-9);
+    /* Shape trees with node bounds against worlds without triangle boxes, and plain
+     * ones against worlds with them. */
+    octree *shape = build_tree(&s->shape, 0, boxes ? 0 : 2, 1e-9);
     checker c = {&s->world, &s->shape, world, shape, malloc(CAP * sizeof(mesh_pair)), malloc(CAP * sizeof(mesh_pair)),
                  brute};
     rng r = rng_seeded(seed);
@@ -401,6 +405,7 @@ static void test_touching_shapes(void **state)
     for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
         touch_case *tc = &cases[i];
         octree_def def = octree_default_def();
+        def.node_bounds = (int)(i % 2);
         mesh_view sv = mesh_data_view(&tc->shape);
         octree *st = octree_build(&sv, &def, NULL);
         assert_non_null(st);
@@ -457,7 +462,7 @@ static void test_contact_at_a_rounded_posed_vertex(void **state)
         uint32_t wi[3] = {0, 1, 2};
         mesh_data world = {wv, 3, wi, 1};
         int boxes = i % 2;
-        octree *wt = build_tree(&world, 0, boxes, 1e-9), *st = build_tree(&shape, 0, 0, 1e-9);
+        octree *wt = build_tree(&world, 0, boxes, 1e-9), *st = build_tree(&shape, 0, 2 * (i % 4 < 2), 1e-9);
         checker c = {&world, &shape, wt, st, expect, got, 1};
         for (size_t m = 0; m < 3; m++) {
             size_t n = check_pose(&c, &p, modes[m], "posed vertex on a world vertex");
@@ -623,7 +628,7 @@ static void test_shape_tree_resolution_does_not_change_answers(void **state)
     for (int i = 0; i < 12; i++)
         poses[i] = near_surface_pose(&r, &world, &shape, 0.6);
     for (size_t f = 0; f < sizeof factors / sizeof factors[0]; f++) {
-        octree *st = build_tree(&shape, d * factors[f], 0, 1e-9);
+        octree *st = build_tree(&shape, d * factors[f], 2, 1e-9);
         checker c = {&world, &shape, wt, st, expect, got, 0};
         int hits = 0;
         for (int i = 0; i < 12; i++)
@@ -637,6 +642,64 @@ static void test_shape_tree_resolution_does_not_change_answers(void **state)
     octree_free(wt);
     mesh_data_free(&world);
     mesh_data_free(&shape);
+}
+
+/* octree_def.node_bounds: each leaf's bounds are its triangles' bounds within its box,
+ * each interior node's the union of its children's; the bytes are in the info. */
+static void check_bounds(const octree *t, uint32_t node, box3 cell, box3 *out)
+{
+    octree_node n = t->nodes[node];
+    box3 want = {{INFINITY, INFINITY, INFINITY}, {-INFINITY, -INFINITY, -INFINITY}};
+    if (n.count == NODE_INTERIOR) {
+        vec3 c = octree_split_point(t, cell);
+        for (int k = 0; k < 8; k++) {
+            box3 kb;
+            check_bounds(t, n.first + (uint32_t)k, box_child(cell, c, box_octant_upper_bits[k]), &kb);
+            want.lo = vec3_min(want.lo, kb.lo);
+            want.hi = vec3_max(want.hi, kb.hi);
+        }
+    } else {
+        for (uint32_t i = 0; i < n.count; i++) {
+            vec3 v[3];
+            octree_triangle_vertices(t, t->leaf_items[n.first + i], v);
+            for (int k = 0; k < 3; k++) {
+                want.lo = vec3_min(want.lo, v[k]);
+                want.hi = vec3_max(want.hi, v[k]);
+            }
+        }
+        if (n.count)
+            want = (box3){vec3_max(want.lo, cell.lo), vec3_min(want.hi, cell.hi)};
+    }
+    box3 got = t->node_bounds[node];
+    assert_true(vec3_equal(got.lo, want.lo) && vec3_equal(got.hi, want.hi));
+    if (n.count)
+        assert_true(got.lo.x >= cell.lo.x && got.hi.x <= cell.hi.x && got.lo.x <= got.hi.x);
+    *out = got;
+}
+
+static void test_node_bounds_hold_each_nodes_triangles(void **state)
+{
+    (void)state;
+    mesh_data m = meshgen_torus((vec3){0.25, 0, 0}, 0.5, 0.15, 16, 8);
+    octree *plain = build_tree(&m, 0, 0, 1e-9), *bounded = build_tree(&m, 0, 2, 1e-9);
+    assert_null(plain->node_bounds);
+    assert_int_equal(plain->info.bytes_node_bounds, 0);
+    assert_int_equal(bounded->info.bytes_node_bounds, bounded->node_count * sizeof(box3));
+    assert_int_equal(bounded->info.bytes_total, plain->info.bytes_total + bounded->node_count * sizeof(box3));
+    assert_int_equal(bounded->info.node_count, plain->info.node_count);
+    box3 root;
+    check_bounds(bounded, 0, bounded->world, &root);
+    box3 mb = mesh_data_bounds(&m);
+    assert_true(vec3_equal(root.lo, mb.lo) && vec3_equal(root.hi, mb.hi));
+    octree_def def = octree_default_def();
+    def.node_bounds = 2;
+    mesh_view v = mesh_data_view(&m);
+    octree_error err;
+    assert_null(octree_build(&v, &def, &err));
+    assert_int_equal(err.status, OCTREE_ERR_INVALID);
+    octree_free(plain);
+    octree_free(bounded);
+    mesh_data_free(&m);
 }
 
 /* The seed's epsilon at a scale that matters (1e-3 of a unit world): its slack widens the
@@ -681,6 +744,7 @@ int main(void)
         cmocka_unit_test(test_poses_out_of_range_answer_as_before),
         cmocka_unit_test(test_shape_tree_resolution_does_not_change_answers),
         cmocka_unit_test(test_seed_epsilon_that_matters),
+        cmocka_unit_test(test_node_bounds_hold_each_nodes_triangles),
     };
     return cmocka_run_group_tests_name("shape_tree", tests, NULL, NULL);
 }

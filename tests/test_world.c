@@ -506,7 +506,19 @@ static void test_shapes_load_only_for_mesh_effect(void **state)
     assert_vec_equal(b.lo, 0, 0, 0);
     assert_vec_equal(b.hi, 1, 1, 1); /* not scaled */
     assert_vec_equal(w->report.bbox_hi, 2, 2, 2);
-    assert_int_equal(w->bytes_shapes, (4 + 8) * sizeof(vec3) + 3 * (4 + 12) * sizeof(uint32_t));
+    /* Each shape has its own tree in its own frame, with node bounds, counted in the
+     * shapes' bytes. */
+    assert_non_null(tetra->tree);
+    assert_non_null(box->tree);
+    octree_info ti, bi;
+    octree_get_info(tetra->tree, &ti);
+    octree_get_info(box->tree, &bi);
+    assert_int_equal(ti.triangle_count, 4);
+    assert_int_equal(bi.triangle_count, 12);
+    assert_true(bi.bytes_node_bounds > 0);
+    assert_vec_equal(bi.world_min, 0, 0, 0); /* its own frame, not scaled */
+    assert_int_equal(w->bytes_shapes,
+                     (4 + 8) * sizeof(vec3) + 3 * (4 + 12) * sizeof(uint32_t) + ti.bytes_total + bi.bytes_total);
     world_release(w);
 
     /* A missing shape only matters to a world that would load it. */

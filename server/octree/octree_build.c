@@ -57,6 +57,7 @@ octree_def octree_default_def(void)
         .mode = ACCURACY_EXACT,
         .seed_epsilon = OCTREE_DEFAULT_SEED_EPSILON,
         .triangle_boxes = 0,
+        .node_bounds = 0,
         .budget_bytes = 0,
         .plain_walk = 0,
     };
@@ -595,6 +596,44 @@ static octree_status index_triangles(build_ctx *ctx, const mesh_view *mesh)
     return OCTREE_OK;
 }
 
+/* The bounds of node's triangles within its box (bounds: each triangle's, by internal id);
+ * an empty node's are inverted (lo > hi). */
+static box3 node_bounds_of(octree *tree, const triangle_bounds *bounds, uint32_t node, box3 cell)
+{
+    octree_node n = tree->nodes[node];
+    box3 b = {{INFINITY, INFINITY, INFINITY}, {-INFINITY, -INFINITY, -INFINITY}};
+    if (n.count == NODE_INTERIOR) {
+        vec3 c = octree_split_point(tree, cell);
+        for (int k = 0; k < 8; k++) {
+            box3 kb = node_bounds_of(tree, bounds, n.first + (uint32_t)k, box_child(cell, c, box_octant_upper_bits[k]));
+            b.lo = vec3_min(b.lo, kb.lo);
+            b.hi = vec3_max(b.hi, kb.hi);
+        }
+    } else if (n.count) {
+        for (uint32_t i = 0; i < n.count; i++) {
+            const triangle_bounds *t = &bounds[tree->leaf_items[n.first + i]];
+            b.lo = vec3_min(b.lo, t->lo);
+            b.hi = vec3_max(b.hi, t->hi);
+        }
+        b = (box3){vec3_max(b.lo, cell.lo), vec3_min(b.hi, cell.hi)};
+    }
+    tree->node_bounds[node] = b;
+    return b;
+}
+
+/* octree_def.node_bounds: one walk over the finished tree (its depth is at most
+ * OCTREE_MAX_DEPTH_CAP, so the recursion is shallow). */
+static octree_status compute_node_bounds(octree *tree, const triangle_bounds *bounds)
+{
+    tree->node_bounds = malloc(tree->node_count * sizeof *tree->node_bounds);
+    if (!tree->node_bounds)
+        return OCTREE_ERR_NOMEM;
+    for (size_t i = 0; i < tree->node_count; i++)
+        tree->node_bounds[i] = (box3){{INFINITY, INFINITY, INFINITY}, {-INFINITY, -INFINITY, -INFINITY}};
+    node_bounds_of(tree, bounds, 0, tree->world);
+    return OCTREE_OK;
+}
+
 octree *octree_build(const mesh_view *mesh, const octree_def *def_in, octree_error *err)
 {
     double started = seconds_now();
@@ -619,6 +658,8 @@ octree *octree_build(const mesh_view *mesh, const octree_def *def_in, octree_err
         return fail(err, OCTREE_ERR_INVALID, SIZE_MAX, "triangle_boxes %d is neither 0 nor 1", def.triangle_boxes);
     if (def.plain_walk != 0 && def.plain_walk != 1)
         return fail(err, OCTREE_ERR_INVALID, SIZE_MAX, "plain_walk %d is neither 0 nor 1", def.plain_walk);
+    if (def.node_bounds != 0 && def.node_bounds != 1)
+        return fail(err, OCTREE_ERR_INVALID, SIZE_MAX, "node_bounds %d is neither 0 nor 1", def.node_bounds);
 
     /* The budget, and what the build holds before its first node: at its peak (the Morton
      * renumbering holds two copies of the triangles and two key arrays beside the bounds),
@@ -726,6 +767,9 @@ octree *octree_build(const mesh_view *mesh, const octree_def *def_in, octree_err
         return fail(err, OCTREE_ERR_NOMEM, SIZE_MAX, "out of memory");
     }
     st = build_nodes(&ctx, levels);
+    if (st == OCTREE_OK && def.node_bounds)
+        st = budget_take(&ctx, tree->node_count * sizeof *tree->node_bounds) != 0 ? OCTREE_ERR_BUDGET
+                                                                                 : compute_node_bounds(tree, ctx.bounds);
     free(ctx.bounds);
     if (st == OCTREE_OK)
         st = index_triangles(&ctx, mesh);
@@ -790,8 +834,10 @@ octree *octree_build(const mesh_view *mesh, const octree_def *def_in, octree_err
                             tree->used_vertex_count * sizeof *tree->vertices;
     info->bytes_triangle_boxes = tree->triangle_boxes ? tree->triangle_count * sizeof *tree->triangle_boxes : 0;
     info->bytes_traversal = tree->traversal.bytes;
+    info->bytes_node_bounds = tree->node_bounds ? tree->node_count * sizeof *tree->node_bounds : 0;
     info->bytes_total = info->bytes_nodes + info->bytes_leaf_lists + info->bytes_triangles +
-                        info->bytes_triangle_boxes + info->bytes_traversal + sizeof *tree;
+                        info->bytes_triangle_boxes + info->bytes_node_bounds + info->bytes_traversal +
+                        sizeof *tree;
     info->mode = def.mode;
     tree->seed_epsilon = def.seed_epsilon;
     info->build_seconds = seconds_now() - started;
@@ -807,6 +853,7 @@ void octree_free(octree *tree)
     free(tree->corners);
     free(tree->original_id);
     free(tree->triangle_boxes);
+    free(tree->node_bounds);
     free(tree->nodes);
     free(tree->leaf_items);
     traversal_form_free(&tree->traversal);

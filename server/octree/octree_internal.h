@@ -54,6 +54,11 @@ struct octree {
     uint32_t *original_id;
     /* Per internal id when the tree was built with triangle_boxes, else NULL. */
     triangle_box *triangle_boxes;
+    /* Per node when the tree was built with node_bounds, else NULL: the exact bounds of the
+     * node's triangles within its box (inverted for an empty node). A query shape's tree
+     * has them, so that a node pair whose posed shape bounds miss the world node is
+     * dropped before its box would be (octree_shape.c). Indexed like nodes. */
+    box3 *node_bounds;
 
     octree_node *nodes;
     size_t node_count;

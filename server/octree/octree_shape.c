@@ -576,6 +576,14 @@ static int leaf_pair(pose_query *pq, octree_node wn, box3 content, octree_node s
 
 static double box_width(box3 b) { return b.hi.x - b.lo.x; }
 
+/* What a shape node's image is tested with: the bounds of its triangles within its box
+ * when the tree has them (octree_def.node_bounds), else the box itself. Either holds every
+ * local point of the node's triangles that lies in the node. */
+static inline box3 shape_node_box(const octree *shape, uint32_t node, box3 cell)
+{
+    return shape->node_bounds ? shape->node_bounds[node] : cell;
+}
+
 /* The two trees together from their roots (see the top of the file). Where one node of a
  * pair is a leaf its tight bounds stand in for its box: a shape leaf's posed triangles'
  * bounds (exact doubles, compared exactly), a world leaf's content. */
@@ -589,7 +597,7 @@ static void descend(pose_query *pq, const pose_frame *f)
     if (world->nodes[0].count == 0 || shape->nodes[0].count == 0)
         return;
     box_side side;
-    shape_side_of(f, shape->world, &side);
+    shape_side_of(f, shape_node_box(shape, 0, shape->world), &side);
     if (world_box_apart(f, world->world, &side))
         return;
     pair_entry *stack = s->stack;
@@ -622,7 +630,7 @@ static void descend(pose_query *pq, const pose_frame *f)
                 return;
             }
             if (!shape_leaf)
-                shape_side_of(f, e.shape_box, &side);
+                shape_side_of(f, shape_node_box(shape, e.shape_node, e.shape_box), &side);
             for (int k = 0; k < 8; k++) {
                 if (kids[k].count == 0)
                     continue;
@@ -640,7 +648,7 @@ static void descend(pose_query *pq, const pose_frame *f)
                     continue;
                 box3 cb = box_child(e.shape_box, c, box_octant_upper_bits[k]);
                 stats->nodes_visited++;
-                if (!shape_box_apart(f, cb, &side))
+                if (!shape_box_apart(f, shape_node_box(shape, sn.first + (uint32_t)k, cb), &side))
                     stack[top++] = (pair_entry){e.world_node, sn.first + (uint32_t)k, e.world_box, cb};
             }
         }
@@ -833,6 +841,7 @@ octree *octree_shape_tree_for(const mesh_view *shape, size_t poses)
     if (!shape_tree_pays(shape->triangle_count, poses))
         return NULL;
     octree_def def = octree_default_def();
+    def.node_bounds = 1;
     return octree_build(shape, &def, NULL);
 }
 

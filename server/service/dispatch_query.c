@@ -411,8 +411,11 @@ static int check_mesh(job *j, const trioct_mesh_request_t *m, accuracy_mode *mod
     return TRIOCT_OK;
 }
 
+/* shape_tree: a registered shape's octree (the engine descends it with the world's), or
+ * NULL for an inline shape (the engine decides). The answers are the same either way. */
 static int mesh_work(job *j, const trioct_mesh_request_t *m, accuracy_mode mode, const mesh_view *shape,
-                     pose *poses, mesh_output *outs, octree_status *st, query_result *res)
+                     const octree *shape_tree, pose *poses, mesh_output *outs, octree_status *st,
+                     query_result *res)
 {
     size_t n = (size_t)m->num_poses;
     int all_pairs = m->detail == TRIOCT_MESH_REQUEST_T_PAIRS;
@@ -427,7 +430,10 @@ static int mesh_work(job *j, const trioct_mesh_request_t *m, accuracy_mode mode,
         outs[i] = (mesh_output){.pairs = all_pairs ? pool + i * room : NULL, .capacity = room};
     }
     int status = TRIOCT_OK;
-    if (octree_mesh_batch(j->w->tree, shape, poses, n, all_pairs, mode, outs, st, NULL) == OCTREE_ERR_NOMEM)
+    octree_status batch = shape_tree
+                              ? octree_mesh_tree_batch(j->w->tree, shape_tree, poses, n, all_pairs, mode, outs, st, NULL)
+                              : octree_mesh_batch(j->w->tree, shape, poses, n, all_pairs, mode, outs, st, NULL);
+    if (batch == OCTREE_ERR_NOMEM)
         status = out_of_memory(j, "the mesh batch");
     size_t total = 0;
     for (size_t i = 0; i < n && status == TRIOCT_OK; i++) {
@@ -451,7 +457,8 @@ static int mesh_work(job *j, const trioct_mesh_request_t *m, accuracy_mode mode,
             continue;
         outs[i] = (mesh_output){.pairs = extra + at, .capacity = need};
         at += need;
-        octree_status s = octree_mesh(j->w->tree, shape, &poses[i], all_pairs, mode, &outs[i], NULL);
+        octree_status s = shape_tree ? octree_mesh_tree(j->w->tree, shape_tree, &poses[i], all_pairs, mode, &outs[i], NULL)
+                                     : octree_mesh(j->w->tree, shape, &poses[i], all_pairs, mode, &outs[i], NULL);
         if (s != OCTREE_OK)
             status = job_engine_error(j, s, "pose", i);
         else if (outs[i].truncated || outs[i].count != need) /* deterministic: never expected */
@@ -508,6 +515,7 @@ int dispatch_mesh(job *j, const trioct_mesh_request_t *m)
     if (check_mesh(j, m, &mode) != TRIOCT_OK)
         return j->status;
     mesh_view shape;
+    const octree *shape_tree = NULL;
     vec3 *vertices = NULL;
     uint32_t *indices = NULL;
     if (m->shape[0] != '\0') {
@@ -518,6 +526,7 @@ int dispatch_mesh(job *j, const trioct_mesh_request_t *m)
                             j->w->spec.name, dispatch_quote(m->shape, q, sizeof q), j->w->shape_count);
         }
         shape = mesh_data_view(&s->mesh);
+        shape_tree = s->tree;
     } else if (inline_shape(j, m, &vertices, &indices, &shape) != TRIOCT_OK) {
         free(vertices);
         free(indices);
@@ -528,7 +537,7 @@ int dispatch_mesh(job *j, const trioct_mesh_request_t *m)
     mesh_output *outs = dispatch_malloc(n * sizeof *outs);
     octree_status *st = dispatch_malloc(n * sizeof *st);
     query_result res = {0};
-    int status = poses && outs && st ? mesh_work(j, m, mode, &shape, poses, outs, st, &res)
+    int status = poses && outs && st ? mesh_work(j, m, mode, &shape, shape_tree, poses, outs, st, &res)
                                      : out_of_memory(j, "the poses");
     free(poses);
     free(outs);

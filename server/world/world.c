@@ -216,6 +216,24 @@ static int load_meshes(world_builder *b)
     return 0;
 }
 
+/* A shape's tree, in the shape's frame, at the heuristic resolution: built once here so
+ * that no mesh query pays for it. */
+static int build_shape_tree(world_builder *b, const world_shape_spec *spec, world_shape *shape)
+{
+    octree_def def = octree_default_def();
+    def.node_bounds = 1;
+    mesh_view view = mesh_data_view(&shape->mesh);
+    octree_error oerr;
+    shape->tree = octree_build(&view, &def, &oerr);
+    if (shape->tree)
+        return 0;
+    if (oerr.status == OCTREE_ERR_NOMEM)
+        return build_fail(b, TRIOCT_ERR_NOMEM, "world '%s': shape '%s' (%s): out of memory building its octree",
+                          b->spec->name, spec->name, spec->path);
+    return build_fail(b, TRIOCT_ERR_LOAD_FAILED, "world '%s': shape '%s' (%s): building its octree: %s: %s",
+                      b->spec->name, spec->name, spec->path, octree_status_text(oerr.status), oerr.message);
+}
+
 /* Query shapes stay in their own frame: a mesh query places them with its pose. */
 static int load_shapes(world_builder *b)
 {
@@ -232,8 +250,12 @@ static int load_shapes(world_builder *b)
             return -1;
         memcpy(loaded->name, shape->name, sizeof loaded->name);
         w->shape_count++;
+        if (build_shape_tree(b, shape, loaded) != 0)
+            return -1;
+        octree_info info;
+        octree_get_info(loaded->tree, &info);
         w->bytes_shapes += loaded->mesh.vertex_count * sizeof(vec3) +
-                           3 * loaded->mesh.triangle_count * sizeof(uint32_t);
+                           3 * loaded->mesh.triangle_count * sizeof(uint32_t) + info.bytes_total;
     }
     return 0;
 }
@@ -294,8 +316,10 @@ static void world_destroy(world *w)
 {
     atomic_fetch_sub(&live_worlds, 1);
     octree_free(w->tree);
-    for (size_t i = 0; i < w->shape_count; i++)
+    for (size_t i = 0; i < w->shape_count; i++) {
         mesh_data_free(&w->shapes[i].mesh);
+        octree_free(w->shapes[i].tree);
+    }
     free(w->shapes);
     free(w);
 }

@@ -15,6 +15,9 @@
 typedef struct world_shape {
     char name[TRIOCT_MAX_NAME_LEN + 1];
     mesh_data mesh;
+    /* The shape's own octree in its local frame (with node bounds), built at load:
+     * mesh queries descend it with the world's (octree_mesh_tree). */
+    octree *tree;
 } world_shape;
 
 typedef struct world {
@@ -24,7 +27,7 @@ typedef struct world {
     mesh_load_report report;  /* summed over the meshes, after the transform */
     world_shape *shapes;      /* loaded only when the world serves EFFECT_MESHES */
     size_t shape_count;
-    size_t bytes_shapes;
+    size_t bytes_shapes;      /* the shapes' meshes and their trees */
     atomic_uint_fast64_t queries; /* requests answered on this version */
     atomic_int refs;
 } world;
