@@ -793,7 +793,11 @@ static void bench_shape(const char *mesh, const octree *tree, const fcl_peer_mod
     fcl_peer_model *shape_fcl = fcl_model_of(&shape);
     mesh_view shape_view = mesh_data_view(&shape);
     octree_error shape_err;
-    octree *shape_tree = octree_build(&shape_view, NULL, &shape_err);
+    /* As the daemon builds a registered shape's (server/world/world.c): with each node's
+     * triangle bounds. */
+    octree_def shape_def = octree_default_def();
+    shape_def.node_bounds = 1;
+    octree *shape_tree = octree_build(&shape_view, &shape_def, &shape_err);
     if (!shape_tree) {
         fprintf(stderr, "shape tree: %s\n", shape_err.message);
         exit(1);
