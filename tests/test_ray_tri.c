@@ -1659,6 +1659,66 @@ static void test_filter_decides_generic_cases(void **state)
     free(cases);
 }
 
+/* The fan filter (one triangle against up to eight rays from one origin) decides each ray
+ * exactly as the four-triangle filter decides it alone, with and without AVX2, and a ray
+ * it rejects is one the exact test misses. Rays aim at grid points, so many pass exactly
+ * through a vertex or along an edge line, where the filter must leave the sign open. */
+static void test_fan_filter_decides_as_each_ray_alone(void **state)
+{
+    (void)state;
+    rng r = rng_for(51);
+    int avx2 = 0;
+#if defined(__x86_64__)
+    avx2 = __builtin_cpu_supports("avx2");
+#endif
+    size_t rays = 0, rejected = 0, hits = 0;
+    for (int c = 0; c < 3000; c++) {
+        double offset = c % 3 == 0 ? 0.0 : c % 3 == 1 ? 1e6 : -3e9;
+        vec3 shift = {offset, -offset, offset};
+        vec3 tri[3];
+        for (int k = 0; k < 3; k++)
+            tri[k] = vec3_add(rng_grid_vec(&r, -4, 4, 1), shift);
+        if (c % 17 == 0)
+            tri[2] = tri[1]; /* zero area */
+        if (c % 19 == 0)
+            tri[2] = vec3_add(tri[0], vec3_scale(vec3_sub(tri[1], tri[0]), 0.5)); /* collinear */
+        vec3 o = vec3_add(rng_grid_vec(&r, -8, 8, 1), shift);
+        unsigned count = 1 + (unsigned)(rng_u64(&r) % RAY_FAN_MAX);
+        vec3 d[RAY_FAN_MAX];
+        for (unsigned i = 0; i < count; i++) {
+            /* Toward a vertex, an edge's midpoint, or a grid point near the triangle. */
+            unsigned pick = (unsigned)(rng_u64(&r) % 3);
+            vec3 target = pick == 0   ? tri[rng_u64(&r) % 3]
+                          : pick == 1 ? vec3_scale(vec3_add(tri[0], tri[1]), 0.5)
+                                      : vec3_add(rng_grid_vec(&r, -4, 4, 1), shift);
+            d[i] = vec3_sub(target, o);
+            if (d[i].x == 0 && d[i].y == 0 && d[i].z == 0)
+                d[i] = (vec3){1, 0, 0};
+        }
+        ray_fan fan;
+        ray_fan_init(&fan, o, d, count);
+        unsigned plain = ray_fan_misses(&fan, tri, 0);
+        assert_int_equal(ray_fan_misses(&fan, tri, avx2), plain);
+        assert_int_equal(plain >> count, 0);
+        for (unsigned i = 0; i < count; i++) {
+            vec3 one[1][3] = {{tri[0], tri[1], tri[2]}};
+            unsigned alone = ray_tri_exact_misses4(o, d[i], (const vec3(*)[3])one, 1, 0);
+            assert_int_equal((plain >> i) & 1, alone);
+            ray_tri_hit h;
+            int hit = ray_tri_exact(o, d[i], 0.0, INFINITY, tri, &h);
+            if ((plain >> i) & 1)
+                assert_int_equal(hit, 0);
+            rays++;
+            rejected += (plain >> i) & 1;
+            hits += hit != 0;
+        }
+    }
+    printf("  fan filter: %zu rays, %zu rejected by the filter, %zu hits\n", rays, rejected, hits);
+    /* Not vacuous: the filter rejects most misses, and hits were there to keep. */
+    assert_true(rejected * 4 > rays);
+    assert_true(hits * 10 > rays);
+}
+
 int main(void)
 {
     const char *env = getenv("TRIOCT_SEED");
@@ -1668,6 +1728,7 @@ int main(void)
            (unsigned long long)base_seed);
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_random_rays_match_rational_reference),
+        cmocka_unit_test(test_fan_filter_decides_as_each_ray_alone),
         cmocka_unit_test(test_random_rays_with_huge_offsets_and_tiny_sizes),
         cmocka_unit_test(test_near_boundary_rays_match_reference),
         cmocka_unit_test(test_closed_meshes_are_crossed_with_correct_parity),

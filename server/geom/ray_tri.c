@@ -577,6 +577,112 @@ unsigned ray_tri_exact_misses4(vec3 o, vec3 d, const vec3 (*tris)[3], unsigned c
     return miss;
 }
 
+/* ---------------------------------------------------------------- the filter, a fan of rays */
+
+void ray_fan_init(ray_fan *fan, vec3 o, const vec3 *directions, unsigned count)
+{
+    fan->o = o;
+    fan->count = count;
+    for (unsigned i = 0; i < RAY_FAN_MAX; i++) {
+        /* Unused lanes repeat the first ray; their bits are dropped. */
+        vec3 d = directions[i < count ? i : 0];
+        for (int a = 0; a < 3; a++) {
+            fan->d[a][i] = vec3_get(d, a);
+            fan->dabs[a][i] = fabs(vec3_get(d, a));
+        }
+    }
+}
+
+/* What edge_function computes before the direction comes in: a = v_k - o and e = v_j -
+ * v_k, their six products, and per axis the difference and the padded magnitude sum that
+ * the dot product with d and its bound weigh. */
+typedef struct fan_edge {
+    double c[3], m[3];
+} fan_edge;
+
+static inline fan_edge fan_edge_of(vec3 vk, vec3 vj, vec3 o)
+{
+    vec3 a = vec3_sub(vk, o), e = vec3_sub(vj, vk);
+    double p1 = a.y * e.z, p2 = a.z * e.y;
+    double p3 = a.z * e.x, p4 = a.x * e.z;
+    double p5 = a.x * e.y, p6 = a.y * e.x;
+    return (fan_edge){{p1 - p2, p3 - p4, p5 - p6},
+                      {fabs(p1) + fabs(p2) + TRIPLE_PAD, fabs(p3) + fabs(p4) + TRIPLE_PAD,
+                       fabs(p5) + fabs(p6) + TRIPLE_PAD}};
+}
+
+/* filtered_sign of one ray's edge function from its shared part. */
+static inline int fan_edge_sign(const fan_edge *g, const ray_fan *fan, unsigned i)
+{
+    double w = fan->d[0][i] * g->c[0] + fan->d[1][i] * g->c[1] + fan->d[2][i] * g->c[2];
+    if (w == 0.0)
+        return 0;
+    double perm = fan->dabs[0][i] * g->m[0] + fan->dabs[1][i] * g->m[1] + fan->dabs[2][i] * g->m[2];
+    return filtered_sign(w, TRIPLE_ERR_EXACT_ROW * perm + TRIPLE_ABS);
+}
+
+static unsigned fan_misses_scalar(const ray_fan *fan, const fan_edge g[3])
+{
+    unsigned miss = 0;
+    for (unsigned i = 0; i < fan->count; i++) {
+        int s01 = fan_edge_sign(&g[0], fan, i), s12 = fan_edge_sign(&g[1], fan, i),
+            s20 = fan_edge_sign(&g[2], fan, i);
+        miss |= (unsigned)(s01 * s12 < 0 || s20 * s01 < 0 || s20 * s12 < 0) << i;
+    }
+    return miss;
+}
+
+#if defined(__x86_64__)
+/* fan_edge_sign on four rays: the decided-positive and decided-negative lanes. */
+RAY_TRI_AVX2 static inline __attribute__((always_inline)) void fan_edge4(const fan_edge *g, const ray_fan *fan,
+                                                                          unsigned half, __m256d *pos, __m256d *neg)
+{
+    __m256d dx = _mm256_loadu_pd(&fan->d[0][4 * half]), dy = _mm256_loadu_pd(&fan->d[1][4 * half]),
+            dz = _mm256_loadu_pd(&fan->d[2][4 * half]);
+    __m256d w = _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(dx, _mm256_set1_pd(g->c[0])),
+                                            _mm256_mul_pd(dy, _mm256_set1_pd(g->c[1]))),
+                              _mm256_mul_pd(dz, _mm256_set1_pd(g->c[2])));
+    __m256d ax = _mm256_loadu_pd(&fan->dabs[0][4 * half]), ay = _mm256_loadu_pd(&fan->dabs[1][4 * half]),
+            az = _mm256_loadu_pd(&fan->dabs[2][4 * half]);
+    __m256d perm = _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(ax, _mm256_set1_pd(g->m[0])),
+                                               _mm256_mul_pd(ay, _mm256_set1_pd(g->m[1]))),
+                                 _mm256_mul_pd(az, _mm256_set1_pd(g->m[2])));
+    __m256d err = _mm256_add_pd(_mm256_mul_pd(_mm256_set1_pd(TRIPLE_ERR_EXACT_ROW), perm), _mm256_set1_pd(TRIPLE_ABS));
+    __m256d nonzero = _mm256_cmp_pd(w, _mm256_setzero_pd(), _CMP_NEQ_OQ);
+    *pos = _mm256_and_pd(nonzero, _mm256_cmp_pd(w, err, _CMP_GT_OQ));
+    *neg = _mm256_and_pd(nonzero, _mm256_cmp_pd(_mm256_xor_pd(w, _mm256_set1_pd(-0.0)), err, _CMP_GT_OQ));
+}
+
+RAY_TRI_AVX2 static unsigned fan_misses_avx2(const ray_fan *fan, const fan_edge g[3])
+{
+    unsigned miss = 0;
+    for (unsigned half = 0; 4 * half < fan->count; half++) {
+        __m256d pos01, neg01, pos12, neg12, pos20, neg20;
+        fan_edge4(&g[0], fan, half, &pos01, &neg01);
+        fan_edge4(&g[1], fan, half, &pos12, &neg12);
+        fan_edge4(&g[2], fan, half, &pos20, &neg20);
+        __m256d m = _mm256_or_pd(_mm256_and_pd(pos01, neg12), _mm256_and_pd(neg01, pos12));
+        m = _mm256_or_pd(m, _mm256_and_pd(pos20, _mm256_or_pd(neg01, neg12)));
+        m = _mm256_or_pd(m, _mm256_and_pd(neg20, _mm256_or_pd(pos01, pos12)));
+        miss |= (unsigned)_mm256_movemask_pd(m) << (4 * half);
+    }
+    return miss & ((1u << fan->count) - 1);
+}
+#endif
+
+unsigned ray_fan_misses(const ray_fan *fan, const vec3 tri[3], int avx2)
+{
+    fan_edge g[3] = {fan_edge_of(tri[0], tri[1], fan->o), fan_edge_of(tri[1], tri[2], fan->o),
+                     fan_edge_of(tri[2], tri[0], fan->o)};
+#if defined(__x86_64__)
+    if (avx2)
+        return fan_misses_avx2(fan, g);
+#else
+    (void)avx2;
+#endif
+    return fan_misses_scalar(fan, g);
+}
+
 int ray_tri_exact(vec3 o, vec3 d, double tmin, double tmax, const vec3 tri[3], ray_tri_hit *hit)
 {
     return ray_tri_exact_rule(o, d, tmin, tmax, tri, 0, hit);

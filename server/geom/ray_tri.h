@@ -58,6 +58,28 @@ int ray_tri_exact(vec3 o, vec3 d, double tmin, double tmax, const vec3 tri[3], r
  * ray_tri_exact returns 0 without going further; the others still need ray_tri_exact. */
 unsigned ray_tri_exact_misses4(vec3 o, vec3 d, const vec3 (*tris)[3], unsigned count, int avx2);
 
+/* Rays from one origin (a camera's or a lidar's), up to RAY_FAN_MAX of them, laid out for
+ * testing one triangle against all of them at once: ray_fan_misses is
+ * ray_tri_exact_misses4 turned around, one triangle against many rays. With a shared
+ * origin the cross products of the edge function, (v_k - o) x (v_j - v_k), are the same
+ * for every ray; only the dot product with each direction is the ray's own. */
+#define RAY_FAN_MAX 8
+typedef struct ray_fan {
+    vec3 o;
+    unsigned count;
+    /* Per axis the rays' direction components and their magnitudes, side by side. */
+    double d[3][RAY_FAN_MAX], dabs[3][RAY_FAN_MAX];
+} ray_fan;
+
+/* A fan of directions[0 .. count) from o (count <= RAY_FAN_MAX). */
+void ray_fan_init(ray_fan *fan, vec3 o, const vec3 *directions, unsigned count);
+
+/* The rays of the fan (bit i for ray i) that ray_tri_exact surely misses on tri by its own
+ * edge filter: the same products, sums and bounds in the same order as ray_tri_exact
+ * computes them for each ray, so a rejected ray is exactly one for which ray_tri_exact
+ * returns 0 without going further. */
+unsigned ray_fan_misses(const ray_fan *fan, const vec3 tri[3], int avx2);
+
 /* Compare the exact t of two exact hits of the same ray: -1, 0, +1 for t_a <, =, > t_b.
  * Exact (filter, then expansions) for any two triangles whose planes the ray is not
  * parallel to, hit or not; 0 when either den is 0. */
