@@ -56,11 +56,18 @@ static int compare_offset(double o, float f, double x)
     return (c > 0) - (c < 0);
 }
 
-/* lo is the largest float with o + lo <= x, hi the smallest with o + hi >= x; past the
+/* lo is the largest float with o + lo <= x, hi the smallest with o + hi >= x (and
+ * float_bounds_of_difference gives both); past the
  * float range the bound is the extreme float on the safe side or an infinity. */
 static void check_bounds(double x, double o)
 {
     float lo = float_below_difference(x, o), hi = float_above_difference(x, o);
+    /* The ray setup takes both at once: the same floats, to the bit. */
+    float both_lo, both_hi;
+    float_bounds_of_difference(x, o, &both_lo, &both_hi);
+    if (memcmp(&both_lo, &lo, sizeof lo) != 0 || memcmp(&both_hi, &hi, sizeof hi) != 0)
+        fail_msg("x %a, o %a: bounds taken together %a, %a, apart %a, %a", x, o, (double)both_lo, (double)both_hi,
+                 (double)lo, (double)hi);
     if (compare_offset(o, lo, x) > 0 || compare_offset(o, hi, x) < 0)
         fail_msg("x %a, o %a: bounds %a, %a do not enclose", x, o, (double)lo, (double)hi);
     if (isfinite(lo) && lo < FLT_MAX && compare_offset(o, nextafterf(lo, INFINITY), x) <= 0)

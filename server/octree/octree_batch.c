@@ -34,6 +34,11 @@ octree_status octree_ray_batch(const octree *tree, const ray_input *rays, size_t
      * memory is already in cache); the stream, which serves every other batch, walks the
      * compiled form too when the tree has it. */
     int one_origin = share_one_origin(rays, count);
+#if defined(__x86_64__)
+    if (tree->traversal.present && tree->traversal.avx2 && one_origin && mode == ACCURACY_EXACT &&
+        detail != RAY_ALL)
+        return octree_ray_fans(tree, rays, count, detail, mode, outs, statuses, stats);
+#endif
     if (tree->traversal.present && one_origin) {
         BATCH_LOOP(octree_ray(tree, &rays[i], detail, mode, &outs[i], stats));
     }

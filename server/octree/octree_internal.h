@@ -184,6 +184,31 @@ static inline float float_above_difference(double x, double o)
     return (double)f == d && rounding_error_of_difference(x, o, d) > 0 ? float_next_up(f) : f;
 }
 
+/* Both float bounds of the real difference x - o at once, as float_below_difference and
+ * float_above_difference give them: one subtraction, one conversion, and the rounding
+ * error only when the conversion was exact. */
+static inline void float_bounds_of_difference(double x, double o, float *below, float *above)
+{
+    double d = x - o;
+    if (!(d >= -FLT_MAX && d <= FLT_MAX)) {
+        *below = float_below_difference(x, o);
+        *above = float_above_difference(x, o);
+        return;
+    }
+    float f = (float)d;
+    if ((double)f == d) {
+        double err = rounding_error_of_difference(x, o, d);
+        *below = err < 0 ? float_next_down(f) : f;
+        *above = err > 0 ? float_next_up(f) : f;
+    } else if ((double)f > d) {
+        *below = float_next_down(f);
+        *above = f;
+    } else {
+        *below = f;
+        *above = float_next_up(f);
+    }
+}
+
 /* The outward float box of the closed box [lo, hi] relative to origin. */
 static inline triangle_box triangle_box_around(vec3 lo, vec3 hi, vec3 origin)
 {
@@ -227,6 +252,12 @@ octree_status octree_ray_stream(const struct octree *tree, const ray_input *rays
 octree_status octree_ray_packets(const struct octree *tree, const ray_input *rays, size_t count, ray_detail detail,
                                  accuracy_mode mode, ray_output *outs, octree_status *statuses,
                                  query_stats *stats);
+
+/* Answers a batch of rays from one origin, exact crossings for the closest or any hit, as
+ * octree_ray answers each, eight rays side by side over the compiled form. Only for a tree
+ * with the form on a processor with AVX2 (traversal.avx2). */
+octree_status octree_ray_fans(const struct octree *tree, const ray_input *rays, size_t count, ray_detail detail,
+                              accuracy_mode mode, ray_output *outs, octree_status *statuses, query_stats *stats);
 
 /* A shape vertex under a pose, p' = R p + t, rounded to doubles once. Every mesh query
  * poses vertices through this one expression, so the per-triangle path and the shape-tree

@@ -5,6 +5,7 @@
  * memory waits, and a batch from one origin walks groups of rays through the tree together. */
 #include <float.h>
 #include <math.h>
+#include <stddef.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -49,6 +50,47 @@ typedef struct ray_setup {
     int touch; /* RAY_TOUCH: the closed rule (set by walk_begin; exact mode only) */
 } ray_setup;
 
+/* One axis of setup_ray: its kind, 1/d, and its absolute slack. Inlined per axis, so the
+ * axis is a constant (a coordinate looked up by index cost more than the arithmetic). */
+static inline __attribute__((always_inline)) void setup_axis(ray_setup *r, const octree *tree, int a, double o,
+                                                             double d, double world_lo, double world_hi)
+{
+    r->inv[a] = 0.0;
+    r->slack_abs[a] = TINY;
+    /* An infinite slack (octree_modes.c: inputs outside the range its bound covers) trusts
+     * no slab at all: the walk visits every node, as brute force would test every
+     * triangle. */
+    if (!(r->grow < INFINITY)) {
+        r->kind[a] = 2;
+        return;
+    }
+    if (d == 0.0) {
+        r->kind[a] = 1;
+        return;
+    }
+    double inv = 1.0 / d;
+    if (!isfinite(inv) || fabs(inv) < DBL_MIN) {
+        r->kind[a] = 2;
+        return;
+    }
+    /* Every face and split plane c of the tree lies between the world's faces, and a
+     * rounded difference is monotone in c, so no c - o overflows unless one of theirs
+     * does; none can when the world and the origin are within DBL_MAX / 2. */
+    r->kind[a] = 0;
+    if (!(tree->splits_in_range && fabs(o) <= DBL_MAX / 2) && (isinf(world_lo - o) || isinf(world_hi - o)))
+        r->kind[a] = 3;
+    r->inv[a] = inv;
+    /* grow |1 / d_a| rounds once more: 2 eps covers it. A slack that overflows in t
+     * leaves the axis unconstrained, like an unusable direction component. */
+    if (r->grow > 0.0 && r->kind[a] == 0) {
+        r->slack_abs[a] = TINY + r->grow * fabs(inv) * (1 + 2 * EPS);
+        if (!(r->slack_abs[a] < INFINITY)) {
+            r->kind[a] = 2;
+            r->slack_abs[a] = TINY;
+        }
+    }
+}
+
 static void setup_ray(ray_setup *r, const octree *tree, const ray_input *in, accuracy_mode mode)
 {
     r->o = in->origin;
@@ -58,46 +100,11 @@ static void setup_ray(ray_setup *r, const octree *tree, const ray_input *in, acc
     r->grow = mode == ACCURACY_FAST   ? octree_fast_ray_slack(tree, in->origin, in->direction)
               : mode == ACCURACY_SEED ? octree_seed_ray_slack(tree, in->origin, in->direction)
                                       : 0.0;
-    for (int a = 0; a < 3; a++) {
-        double d = vec3_get(in->direction, a);
-        r->inv[a] = 0.0;
-        if (d == 0.0) {
-            r->kind[a] = 1;
-            continue;
-        }
-        double inv = 1.0 / d;
-        if (!isfinite(inv) || fabs(inv) < DBL_MIN) {
-            r->kind[a] = 2;
-            continue;
-        }
-        /* Every face and split plane c of the tree lies between the world's faces, and a
-         * rounded difference is monotone in c, so no c - o overflows unless one of theirs
-         * does; none can when the world and the origin are within DBL_MAX / 2. */
-        double o = vec3_get(in->origin, a);
-        r->kind[a] = 0;
-        if (!(tree->splits_in_range && fabs(o) <= DBL_MAX / 2) &&
-            (isinf(vec3_get(tree->world.lo, a) - o) || isinf(vec3_get(tree->world.hi, a) - o)))
-            r->kind[a] = 3;
-        r->inv[a] = inv;
-    }
-    /* An infinite slack (octree_modes.c: inputs outside the range its bound covers) trusts
-     * no slab at all: the walk visits every node, as brute force would test every
-     * triangle. */
     r->slack_rel = 4 * EPS;
-    for (int a = 0; a < 3; a++) {
-        if (!(r->grow < INFINITY))
-            r->kind[a] = 2;
-        /* grow |1 / d_a| rounds once more: 2 eps covers it. A slack that overflows in t
-         * leaves the axis unconstrained, like an unusable direction component. */
-        r->slack_abs[a] = TINY;
-        if (r->grow > 0.0 && r->kind[a] == 0) {
-            r->slack_abs[a] = TINY + r->grow * fabs(r->inv[a]) * (1 + 2 * EPS);
-            if (!(r->slack_abs[a] < INFINITY)) {
-                r->kind[a] = 2;
-                r->slack_abs[a] = TINY;
-            }
-        }
-    }
+    const box3 w = tree->world;
+    setup_axis(r, tree, 0, in->origin.x, in->direction.x, w.lo.x, w.hi.x);
+    setup_axis(r, tree, 1, in->origin.y, in->direction.y, w.lo.y, w.hi.y);
+    setup_axis(r, tree, 2, in->origin.z, in->direction.z, w.lo.z, w.hi.z);
 }
 
 /* The rest of a ray's setup that only the double walk reads: its visiting order. */
@@ -861,37 +868,51 @@ static float float_grown_down(float f, double g)
     return float_at_or_below(nextafter((double)f - g, -INFINITY));
 }
 
-/* Prepares r for the float walk; 0 when the ray must take the double walk instead. */
+/* One axis of float_ray_setup: o and c the origin's and the world corner's coordinate,
+ * d the direction's, inv its reciprocal as setup_ray took it. 0 when the ray must take the
+ * double walk. Inlined per axis, so the axis is a constant and no coordinate is looked
+ * up by index (which cost a ray's setup more than its arithmetic). */
+static inline __attribute__((always_inline)) int float_axis_setup(float_ray *f, int a, int kind, double o, double c,
+                                                                  double d, double inv, double grow)
+{
+    if (kind != 0 && kind != 1)
+        return 0;
+    float above, below;
+    float_bounds_of_difference(o, c, &below, &above);
+    if (grow != 0.0) {
+        above = float_grown_up(above, grow);
+        below = float_grown_down(below, grow);
+    }
+    if (!(fabsf(above) <= FLOAT_WALK_RANGE && fabsf(below) <= FLOAT_WALK_RANGE))
+        return 0;
+    int negative = 0;
+    if (d == 0.0) {
+        f->inv[a] = INFINITY;
+    } else {
+        if (!(fabs(inv) <= FLOAT_WALK_RANGE && fabs(inv) >= 1.0 / FLOAT_WALK_RANGE))
+            return 0;
+        f->inv[a] = (float)inv;
+        negative = inv < 0;
+    }
+    f->o_near[a] = negative ? below : above;
+    f->o_far[a] = negative ? above : below;
+    f->near_row[a] = (unsigned char)(negative ? TRAVERSAL_HI_X + a : TRAVERSAL_LO_X + a);
+    f->far_row[a] = (unsigned char)(negative ? TRAVERSAL_LO_X + a : TRAVERSAL_HI_X + a);
+    f->near_upper |= (unsigned)negative << a;
+    return 1;
+}
+
+/* Prepares r for the float walk; 0 when the ray must take the double walk instead. An
+ * ordinary axis (kind 0) has setup_ray's 1/d, a normal double. */
 static int float_ray_setup(float_ray *f, const octree *tree, const ray_setup *r)
 {
     if (!tree->traversal.present || !(r->grow < INFINITY))
         return 0;
     f->near_upper = 0;
-    for (int a = 0; a < 3; a++) {
-        if (r->kind[a] != 0 && r->kind[a] != 1)
-            return 0;
-        double o = vec3_get(r->o, a), c = vec3_get(tree->world.lo, a), d = vec3_get(r->d, a);
-        float above = float_grown_up(float_above_difference(o, c), r->grow);
-        float below = float_grown_down(float_below_difference(o, c), r->grow);
-        if (!(fabsf(above) <= FLOAT_WALK_RANGE && fabsf(below) <= FLOAT_WALK_RANGE))
-            return 0;
-        int negative = 0;
-        if (d == 0.0) {
-            f->inv[a] = INFINITY;
-        } else {
-            double inv = 1.0 / d;
-            if (!(fabs(inv) <= FLOAT_WALK_RANGE && fabs(inv) >= 1.0 / FLOAT_WALK_RANGE))
-                return 0;
-            f->inv[a] = (float)inv;
-            negative = inv < 0;
-        }
-        f->o_near[a] = negative ? below : above;
-        f->o_far[a] = negative ? above : below;
-        f->near_row[a] = (unsigned char)(negative ? TRAVERSAL_HI_X + a : TRAVERSAL_LO_X + a);
-        f->far_row[a] = (unsigned char)(negative ? TRAVERSAL_LO_X + a : TRAVERSAL_HI_X + a);
-        f->near_upper |= (unsigned)negative << a;
-    }
-    return 1;
+    const vec3 lo = tree->world.lo;
+    return float_axis_setup(f, 0, r->kind[0], r->o.x, lo.x, r->d.x, r->inv[0], r->grow) &&
+           float_axis_setup(f, 1, r->kind[1], r->o.y, lo.y, r->d.y, r->inv[1], r->grow) &&
+           float_axis_setup(f, 2, r->kind[2], r->o.z, lo.z, r->d.z, r->inv[2], r->grow);
 }
 
 /* The children of n that the ray meets within [lo, hi], as a lane mask, with each lane's
@@ -1257,10 +1278,98 @@ DEFINE_COMPILED_STEP(avx2, FLOAT_WALK_AVX2, node_children_met_avx2)
 DEFINE_COMPILED_STEP(scalar, , node_children_met_scalar)
 #endif
 
+#ifdef FLOAT_WALK_SIMD
+/* Lanes 0-7 of a node's quantized row at byte offset `at` of its record, as bounds. */
+FLOAT_WALK_AVX2 static inline __m256 row_at_avx2(const traversal_node *n, size_t at, __m256 scale, __m256 origin)
+{
+    return row_avx2((const uint8_t *)n + at, scale, origin);
+}
+
+/* A lone exact crossing's walk, closest or any hit, over the compiled form with AVX2:
+ * compiled_step's tests in compiled_step's order, with the ray's constants held in
+ * registers for the whole walk. Through the generic step they were read back from the
+ * walk at every node (its stores to the stack may alias them, as far as the compiler
+ * knows), which cost a third of a node step. */
+FLOAT_WALK_AVX2 static void compiled_run_filtered_avx2(ray_walk *w, compiled_walk *c, const octree *tree)
+{
+    const float_ray f = c->f;
+    const size_t q0 = offsetof(traversal_node, q);
+    const size_t near0 = q0 + 8 * (size_t)f.near_row[0], near1 = q0 + 8 * (size_t)f.near_row[1],
+                 near2 = q0 + 8 * (size_t)f.near_row[2];
+    const size_t far0 = q0 + 8 * (size_t)f.far_row[0], far1 = q0 + 8 * (size_t)f.far_row[1],
+                 far2 = q0 + 8 * (size_t)f.far_row[2];
+    const __m256 on0 = _mm256_set1_ps(f.o_near[0]), on1 = _mm256_set1_ps(f.o_near[1]),
+                 on2 = _mm256_set1_ps(f.o_near[2]);
+    const __m256 of0 = _mm256_set1_ps(f.o_far[0]), of1 = _mm256_set1_ps(f.o_far[1]),
+                 of2 = _mm256_set1_ps(f.o_far[2]);
+    const __m256 inv0 = _mm256_set1_ps(f.inv[0]), inv1 = _mm256_set1_ps(f.inv[1]), inv2 = _mm256_set1_ps(f.inv[2]);
+    const __m256 sign = _mm256_castsi256_ps(_mm256_set1_epi32(0x7fffffff));
+    const __m256 rel = _mm256_set1_ps(FLOAT_WALK_REL), absw = _mm256_set1_ps(FLOAT_WALK_ABS);
+    const __m256i none = _mm256_set1_epi32(-1);
+    const unsigned char *rank = rank_of_lanes[f.near_upper];
+    const unsigned flip = f.near_upper;
+    const traversal_node *nodes = tree->traversal.nodes;
+    float_entry *stack = c->stack;
+    size_t top = c->top;
+    const __m256 lo = _mm256_set1_ps(c->lo);
+    float bound = c->bound;
+    uint64_t visited = 0, leaves = 0;
+    while (top > 0) {
+        float_entry e = stack[--top];
+        if (e.tnear > bound) /* a nearer hit was found after this entry was pushed */
+            continue;
+        visited++;
+        if (e.ref & TRAVERSAL_LEAF) {
+            octree_node leaf = tree->nodes[e.ref & ~TRAVERSAL_LEAF];
+            leaves++;
+            /* Asked for together, so their misses overlap instead of coming one test at a time. */
+            prefetch_leaf_triangles(tree, leaf);
+            walk_test_leaf_filtered(w, tree, leaf);
+            if (w->done)
+                break;
+            bound = float_at_or_above(w->bound);
+            continue;
+        }
+        const traversal_node *n = &nodes[e.ref];
+        __m256 scale = _mm256_set1_ps(n->scale);
+        __m256 x = _mm256_set1_ps(n->origin[0]), y = _mm256_set1_ps(n->origin[1]), z = _mm256_set1_ps(n->origin[2]);
+        __m256 tn = _mm256_max_ps(_mm256_mul_ps(_mm256_sub_ps(row_at_avx2(n, near0, scale, x), on0), inv0), lo);
+        __m256 tf = _mm256_min_ps(_mm256_mul_ps(_mm256_sub_ps(row_at_avx2(n, far0, scale, x), of0), inv0),
+                                  _mm256_set1_ps(bound));
+        tn = _mm256_max_ps(_mm256_mul_ps(_mm256_sub_ps(row_at_avx2(n, near1, scale, y), on1), inv1), tn);
+        tf = _mm256_min_ps(_mm256_mul_ps(_mm256_sub_ps(row_at_avx2(n, far1, scale, y), of1), inv1), tf);
+        tn = _mm256_max_ps(_mm256_mul_ps(_mm256_sub_ps(row_at_avx2(n, near2, scale, z), on2), inv2), tn);
+        tf = _mm256_min_ps(_mm256_mul_ps(_mm256_sub_ps(row_at_avx2(n, far2, scale, z), of2), inv2), tf);
+        __m256 tn_w = _mm256_sub_ps(_mm256_sub_ps(tn, _mm256_mul_ps(_mm256_and_ps(tn, sign), rel)), absw);
+        __m256 tf_w = _mm256_add_ps(_mm256_add_ps(tf, _mm256_mul_ps(_mm256_and_ps(tf, sign), rel)), absw);
+        __m256i empty = _mm256_cmpeq_epi32(_mm256_loadu_si256((const __m256i *)n->child), none);
+        __m256 ok = _mm256_andnot_ps(_mm256_castsi256_ps(empty), _mm256_cmp_ps(tn_w, tf_w, _CMP_LE_OQ));
+        float tnear[8];
+        _mm256_storeu_ps(tnear, tn_w);
+        unsigned met = rank[_mm256_movemask_ps(ok)];
+        /* Pushed far to near, so the nearest is popped first. */
+        while (met) {
+            int j = 31 - __builtin_clz(met);
+            met &= ~(1u << j);
+            unsigned lane = (unsigned)j ^ flip;
+            uint32_t child = n->child[lane];
+            stack[top++] = (float_entry){tnear[lane], child};
+            prefetch_compiled_child(tree, child);
+        }
+    }
+    w->local.nodes_visited += visited;
+    w->local.leaves_visited += leaves;
+    c->top = 0;
+    c->bound = bound;
+}
+#endif
+
 static void compiled_run(ray_walk *w, compiled_walk *c, const octree *tree)
 {
 #ifdef FLOAT_WALK_SIMD
-    if (tree->traversal.avx2)
+    if (tree->traversal.avx2 && c->f.filtered)
+        compiled_run_filtered_avx2(w, c, tree);
+    else if (tree->traversal.avx2)
         compiled_run_avx2(w, c, tree);
     else
         compiled_run_sse2(w, c, tree);
@@ -1301,6 +1410,20 @@ static int compiled_stream_run(const octree *tree, const ray_input *rays, size_t
     return 0;
 }
 
+/* Runs a walk begun by walk_init to its end, over the compiled form when the ray can take
+ * it, else by the double walk. */
+static void walk_alone(ray_walk *w, const octree *tree)
+{
+    compiled_walk c;
+    if (compiled_begin(&c, w, tree)) {
+        compiled_run(w, &c, tree);
+        return;
+    }
+    walk_root(w, tree);
+    while (walk_step(w, tree, 0))
+        ;
+}
+
 octree_status octree_ray(const octree *tree, const ray_input *ray, ray_detail detail, accuracy_mode mode,
                          ray_output *out, query_stats *stats)
 {
@@ -1310,14 +1433,7 @@ octree_status octree_ray(const octree *tree, const ray_input *ray, ray_detail de
     uint64_t fallbacks_before = predicates_fallback_count();
     ray_walk w;
     walk_init(&w, tree, ray, detail, mode, out);
-    compiled_walk c;
-    if (compiled_begin(&c, &w, tree)) {
-        compiled_run(&w, &c, tree);
-    } else {
-        walk_root(&w, tree);
-        while (walk_step(&w, tree, 0))
-            ;
-    }
+    walk_alone(&w, tree);
     st = walk_finish(&w, tree, out);
     query_stats_finish(stats, &w.local, fallbacks_before, predicates_fallback_count());
     return st;
@@ -1460,6 +1576,266 @@ static void add_walk_counts(query_stats *sum, const ray_walk *w)
     sum->leaves_visited += w->local.leaves_visited;
     sum->candidates_tested += w->local.candidates_tested;
 }
+
+#ifdef FLOAT_WALK_SIMD
+/* ---------- rays from one origin, side by side over the compiled form ---------- */
+
+/* Rays from one origin that share a visiting order (a camera's, a lidar's), up to eight,
+ * walk the compiled form together, one ray to a lane of an AVX2 register: a node's record
+ * is read once for all of them and each child's planes are taken once, then multiplied by
+ * each ray's own 1/d; a leaf's triangles are read once and their edges' cross products
+ * shared (ray_fan_misses). Each ray meets its entries in the order it would alone, tests
+ * each child with exactly its own walk's arithmetic and bound, and stops where it would
+ * alone, so every answer is octree_ray's. */
+typedef struct fan_entry {
+    float tnear[RAY_FAN_MAX];
+    uint32_t ref;
+    unsigned rays; /* bit i: ray i met the node */
+} fan_entry;
+
+typedef struct compiled_fan {
+    unsigned count;
+    ray_walk *walk[RAY_FAN_MAX];
+    size_t ray_of[RAY_FAN_MAX];
+    float_ray f; /* the first ray's: the origin's floats, the rows and the order are shared */
+    float_ray own[RAY_FAN_MAX]; /* each ray's, for the subtrees it walks alone */
+    compiled_walk alone;
+    float inv[3][RAY_FAN_MAX];
+    float lo[RAY_FAN_MAX], bound[RAY_FAN_MAX];
+    unsigned done; /* rays whose walk is over (an any hit, or out of memory) */
+    ray_fan fan;
+    fan_entry stack[FLOAT_STACK_MAX]; /* as one walk's: 7 siblings a level plus the node */
+} compiled_fan;
+
+/* The children of n that each live ray meets (rays[k] for lane k, with its entry
+ * parameters in tnear[k]), and the lanes some ray meets. Per ray and lane this is
+ * node_children_met_avx2's arithmetic: (origin + q scale - o_near) * inv, max and min
+ * against the ray's interval in the same operand order, the same widening. */
+FLOAT_WALK_AVX2 static unsigned fan_children_met(const traversal_node *n, const compiled_fan *p, unsigned live,
+                                                 unsigned rays[8], float tnear[8][RAY_FAN_MAX])
+{
+    const float_ray *f = &p->f;
+    __m256 scale = _mm256_set1_ps(n->scale);
+    float near_d[3][8], far_d[3][8];
+    for (int a = 0; a < 3; a++) {
+        __m256 origin = _mm256_set1_ps(n->origin[a]);
+        _mm256_storeu_ps(near_d[a], _mm256_sub_ps(row_avx2(n->q[f->near_row[a]], scale, origin), _mm256_set1_ps(f->o_near[a])));
+        _mm256_storeu_ps(far_d[a], _mm256_sub_ps(row_avx2(n->q[f->far_row[a]], scale, origin), _mm256_set1_ps(f->o_far[a])));
+    }
+    __m256i empty = _mm256_cmpeq_epi32(_mm256_loadu_si256((const __m256i *)n->child), _mm256_set1_epi32(-1));
+    unsigned lanes = ~(unsigned)_mm256_movemask_ps(_mm256_castsi256_ps(empty)) & 0xffu;
+    __m256 inv[3] = {_mm256_loadu_ps(p->inv[0]), _mm256_loadu_ps(p->inv[1]), _mm256_loadu_ps(p->inv[2])};
+    __m256 lo = _mm256_loadu_ps(p->lo), hi = _mm256_loadu_ps(p->bound);
+    __m256 sign = _mm256_castsi256_ps(_mm256_set1_epi32(0x7fffffff));
+    __m256 rel = _mm256_set1_ps(FLOAT_WALK_REL), absw = _mm256_set1_ps(FLOAT_WALK_ABS);
+    unsigned met = 0;
+    while (lanes) {
+        int k = __builtin_ctz(lanes);
+        lanes &= lanes - 1;
+        __m256 tn = lo, tf = hi;
+        for (int a = 0; a < 3; a++) {
+            tn = _mm256_max_ps(_mm256_mul_ps(_mm256_set1_ps(near_d[a][k]), inv[a]), tn);
+            tf = _mm256_min_ps(_mm256_mul_ps(_mm256_set1_ps(far_d[a][k]), inv[a]), tf);
+        }
+        __m256 tn_w = _mm256_sub_ps(_mm256_sub_ps(tn, _mm256_mul_ps(_mm256_and_ps(tn, sign), rel)), absw);
+        __m256 tf_w = _mm256_add_ps(_mm256_add_ps(tf, _mm256_mul_ps(_mm256_and_ps(tf, sign), rel)), absw);
+        unsigned r = (unsigned)_mm256_movemask_ps(_mm256_cmp_ps(tn_w, tf_w, _CMP_LE_OQ)) & live;
+        if (!r)
+            continue;
+        rays[k] = r;
+        _mm256_storeu_ps(tnear[k], tn_w);
+        met |= 1u << k;
+    }
+    return met;
+}
+
+/* A leaf's candidates against its live rays, in list order: each triangle's vertices read
+ * once, the rays it surely misses ruled out together, the full test for each other ray
+ * (walk_test_unique). Four at a time, counted as a ray's own filtered leaf counts them
+ * (walk_test_leaf_filtered), so the counters are the lone ray's too. */
+static void fan_test_leaf(compiled_fan *p, const octree *tree, octree_node leaf, unsigned live)
+{
+    const uint32_t *ids = &tree->leaf_items[leaf.first];
+    unsigned tested = live;
+    for (uint32_t i = 0; i < leaf.count && live; i += 4) {
+        unsigned k = leaf.count - i < 4 ? leaf.count - i : 4;
+        unsigned miss[4];
+        for (unsigned j = 0; j < k; j++) {
+            vec3 tri[3];
+            octree_triangle_vertices(tree, ids[i + j], tri);
+            miss[j] = ray_fan_misses(&p->fan, tri, 1) & live;
+        }
+        for (unsigned j = 0; j < k; j++)
+            for (unsigned m = miss[j]; m; m &= m - 1)
+                p->walk[__builtin_ctz(m)]->local.candidates_tested++;
+        for (unsigned j = 0; j < k; j++)
+            for (unsigned t = live & ~miss[j]; t; t &= t - 1) {
+                unsigned r = (unsigned)__builtin_ctz(t);
+                if (!walk_test_unique(p->walk[r], tree, ids[i + j])) {
+                    p->done |= 1u << r;
+                    live &= ~(1u << r);
+                }
+            }
+    }
+    for (unsigned t = tested; t; t &= t - 1) {
+        unsigned r = (unsigned)__builtin_ctz(t);
+        p->bound[r] = float_at_or_above(p->walk[r]->bound);
+    }
+}
+
+FLOAT_WALK_AVX2 static void fan_run(compiled_fan *p, const octree *tree)
+{
+    size_t top = 0;
+    p->done = 0;
+    if (tree->traversal.root != TRAVERSAL_EMPTY) {
+        fan_entry *root = &p->stack[top++];
+        for (int i = 0; i < RAY_FAN_MAX; i++)
+            root->tnear[i] = -INFINITY;
+        root->ref = tree->traversal.root;
+        root->rays = (1u << p->count) - 1;
+    }
+    while (top > 0) {
+        fan_entry e = p->stack[--top]; /* copied: the first child pushed takes its slot */
+        __m256 within = _mm256_cmp_ps(_mm256_loadu_ps(e.tnear), _mm256_loadu_ps(p->bound), _CMP_LE_OQ);
+        unsigned live = e.rays & ~p->done & (unsigned)_mm256_movemask_ps(within);
+        if (!live)
+            continue;
+        if ((live & (live - 1)) == 0) {
+            /* One ray left in this subtree: it walks the subtree on its own, which its own
+             * walk would have done next, with the single ray's cheaper steps. */
+            unsigned r = (unsigned)__builtin_ctz(live);
+            compiled_walk *c = &p->alone;
+            c->f = p->own[r];
+            c->lo = p->lo[r];
+            c->bound = p->bound[r];
+            c->pending_leaf = NO_PENDING_LEAF;
+            c->top = 1;
+            c->stack[0] = (float_entry){e.tnear[r], e.ref};
+            compiled_run(p->walk[r], c, tree);
+            p->bound[r] = float_at_or_above(p->walk[r]->bound);
+            if (p->walk[r]->done)
+                p->done |= 1u << r;
+            continue;
+        }
+        for (unsigned t = live; t; t &= t - 1)
+            p->walk[__builtin_ctz(t)]->local.nodes_visited++;
+        if (e.ref & TRAVERSAL_LEAF) {
+            octree_node leaf = tree->nodes[e.ref & ~TRAVERSAL_LEAF];
+            for (unsigned t = live; t; t &= t - 1)
+                p->walk[__builtin_ctz(t)]->local.leaves_visited++;
+            prefetch_leaf_triangles(tree, leaf);
+            fan_test_leaf(p, tree, leaf, live);
+            continue;
+        }
+        const traversal_node *n = &tree->traversal.nodes[e.ref];
+        unsigned rays[8];
+        float tnear[8][RAY_FAN_MAX];
+        unsigned met = rank_of_lanes[p->f.near_upper][fan_children_met(n, p, live, rays, tnear)];
+        /* Pushed far to near, so the nearest is popped first. */
+        while (met) {
+            int j = 31 - __builtin_clz(met);
+            met &= ~(1u << j);
+            int lane = j ^ (int)p->f.near_upper;
+            fan_entry *c = &p->stack[top++];
+            memcpy(c->tnear, tnear[lane], sizeof c->tnear);
+            c->ref = n->child[lane];
+            c->rays = rays[lane];
+            prefetch_compiled_child(tree, c->ref);
+        }
+    }
+}
+
+/* Takes ray i into the fan being formed, when it can walk the compiled form with the
+ * fan's first ray's order and origin floats: 1 taken, 0 it begins the next fan. A ray that
+ * cannot walk the compiled form at all (or an invalid one) is answered on the spot: -1. */
+static int fan_take(compiled_fan *p, ray_walk *w, const octree *tree, const ray_input *ray, size_t i,
+                    ray_detail detail, accuracy_mode mode, ray_output *out, octree_status *status,
+                    query_stats *sum)
+{
+    octree_status st = check_query(ray, detail, mode);
+    if (st != OCTREE_OK) {
+        *status = st;
+        return -1;
+    }
+    walk_init(w, tree, ray, detail, mode, out); /* exact mode: nothing held yet */
+    float_ray f;
+    if (w->done || w->r.touch || !float_ray_setup(&f, tree, &w->r)) {
+        walk_alone(w, tree);
+        *status = walk_finish(w, tree, out);
+        add_walk_counts(sum, w);
+        return -1;
+    }
+    if (p->count > 0 && (f.near_upper != p->f.near_upper || memcmp(f.o_near, p->f.o_near, sizeof f.o_near) ||
+                         memcmp(f.o_far, p->f.o_far, sizeof f.o_far)))
+        return 0;
+    unsigned k = p->count++;
+    if (k == 0)
+        p->f = f;
+    p->walk[k] = w;
+    p->ray_of[k] = i;
+    f.filtered = 1;
+    p->own[k] = f;
+    for (int a = 0; a < 3; a++)
+        p->inv[a][k] = f.inv[a];
+    p->lo[k] = float_at_or_below(w->r.tmin);
+    p->bound[k] = float_at_or_above(w->bound);
+    return 1;
+}
+
+/* octree_ray_batch for rays from one origin, exact crossings, closest or any hit, over a
+ * compiled form on a processor with AVX2. */
+octree_status octree_ray_fans(const octree *tree, const ray_input *rays, size_t count, ray_detail detail,
+                              accuracy_mode mode, ray_output *outs, octree_status *statuses, query_stats *stats)
+{
+    compiled_fan *p = malloc(sizeof *p);
+    ray_walk *walks = malloc(RAY_FAN_MAX * sizeof *walks);
+    if (!p || !walks) {
+        free(p);
+        free(walks);
+        return rays_one_at_a_time(tree, rays, count, detail, mode, outs, statuses, stats);
+    }
+    octree_status batch = OCTREE_OK;
+    uint64_t fallbacks_before = predicates_fallback_count();
+    query_stats sum = {0};
+    size_t i = 0;
+    while (i < count) {
+        p->count = 0;
+        while (p->count < RAY_FAN_MAX && i < count) {
+            int taken = fan_take(p, &walks[p->count], tree, &rays[i], i, detail, mode, &outs[i], &statuses[i],
+                                 &sum);
+            if (taken == 0)
+                break;
+            if (taken < 0 && statuses[i] == OCTREE_ERR_NOMEM)
+                batch = OCTREE_ERR_NOMEM;
+            i++;
+        }
+        if (p->count == 0)
+            continue;
+        vec3 dirs[RAY_FAN_MAX];
+        for (unsigned k = 0; k < RAY_FAN_MAX; k++) {
+            unsigned from = k < p->count ? k : 0; /* unused lanes repeat the first ray */
+            dirs[k] = p->walk[from]->r.d;
+            for (int a = 0; a < 3; a++)
+                p->inv[a][k] = p->inv[a][from];
+            p->lo[k] = p->lo[from];
+            p->bound[k] = p->bound[from];
+        }
+        ray_fan_init(&p->fan, p->walk[0]->r.o, dirs, p->count);
+        fan_run(p, tree);
+        for (unsigned k = 0; k < p->count; k++) {
+            size_t r = p->ray_of[k];
+            statuses[r] = walk_finish(p->walk[k], tree, &outs[r]);
+            if (statuses[r] == OCTREE_ERR_NOMEM)
+                batch = OCTREE_ERR_NOMEM;
+            add_walk_counts(&sum, p->walk[k]);
+        }
+    }
+    free(p);
+    free(walks);
+    query_stats_finish(stats, &sum, fallbacks_before, predicates_fallback_count());
+    return batch;
+}
+#endif
 
 octree_status octree_ray_packets(const octree *tree, const ray_input *rays, size_t count, ray_detail detail,
                                  accuracy_mode mode, ray_output *outs, octree_status *statuses,
