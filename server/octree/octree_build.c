@@ -10,6 +10,7 @@
 #include "../geom/box_geometry.h"
 #include "../geom/expansion.h"
 #include "../geom/tri_box.h"
+#include "hot_memory.h"
 #include "octree_internal.h"
 #include "octree_modes.h"
 
@@ -791,7 +792,7 @@ octree *octree_build(const mesh_view *mesh, const octree_def *def_in, octree_err
         octree_free(tree);
         return fail(err, st, SIZE_MAX, "building the octree: %s", octree_status_text(st));
     }
-    octree_node *aligned = aligned_alloc(64, node_bytes);
+    octree_node *aligned = hot_alloc(node_bytes);
     if (!aligned) {
         octree_free(tree);
         return fail(err, OCTREE_ERR_NOMEM, SIZE_MAX, "out of memory");
@@ -812,6 +813,10 @@ octree *octree_build(const mesh_view *mesh, const octree_def *def_in, octree_err
         return fail(err, OCTREE_ERR_NOMEM, SIZE_MAX, "out of memory");
     }
     size_t padding = tree->node_count > 1 ? OCTREE_BLOCK_PADDING : 0;
+    /* What queries read at random, onto huge pages where there are any (hot_memory.h). */
+    hot_move((void **)&tree->vertices, tree->used_vertex_count * sizeof *tree->vertices);
+    hot_move((void **)&tree->corners, tree->triangle_count * sizeof *tree->corners);
+    hot_move((void **)&tree->leaf_items, (tree->info.leaf_refs + tree->sliver_list_count) * sizeof *tree->leaf_items);
 
     octree_info *info = &tree->info;
     info->triangle_count = tree->triangle_count;

@@ -6,6 +6,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "hot_memory.h"
 #include "octree_internal.h"
 
 typedef struct compile_ctx {
@@ -162,7 +163,7 @@ int traversal_form_build(const octree *tree, traversal_form *form)
      * to what the nodes need. */
     size_t bytes = (ctx.count * sizeof(traversal_node) + 63) & ~(size_t)63;
     if (ctx.count > 0) {
-        form->nodes = aligned_alloc(64, bytes);
+        form->nodes = hot_alloc(bytes);
         if (!form->nodes) {
             free(ctx.nodes);
             *form = (traversal_form){.root = TRAVERSAL_EMPTY};
