@@ -263,6 +263,8 @@ static void test_compiled_walk_equals_plain_walk_and_brute_force(void **state)
     tally t = {0};
     compare_scene("soup", &soup, 0, 300, seed + 1, &t);
     compare_scene("soup, fine", &soup, 0.02, 150, seed + 2, &t);
+    /* Leaves of a hundred triangles: their references name their nodes, not their lists. */
+    compare_scene("soup, coarse", &soup, 1.0, 150, seed + 9, &t);
     compare_scene("blocks on node faces", &blocks, 0.125, 300, seed + 3, &t);
     compare_scene("icosphere", &sphere, 0, 300, seed + 4, &t);
     compare_scene("terrain", &terrain, 0, 300, seed + 5, &t);
@@ -286,6 +288,7 @@ static void test_compiled_walk_equals_plain_walk_and_brute_force(void **state)
 typedef struct bounds_check {
     const octree *tree;
     size_t leaves_checked;
+    size_t spans, node_leaves; /* leaf references naming their list, and their node */
 } bounds_check;
 
 static void check_leaf(bounds_check *c, const traversal_node *parent, int lane, uint32_t index, box3 cube)
@@ -333,7 +336,16 @@ static void check_node(bounds_check *c, uint32_t ref, uint32_t octree_index, box
             continue;
         }
         if (child & TRAVERSAL_LEAF) {
-            assert_int_equal(child & ~TRAVERSAL_LEAF, child_index);
+            /* A short leaf's reference names its list, a long one its node. */
+            octree_node named = octree_leaf_of_ref(t, child);
+            assert_int_equal(named.first, kid.first);
+            assert_int_equal(named.count, kid.count);
+            if (kid.count <= TRAVERSAL_SPAN_COUNT_MAX && kid.first < TRAVERSAL_SPAN_FIRST_LIMIT)
+                assert_true(child & TRAVERSAL_SPAN);
+            else
+                assert_int_equal(child & ~TRAVERSAL_LEAF, child_index);
+            c->spans += (child & TRAVERSAL_SPAN) != 0;
+            c->node_leaves += (child & TRAVERSAL_SPAN) == 0;
             check_leaf(c, n, (int)upper, child_index, child_cube);
         } else {
             assert_true(child > ref && child < t->traversal.node_count);
@@ -347,14 +359,20 @@ static void test_child_bounds_enclose_their_triangles(void **state)
     (void)state;
     mesh_data sphere = meshgen_icosphere((vec3){0.5, 0.25, 0}, 1.0, 4);
     mesh_data far = meshgen_transformed(&sphere, 1e-3, (vec3){1e6, 2e6, -1e6});
-    const mesh_data *meshes[] = {&sphere, &far};
-    for (size_t i = 0; i < 2; i++) {
-        octree *t = build(meshes[i], 0, 0);
-        bounds_check c = {t, 0};
+    const mesh_data *meshes[] = {&sphere, &far, &sphere};
+    /* The third: leaves a quarter of the sphere across, most of them holding more
+     * triangles than a reference can name (their references name their nodes). */
+    const double resolutions[] = {0, 0, 0.5};
+    for (size_t i = 0; i < 3; i++) {
+        octree *t = build(meshes[i], resolutions[i], 0);
+        bounds_check c = {t, 0, 0, 0};
         assert_true(t->traversal.present);
         assert_false(t->traversal.root & TRAVERSAL_LEAF);
         check_node(&c, t->traversal.root, 0, t->world);
-        assert_true(c.leaves_checked > 100);
+        assert_true(c.leaves_checked > (i < 2 ? 100 : 10));
+        assert_true(c.spans > 0);
+        if (i == 2)
+            assert_true(c.node_leaves > 0);
         octree_free(t);
     }
     mesh_data_free(&sphere);

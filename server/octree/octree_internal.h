@@ -116,6 +116,15 @@ static inline void octree_triangle_vertices(const struct octree *tree, uint32_t 
     out[2] = tree->vertices[c[2]];
 }
 
+/* The leaf a compiled form's leaf reference names (octree_traversal.h): its list's first
+ * index and length, from the reference itself or from its node. */
+static inline octree_node octree_leaf_of_ref(const struct octree *tree, uint32_t ref)
+{
+    if (ref & TRAVERSAL_SPAN)
+        return (octree_node){ref & TRAVERSAL_SPAN_FIRST_LIMIT, ((ref >> 25) & 31u) + 1};
+    return tree->nodes[ref & ~TRAVERSAL_LEAF];
+}
+
 /* The next float above (below) a finite f, as nextafterf gives it, from its bits: a libm
  * call cost a ray's setup more than its arithmetic. */
 static inline float float_next_up(float f)

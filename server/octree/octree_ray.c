@@ -1068,6 +1068,12 @@ static void walk_test_leaf_filtered(ray_walk *w, const octree *tree, octree_node
  * arrives meanwhile. */
 PREFETCH_HELPER void prefetch_compiled_child(const octree *tree, uint32_t ref)
 {
+    if (ref & TRAVERSAL_SPAN) { /* the leaf's list: at most 32 ids, three lines */
+        const uint32_t *list = &tree->leaf_items[ref & TRAVERSAL_SPAN_FIRST_LIMIT];
+        __builtin_prefetch(list);
+        __builtin_prefetch(list + ((ref >> 25) & 31u));
+        return;
+    }
     if (ref & TRAVERSAL_LEAF) {
         __builtin_prefetch(&tree->nodes[ref & ~TRAVERSAL_LEAF]);
         return;
@@ -1081,7 +1087,7 @@ PREFETCH_HELPER void prefetch_compiled_child(const octree *tree, uint32_t ref)
 typedef struct compiled_walk {
     float_ray f;
     float lo, bound; /* [tmin, bound] rounded outward */
-    uint32_t pending_leaf; /* a leaf popped and counted, tested by a later step (pipelined) */
+    uint32_t pending_leaf; /* the reference of a leaf popped and counted, tested by a later step (pipelined) */
     int pending_stage;     /* what the next step does for it (compiled_step) */
     size_t top;
     float_entry stack[FLOAT_STACK_MAX];
@@ -1136,7 +1142,7 @@ PREFETCH_HELPER void compiled_prefetch_next(compiled_walk *c, const octree *tree
         ray_walk *w, compiled_walk *c, const octree *tree, int pipelined)                                    \
     {                                                                                                         \
         if (pipelined && c->pending_leaf != NO_PENDING_LEAF) {                                                \
-            octree_node leaf_ = tree->nodes[c->pending_leaf];                                                 \
+            octree_node leaf_ = octree_leaf_of_ref(tree, c->pending_leaf);                                    \
             /* A leaf in three steps: its triangles' corners asked for (its list came with the */         \
             /* pop), then their vertices, then the tests, each arriving while other walks step. */        \
             if (c->pending_stage == 0) {                                                                      \
@@ -1164,12 +1170,11 @@ PREFETCH_HELPER void compiled_prefetch_next(compiled_walk *c, const octree *tree
         } while (e.tnear > c->bound); /* a nearer hit was found after this node was pushed */                \
         w->local.nodes_visited++;                                                                             \
         if (e.ref & TRAVERSAL_LEAF) {                                                                         \
-            uint32_t index = e.ref & ~TRAVERSAL_LEAF;                                                         \
-            octree_node leaf = tree->nodes[index];                                                            \
+            octree_node leaf = octree_leaf_of_ref(tree, e.ref);                                               \
             w->local.leaves_visited++;                                                                        \
             if (pipelined) {                                                                                  \
                 prefetch_span(&tree->leaf_items[leaf.first], leaf.count * sizeof(uint32_t));                  \
-                c->pending_leaf = index;                                                                      \
+                c->pending_leaf = e.ref;                                                                      \
                 c->pending_stage = 0;                                                                         \
                 return 1;                                                                                     \
             }                                                                                                 \
@@ -1320,7 +1325,7 @@ FLOAT_WALK_AVX2 static void compiled_run_filtered_avx2(ray_walk *w, compiled_wal
             continue;
         visited++;
         if (e.ref & TRAVERSAL_LEAF) {
-            octree_node leaf = tree->nodes[e.ref & ~TRAVERSAL_LEAF];
+            octree_node leaf = octree_leaf_of_ref(tree, e.ref);
             leaves++;
             /* Asked for together, so their misses overlap instead of coming one test at a time. */
             prefetch_leaf_triangles(tree, leaf);
@@ -1720,7 +1725,7 @@ FLOAT_WALK_AVX2 static void fan_run(compiled_fan *p, const octree *tree)
         for (unsigned t = live; t; t &= t - 1)
             p->walk[__builtin_ctz(t)]->local.nodes_visited++;
         if (e.ref & TRAVERSAL_LEAF) {
-            octree_node leaf = tree->nodes[e.ref & ~TRAVERSAL_LEAF];
+            octree_node leaf = octree_leaf_of_ref(tree, e.ref);
             for (unsigned t = live; t; t &= t - 1)
                 p->walk[__builtin_ctz(t)]->local.leaves_visited++;
             prefetch_leaf_triangles(tree, leaf);

@@ -92,7 +92,8 @@ static int quantize_up(double x, double origin, double scale)
 }
 
 /* Compiles the subtree of octree node `index` with cube `cube`: *ref names what the walk
- * visits for it and *bounds what it holds. -1 when memory ran out. */
+ * visits for it and *bounds what it holds. -1 when memory ran out, 1 when a leaf's
+ * reference does not fit. */
 static int compile_node(compile_ctx *ctx, uint32_t index, box3 cube, uint32_t *ref, float_bounds *bounds)
 {
     const octree *tree = ctx->tree;
@@ -103,7 +104,12 @@ static int compile_node(compile_ctx *ctx, uint32_t index, box3 cube, uint32_t *r
             *bounds = no_bounds;
             return 0;
         }
-        *ref = TRAVERSAL_LEAF | index;
+        if (node.count <= TRAVERSAL_SPAN_COUNT_MAX && node.first < TRAVERSAL_SPAN_FIRST_LIMIT)
+            *ref = TRAVERSAL_LEAF | TRAVERSAL_SPAN | (node.count - 1) << 25 | node.first;
+        else if (index < TRAVERSAL_SPAN)
+            *ref = TRAVERSAL_LEAF | index;
+        else
+            return 1;
         *bounds = leaf_bounds(tree, node, cube);
         return 0;
     }
@@ -116,8 +122,9 @@ static int compile_node(compile_ctx *ctx, uint32_t index, box3 cube, uint32_t *r
     *bounds = no_bounds;
     for (int k = 0; k < 8; k++) {
         unsigned upper = box_octant_upper_bits[k];
-        if (compile_node(ctx, node.first + (uint32_t)k, box_child(cube, c, upper), &child[upper], &kid[upper]) != 0)
-            return -1;
+        int st = compile_node(ctx, node.first + (uint32_t)k, box_child(cube, c, upper), &child[upper], &kid[upper]);
+        if (st != 0)
+            return st;
         if (!bounds_empty(&kid[upper]))
             bounds_add(bounds, &kid[upper]);
     }
@@ -154,10 +161,11 @@ int traversal_form_build(const octree *tree, traversal_form *form)
         return 1;
     compile_ctx ctx = {.tree = tree};
     float_bounds all;
-    if (compile_node(&ctx, 0, tree->world, &form->root, &all) != 0) {
+    int st = compile_node(&ctx, 0, tree->world, &form->root, &all);
+    if (st != 0) {
         free(ctx.nodes);
         *form = (traversal_form){.root = TRAVERSAL_EMPTY};
-        return -1;
+        return st;
     }
     /* The final array on 64 bytes (each record then spans exactly two cache lines), sized
      * to what the nodes need. */

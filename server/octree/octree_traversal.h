@@ -27,6 +27,15 @@ struct octree;
  * child that holds anything. */
 #define TRAVERSAL_LEAF 0x80000000u
 #define TRAVERSAL_EMPTY 0xFFFFFFFFu
+/* A leaf reference names the leaf's list itself where it can, so that a walk reaching the
+ * leaf reads its candidates without reading its node first (one dependent memory access
+ * fewer a leaf, and the list can be asked for as soon as the leaf is pushed): with
+ * TRAVERSAL_SPAN set, bits 0-24 are the list's first index in leaf_items and bits 25-29
+ * its length less one. A longer leaf, or one further in, takes its octree node index in
+ * bits 0-29 (octree_leaf_of_ref reads either). */
+#define TRAVERSAL_SPAN 0x40000000u
+#define TRAVERSAL_SPAN_FIRST_LIMIT ((1u << 25) - 1) /* first index below this: never TRAVERSAL_EMPTY */
+#define TRAVERSAL_SPAN_COUNT_MAX 32u
 
 /* Rows of traversal_node.q: the lower bounds along x, y, z, then the upper bounds. */
 enum { TRAVERSAL_LO_X, TRAVERSAL_LO_Y, TRAVERSAL_LO_Z, TRAVERSAL_HI_X, TRAVERSAL_HI_Y, TRAVERSAL_HI_Z };
@@ -54,7 +63,8 @@ typedef struct traversal_form {
 } traversal_form;
 
 /* Compiles tree's nodes into form. Returns 0; 1 when the world is outside the range the
- * float walk covers (a side beyond 2^-60 .. 2^60), and -1 when memory ran out: form is
+ * float walk covers (a side beyond 2^-60 .. 2^60) or a leaf's node index does not fit a
+ * reference (2^30 nodes), and -1 when memory ran out: form is
  * then not present and every ray takes the double-precision walk. */
 int traversal_form_build(const struct octree *tree, traversal_form *form);
 void traversal_form_free(traversal_form *form);
