@@ -1701,8 +1701,8 @@ static void test_fan_filter_decides_as_each_ray_alone(void **state)
         assert_int_equal(ray_fan_misses(&fan, tri, avx2), plain);
         assert_int_equal(plain >> count, 0);
         for (unsigned i = 0; i < count; i++) {
-            vec3 one[1][3] = {{tri[0], tri[1], tri[2]}};
-            unsigned alone = ray_tri_exact_misses4(o, d[i], (const vec3(*)[3])one, 1, 0);
+            static const uint32_t corners[1][3] = {{0, 1, 2}}, first = 0;
+            unsigned alone = ray_tri_exact_misses4(o, d[i], tri, corners, &first, 1, 0);
             assert_int_equal((plain >> i) & 1, alone);
             ray_tri_hit h;
             int hit = ray_tri_exact(o, d[i], 0.0, INFINITY, tri, &h);

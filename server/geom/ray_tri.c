@@ -537,12 +537,15 @@ RAY_TRI_AVX2 static inline __attribute__((always_inline)) void edge_function4(co
         edge_function4(a_, e_, dv, da, &pos, &neg);                                                          \
     } while (0)
 
-RAY_TRI_AVX2 static unsigned misses4_avx2(vec3 o, vec3 d, const vec3 (*tris)[3], unsigned count)
+RAY_TRI_AVX2 static unsigned misses4_avx2(vec3 o, vec3 d, const vec3 *vertices, const uint32_t (*corners)[3],
+                                          const uint32_t *ids, unsigned count)
 {
-    /* Unused lanes repeat the first triangle; their bits are dropped below. */
-    const vec3 *t0 = tris[0], *t1 = count > 1 ? tris[1] : t0, *t2 = count > 2 ? tris[2] : t0,
-               *t3 = count > 3 ? tris[3] : t0;
-#define COORD4(k, c) _mm256_set_pd(t3[k].c, t2[k].c, t1[k].c, t0[k].c)
+    /* Unused lanes repeat the first triangle; their bits are dropped below. The vertices
+     * are read where they are, not copied out first. */
+    const uint32_t *c0 = corners[ids[0]], *c1 = count > 1 ? corners[ids[1]] : c0,
+                   *c2 = count > 2 ? corners[ids[2]] : c0, *c3 = count > 3 ? corners[ids[3]] : c0;
+#define COORD4(k, c)                                                                                         \
+    _mm256_set_pd(vertices[c3[k]].c, vertices[c2[k]].c, vertices[c1[k]].c, vertices[c0[k]].c)
     __m256d v0x = COORD4(0, x), v0y = COORD4(0, y), v0z = COORD4(0, z);
     __m256d v1x = COORD4(1, x), v1y = COORD4(1, y), v1z = COORD4(1, z);
     __m256d v2x = COORD4(2, x), v2y = COORD4(2, y), v2z = COORD4(2, z);
@@ -563,17 +566,21 @@ RAY_TRI_AVX2 static unsigned misses4_avx2(vec3 o, vec3 d, const vec3 (*tris)[3],
 #undef EDGE4
 #endif
 
-unsigned ray_tri_exact_misses4(vec3 o, vec3 d, const vec3 (*tris)[3], unsigned count, int avx2)
+unsigned ray_tri_exact_misses4(vec3 o, vec3 d, const vec3 *vertices, const uint32_t (*corners)[3],
+                               const uint32_t *ids, unsigned count, int avx2)
 {
 #if defined(__x86_64__)
     if (avx2 && count > 1)
-        return misses4_avx2(o, d, tris, count);
+        return misses4_avx2(o, d, vertices, corners, ids, count);
 #else
     (void)avx2;
 #endif
     unsigned miss = 0;
-    for (unsigned i = 0; i < count; i++)
-        miss |= scalar_edge_miss(o, d, tris[i]) << i;
+    for (unsigned i = 0; i < count; i++) {
+        const uint32_t *c = corners[ids[i]];
+        vec3 tri[3] = {vertices[c[0]], vertices[c[1]], vertices[c[2]]};
+        miss |= scalar_edge_miss(o, d, tri) << i;
+    }
     return miss;
 }
 

@@ -51,12 +51,15 @@ typedef struct ray_tri_hit {
  *    2^-120 and 2^160. */
 int ray_tri_exact(vec3 o, vec3 d, double tmin, double tmax, const vec3 tri[3], ray_tri_hit *hit);
 
-/* The candidates among tris[0 .. count) (count <= 4) that ray_tri_exact surely misses by
- * its own edge filter, as a bit mask (bit i for tris[i]). The filter is computed with the
- * same operations in the same order, four triangles side by side in AVX2 when `avx2` is
- * set (the caller checked the processor), so a rejected candidate is exactly one for which
- * ray_tri_exact returns 0 without going further; the others still need ray_tri_exact. */
-unsigned ray_tri_exact_misses4(vec3 o, vec3 d, const vec3 (*tris)[3], unsigned count, int avx2);
+/* The candidates among triangles ids[0 .. count) (count <= 4) of an indexed mesh
+ * (triangle t's vertices are vertices[corners[t][0..2]]) that ray_tri_exact surely misses
+ * by its own edge filter, as a bit mask (bit i for ids[i]). The filter is computed with
+ * the same operations in the same order, four triangles side by side in AVX2 when `avx2`
+ * is set (the caller checked the processor), so a rejected candidate is exactly one for
+ * which ray_tri_exact returns 0 without going further; the others still need
+ * ray_tri_exact. */
+unsigned ray_tri_exact_misses4(vec3 o, vec3 d, const vec3 *vertices, const uint32_t (*corners)[3],
+                               const uint32_t *ids, unsigned count, int avx2);
 
 /* Rays from one origin (a camera's or a lidar's), up to RAY_FAN_MAX of them, laid out for
  * testing one triangle against all of them at once: ray_fan_misses is

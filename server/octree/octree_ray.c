@@ -1052,10 +1052,8 @@ static void walk_test_leaf_filtered(ray_walk *w, const octree *tree, octree_node
     const uint32_t *ids = &tree->leaf_items[leaf.first];
     for (uint32_t i = 0; i < leaf.count; i += 4) {
         unsigned k = leaf.count - i < 4 ? leaf.count - i : 4;
-        vec3 tris[4][3];
-        for (unsigned j = 0; j < k; j++)
-            octree_triangle_vertices(tree, ids[i + j], tris[j]);
-        unsigned miss = ray_tri_exact_misses4(w->r.o, w->r.d, (const vec3(*)[3])tris, k, tree->traversal.avx2);
+        unsigned miss = ray_tri_exact_misses4(w->r.o, w->r.d, tree->vertices, (const uint32_t(*)[3])tree->corners,
+                                              &ids[i], k, tree->traversal.avx2);
         w->local.candidates_tested += (uint64_t)__builtin_popcount(miss);
         for (unsigned j = 0; j < k; j++)
             if (!((miss >> j) & 1) && !walk_test_unique(w, tree, ids[i + j]))
@@ -1319,10 +1317,12 @@ FLOAT_WALK_AVX2 static void compiled_run_filtered_avx2(ray_walk *w, compiled_wal
     const __m256 lo = _mm256_set1_ps(c->lo);
     float bound = c->bound;
     uint64_t visited = 0, leaves = 0;
+    float_entry e;
     while (top > 0) {
-        float_entry e = stack[--top];
+        e = stack[--top];
         if (e.tnear > bound) /* a nearer hit was found after this entry was pushed */
             continue;
+    next:
         visited++;
         if (e.ref & TRAVERSAL_LEAF) {
             octree_node leaf = octree_leaf_of_ref(tree, e.ref);
@@ -1352,7 +1352,12 @@ FLOAT_WALK_AVX2 static void compiled_run_filtered_avx2(ray_walk *w, compiled_wal
         float tnear[8];
         _mm256_storeu_ps(tnear, tn_w);
         unsigned met = rank[_mm256_movemask_ps(ok)];
-        /* Pushed far to near, so the nearest is popped first. */
+        if (!met)
+            continue;
+        /* The others pushed far to near, so the nearest of them is popped first; the
+         * nearest child is taken at once, as the pop would take it next. */
+        unsigned nearest = (unsigned)__builtin_ctz(met);
+        met &= met - 1;
         while (met) {
             int j = 31 - __builtin_clz(met);
             met &= ~(1u << j);
@@ -1361,6 +1366,11 @@ FLOAT_WALK_AVX2 static void compiled_run_filtered_avx2(ray_walk *w, compiled_wal
             stack[top++] = (float_entry){tnear[lane], child};
             prefetch_compiled_child(tree, child);
         }
+        e = (float_entry){tnear[nearest ^ flip], n->child[nearest ^ flip]};
+        /* The pop's own test: the widened entry parameter may pass the bound. */
+        if (e.tnear > bound)
+            continue;
+        goto next;
     }
     w->local.nodes_visited += visited;
     w->local.leaves_visited += leaves;
