@@ -114,9 +114,19 @@ static void prepare_axes(tri_box_triangle *t)
     vec3 tri[3];
     for (int n = 0; n < 3; n++)
         tri[n] = vec3_make(t->v[n][0], t->v[n][1], t->v[n][2]);
-    for (int k = 0; k < 3; k++)
-        t->normal_sign[k] = orient2d_axis(tri[1], tri[2], tri[0], k);
     t->plane = orient3d_plane_make(tri[0], tri[1], tri[2]);
+    /* Component k of the normal is orient2d_axis(tri[1], tri[2], tri[0], k), whose filter
+     * computes the same two products the plane's minor k is the difference of, with the
+     * same roundings; the plane's permanent (their magnitudes plus a pad) only enlarges
+     * the filter's bound. So the minor decides the sign where it is clear, and only the
+     * rest take the full predicate. */
+    const double minor[3] = {t->plane.minor.x, t->plane.minor.y, t->plane.minor.z};
+    const double permanent[3] = {t->plane.permanent.x, t->plane.permanent.y, t->plane.permanent.z};
+    for (int k = 0; k < 3; k++) {
+        double bound = PREDICATES_ERRBOUND_DIFF_PRODUCTS * permanent[k] + PREDICATES_UNDERFLOW_ABSOLUTE;
+        t->normal_sign[k] = minor[k] != 0.0 && fabs(minor[k]) > bound ? (minor[k] > 0.0) - (minor[k] < 0.0)
+                                                                       : orient2d_axis(tri[1], tri[2], tri[0], k);
+    }
     for (int e = 0; e < 3; e++) {
         const double *p = t->v[e], *q = t->v[e == 2 ? 0 : e + 1];
         for (int k = 0; k < 3; k++)
@@ -231,9 +241,12 @@ static inline __attribute__((always_inline)) int filtered_axes(const tri_box_tri
             return FILTERED_APART;
         undecided = below == PREDICATES_UNDECIDED || above == PREDICATES_UNDECIDED;
     }
-    /* Lane k reads coordinates i, j = k + 1, k + 2 (mod 3) of the box. */
-    const lanes4 lo_i = {box->lo.y, box->lo.z, box->lo.x, 0}, hi_i = {box->hi.y, box->hi.z, box->hi.x, 0};
-    const lanes4 lo_j = {box->lo.z, box->lo.x, box->lo.y, 0}, hi_j = {box->hi.z, box->hi.x, box->hi.y, 0};
+    /* Lane k reads coordinates i, j = k + 1, k + 2 (mod 3) of the box; lane 3, which is
+     * never active, repeats lane 0. */
+    const lanes4 lo_i = {box->lo.y, box->lo.z, box->lo.x, box->lo.y};
+    const lanes4 hi_i = {box->hi.y, box->hi.z, box->hi.x, box->hi.y};
+    const lanes4 lo_j = {box->lo.z, box->lo.x, box->lo.y, box->lo.z};
+    const lanes4 hi_j = {box->hi.z, box->hi.x, box->hi.y, box->hi.z};
     const lanes4 zero = {0, 0, 0, 0};
     const lanes4 err = {PREDICATES_ERRBOUND_DIFF_PRODUCTS, PREDICATES_ERRBOUND_DIFF_PRODUCTS,
                         PREDICATES_ERRBOUND_DIFF_PRODUCTS, PREDICATES_ERRBOUND_DIFF_PRODUCTS};
