@@ -928,6 +928,70 @@ static void test_prepared_triangle_against_a_node_and_its_children(void **state)
     assert_true(overlaps > answers / 5 && overlaps < answers * 4 / 5);
 }
 
+/* The children test (four lanes of float filters, then the prepared test for what they
+ * leave open) must answer as the reference for every child it is asked about, on both its
+ * code paths: on near-degenerate cases (vertices and edges on the split planes and faces,
+ * zero-area triangles, ulp nudges, offsets up to 1e9), uniform ones, ones scaled near
+ * either end of the double range (where the filters' products overflow or underflow and
+ * must decide nothing), and slivers. The masks asked vary, and a far box is asked too.
+ * Both outcomes must occur often, and the exact stages must be reached often (counted
+ * through the exact fallbacks), so that the cases are the ones the filters cannot settle. */
+static void test_children_touched_equals_reference(void **state)
+{
+    rng r = test_rng(state, 8);
+    int answers = 0, touched = 0, wrong = 0;
+    uint64_t fallbacks_before = predicates_fallback_count();
+    for (int n = 0; n < 30000; n++) {
+        vec3 tri[3];
+        box3 box;
+        if (n % 3 == 0)
+            uniform_case(&r, tri, &box);
+        else
+            near_degenerate_case(&r, tri, &box);
+        if (n % 10 == 9 || n % 10 == 8) { /* exact power-of-two scalings */
+            double s = n % 10 == 9 ? 0x1p950 : 0x1p-950;
+            for (int t = 0; t < 3; t++)
+                tri[t] = vec3_scale(tri[t], s);
+            box = (box3){vec3_scale(box.lo, s), vec3_scale(box.hi, s)};
+        }
+        if (n % 17 == 5) { /* a sliver: the third vertex one ulp off the first edge's midpoint */
+            vec3 mid = vec3_scale(vec3_add(tri[0], tri[1]), 0.5);
+            tri[2] = vec3_with(mid, 2, nextafter(mid.z, INFINITY));
+        }
+        vec3 c = box_split_point(box);
+        box3 child[8];
+        for (int k = 0; k < 8; k++)
+            child[k] = box_child(box, c, box_octant_upper_bits[k]);
+        if (n % 5 == 4) { /* one child moved far away: the box axes decide it */
+            vec3 far = v3(4 * fabs(box.hi.x) + 1e3, 0, 0);
+            child[3] = (box3){vec3_add(child[3].lo, far), vec3_add(child[3].hi, far)};
+        }
+        unsigned open = n % 4 == 0 ? 0xffu : (unsigned)(rng_next(&r) & 0xff);
+        unsigned expected = 0;
+        for (int k = 0; k < 8; k++)
+            if ((open >> k) & 1 && reference_tri_box(tri, child[k]))
+                expected |= 1u << k;
+        for (int path = 0; path < 2; path++) {
+            tri_box_triangle prepared;
+            tri_box_prepare(&prepared, tri);
+            unsigned got = path == 0 ? tri_box_children_touched(&prepared, child, open)
+                                     : tri_box_children_touched_portable(&prepared, child, open);
+            answers += __builtin_popcount(open);
+            touched += __builtin_popcount(expected);
+            if (got != expected && wrong++ < 5) {
+                printf("path %d, open %02x: got %02x, reference %02x: ", path, open, got, expected);
+                print_case("children", tri, box);
+            }
+        }
+    }
+    uint64_t fallbacks = predicates_fallback_count() - fallbacks_before;
+    printf("children touched: %d answers, %d touched, %d wrong, %llu exact fallbacks\n", answers, touched, wrong,
+           (unsigned long long)fallbacks);
+    assert_int_equal(wrong, 0);
+    assert_true(touched > answers / 5 && touched < answers * 4 / 5);
+    assert_true(fallbacks > 1000);
+}
+
 /* Each child tri_box_children_at_crossings names must be touched, on near-degenerate
  * cases (edges crossing split planes at lattice points, ulp nudges), uniform ones, and
  * ones scaled near the top of the double range, where the crossing arithmetic overflows
@@ -1130,6 +1194,7 @@ int main(void)
         cmocka_unit_test(test_exact_equals_reference_on_uniform_cases),
         cmocka_unit_test(test_prepared_triangle_against_a_node_and_its_children),
         cmocka_unit_test(test_children_at_crossings_are_touched),
+        cmocka_unit_test(test_children_touched_equals_reference),
         cmocka_unit_test(test_seed_and_fast_agree_with_reference_on_clear_cases),
         cmocka_unit_test(test_seed_mode_zero_area_triangles),
         cmocka_unit_test(test_seed_mode_follows_its_epsilon),

@@ -2,6 +2,8 @@
  * build and descend the octree, the seed document's epsilon test, and the plain double test. */
 #include "tri_box.h"
 
+#include <string.h>
+
 #include "box_geometry.h"
 #include "predicates.h"
 
@@ -104,6 +106,7 @@ void tri_box_prepare(tri_box_triangle *t, const vec3 tri[3])
         t->hi[k] = a > b ? (a > c ? a : c) : (b > c ? b : c);
     }
     t->ready = 0;
+    t->lanes_ready = 0;
 }
 
 static void prepare_axes(tri_box_triangle *t)
@@ -111,9 +114,19 @@ static void prepare_axes(tri_box_triangle *t)
     vec3 tri[3];
     for (int n = 0; n < 3; n++)
         tri[n] = vec3_make(t->v[n][0], t->v[n][1], t->v[n][2]);
-    for (int k = 0; k < 3; k++)
-        t->normal_sign[k] = orient2d_axis(tri[1], tri[2], tri[0], k);
     t->plane = orient3d_plane_make(tri[0], tri[1], tri[2]);
+    /* Component k of the normal is orient2d_axis(tri[1], tri[2], tri[0], k), whose filter
+     * computes the same two products the plane's minor k is the difference of, with the
+     * same roundings; the plane's permanent (their magnitudes plus a pad) only enlarges
+     * the filter's bound. So the minor decides the sign where it is clear, and only the
+     * rest take the full predicate. */
+    const double minor[3] = {t->plane.minor.x, t->plane.minor.y, t->plane.minor.z};
+    const double permanent[3] = {t->plane.permanent.x, t->plane.permanent.y, t->plane.permanent.z};
+    for (int k = 0; k < 3; k++) {
+        double bound = PREDICATES_ERRBOUND_DIFF_PRODUCTS * permanent[k] + PREDICATES_UNDERFLOW_ABSOLUTE;
+        t->normal_sign[k] = minor[k] != 0.0 && fabs(minor[k]) > bound ? (minor[k] > 0.0) - (minor[k] < 0.0)
+                                                                       : orient2d_axis(tri[1], tri[2], tri[0], k);
+    }
     for (int e = 0; e < 3; e++) {
         const double *p = t->v[e], *q = t->v[e == 2 ? 0 : e + 1];
         for (int k = 0; k < 3; k++)
@@ -149,6 +162,166 @@ int tri_box_overlap_prepared(tri_box_triangle *t, box3 box)
             if (edge_axis_separates(t, e, k, lo, hi))
                 return 0;
     return 1;
+}
+
+/* ---------- the filters of the exact test, for many children ---------- */
+
+/* Four lanes of doubles (GCC's vector extension): one AVX register, or two SSE ones. */
+typedef double lanes4 __attribute__((vector_size(32)));
+typedef long long mask4 __attribute__((vector_size(32)));
+
+#define LOAD4(p) (__extension__({ lanes4 v_; memcpy(&v_, (p), sizeof v_); v_; }))
+/* m ? a : b lane by lane, by bits: the chosen value itself, unrounded. */
+#define PICK4(m, a, b) ((lanes4)(((m) & (mask4)(a)) | (~(m) & (mask4)(b))))
+#define ABS4(x) ((lanes4)((mask4)(x) & (mask4){INT64_MAX, INT64_MAX, INT64_MAX, INT64_MAX}))
+
+/* What the float filters alone make of a box's axes. */
+enum { FILTERED_APART, FILTERED_TOUCHING, FILTERED_UNDECIDED };
+
+/* tri_box_triangle.lanes, from a triangle whose axes are prepared. */
+static inline __attribute__((always_inline)) void fill_lanes(tri_box_triangle *t)
+{
+    /* edge_axis_separates' operands, per edge and axis (see tri_box_triangle.lanes):
+     * lane
+     * k reads coordinates i = k + 1 and j = k + 2 (mod 3). Built as lanes, the same
+     * differences as edge_delta's. */
+    lanes4 vi[3], vj[3];
+    for (int n = 0; n < 3; n++) {
+        vi[n] = (lanes4){t->v[n][1], t->v[n][2], t->v[n][0], 0};
+        vj[n] = (lanes4){t->v[n][2], t->v[n][0], t->v[n][1], 0};
+    }
+    /* The test above the triangle measures from the third vertex r when the normal's
+     * component k is negative (w > 0 there), the one below when it is positive, else
+     * both from the edge's start p. */
+    const int *ns = t->normal_sign;
+    mask4 negative = {-(long long)(ns[0] < 0), -(long long)(ns[1] < 0), -(long long)(ns[2] < 0), 0};
+    mask4 positive = {-(long long)(ns[0] > 0), -(long long)(ns[1] > 0), -(long long)(ns[2] > 0), 0};
+    const lanes4 zero = {0, 0, 0, 0};
+    for (int e = 0; e < 3; e++) {
+        int p = e, q = e == 2 ? 0 : e + 1, r = e == 0 ? 2 : e - 1;
+        lanes4 di = vi[q] - vi[p], dj = vj[q] - vj[p];
+        lanes4 above_i = PICK4(negative, vi[r], vi[p]), above_j = PICK4(negative, vj[r], vj[p]);
+        lanes4 below_i = PICK4(positive, vi[r], vi[p]), below_j = PICK4(positive, vj[r], vj[p]);
+        mask4 active = (di != zero) | (dj != zero);
+        memcpy(t->lanes.di[e], &di, sizeof di);
+        memcpy(t->lanes.dj[e], &dj, sizeof dj);
+        memcpy(t->lanes.above_i[e], &above_i, sizeof above_i);
+        memcpy(t->lanes.above_j[e], &above_j, sizeof above_j);
+        memcpy(t->lanes.below_i[e], &below_i, sizeof below_i);
+        memcpy(t->lanes.below_j[e], &below_j, sizeof below_j);
+        memcpy(t->lanes.active[e], &active, sizeof active);
+    }
+    t->lanes_ready = 1;
+}
+
+/* tri_box_overlap_prepared's separating axes, the vertex test left out (the build asks
+ * only about children no vertex lies in), the others by their float filters alone: the same expressions with the same
+ * roundings as normal_axis_separates' orient3d_plane_filter and edge_axis_separates'
+ * prepared_sign, the corner choices made by bits, so a decided sign is the exact sign.
+ * Apart when some axis is decided separating, touching when every axis is decided not
+ * separating, else undecided. */
+static inline __attribute__((always_inline)) int filtered_axes(const tri_box_triangle *t, const box3 *box)
+{
+    /* The box axes, exactly (the build's children always pass them). */
+    if ((t->lo[0] > box->hi.x) | (t->hi[0] < box->lo.x) | (t->lo[1] > box->hi.y) | (t->hi[1] < box->lo.y) |
+        (t->lo[2] > box->hi.z) | (t->hi[2] < box->lo.z))
+        return FILTERED_APART;
+    const int *n = t->normal_sign;
+    int undecided = 0;
+    if (n[0] != 0 || n[1] != 0 || n[2] != 0) {
+        vec3 lowest = vec3_make(n[0] > 0 ? box->lo.x : box->hi.x, n[1] > 0 ? box->lo.y : box->hi.y,
+                                n[2] > 0 ? box->lo.z : box->hi.z);
+        int below = orient3d_plane_filter(&t->plane, lowest);
+        if (below == 1)
+            return FILTERED_APART;
+        vec3 highest = vec3_make(n[0] > 0 ? box->hi.x : box->lo.x, n[1] > 0 ? box->hi.y : box->lo.y,
+                                 n[2] > 0 ? box->hi.z : box->lo.z);
+        int above = orient3d_plane_filter(&t->plane, highest);
+        if (above == -1)
+            return FILTERED_APART;
+        undecided = below == PREDICATES_UNDECIDED || above == PREDICATES_UNDECIDED;
+    }
+    /* Lane k reads coordinates i, j = k + 1, k + 2 (mod 3) of the box; lane 3, which is
+     * never active, repeats lane 0. */
+    const lanes4 lo_i = {box->lo.y, box->lo.z, box->lo.x, box->lo.y};
+    const lanes4 hi_i = {box->hi.y, box->hi.z, box->hi.x, box->hi.y};
+    const lanes4 lo_j = {box->lo.z, box->lo.x, box->lo.y, box->lo.z};
+    const lanes4 hi_j = {box->hi.z, box->hi.x, box->hi.y, box->hi.z};
+    const lanes4 zero = {0, 0, 0, 0};
+    const lanes4 err = {PREDICATES_ERRBOUND_DIFF_PRODUCTS, PREDICATES_ERRBOUND_DIFF_PRODUCTS,
+                        PREDICATES_ERRBOUND_DIFF_PRODUCTS, PREDICATES_ERRBOUND_DIFF_PRODUCTS};
+    const lanes4 tiny = {PREDICATES_UNDERFLOW_ABSOLUTE, PREDICATES_UNDERFLOW_ABSOLUTE, PREDICATES_UNDERFLOW_ABSOLUTE,
+                         PREDICATES_UNDERFLOW_ABSOLUTE};
+    mask4 apart = {0, 0, 0, 0}, open = {0, 0, 0, 0};
+    for (int e = 0; e < 3; e++) {
+        lanes4 dj = LOAD4(t->lanes.dj[e]), di = LOAD4(t->lanes.di[e]);
+        mask4 active;
+        memcpy(&active, t->lanes.active[e], sizeof active);
+        mask4 dj_up = dj > zero, di_up = di > zero;
+        /* edge_axis_separates' m (the box corner lowest in f) and M (highest). */
+        lanes4 m_i = PICK4(dj_up, lo_i, hi_i), m_j = PICK4(di_up, hi_j, lo_j);
+        lanes4 big_i = PICK4(dj_up, hi_i, lo_i), big_j = PICK4(di_up, lo_j, hi_j);
+        /* products_difference_filter of prepared_sign's two products, for each test. */
+        lanes4 left = (m_i - LOAD4(t->lanes.above_i[e])) * dj, right = (m_j - LOAD4(t->lanes.above_j[e])) * di;
+        lanes4 det = left - right, bound = err * (ABS4(left) + ABS4(right)) + tiny;
+        lanes4 left2 = (big_i - LOAD4(t->lanes.below_i[e])) * dj, right2 = (big_j - LOAD4(t->lanes.below_j[e])) * di;
+        lanes4 det2 = left2 - right2, bound2 = err * (ABS4(left2) + ABS4(right2)) + tiny;
+        /* Separating: the box wholly above (sign > 0) or wholly below (sign < 0). */
+        apart |= active & ((det > bound) | (det2 < -bound2));
+        open |= active & ~((det < -bound) & (det2 > bound2));
+    }
+    if (apart[0] | apart[1] | apart[2] | apart[3])
+        return FILTERED_APART;
+    return undecided || (open[0] | open[1] | open[2] | open[3]) ? FILTERED_UNDECIDED : FILTERED_TOUCHING;
+}
+
+/* tri_box_children_touched for a prepared triangle. Inline so that each target below
+ * compiles its own copy of the lanes. */
+static inline __attribute__((always_inline)) unsigned children_touched(tri_box_triangle *t, const box3 child[8],
+                                                                      unsigned open)
+{
+    if (!t->lanes_ready)
+        fill_lanes(t);
+    unsigned touched = 0;
+    for (int k = 0; k < 8; k++) {
+        if (!((open >> k) & 1))
+            continue;
+        int filtered = filtered_axes(t, &child[k]);
+        if (filtered == FILTERED_TOUCHING || (filtered == FILTERED_UNDECIDED && tri_box_overlap_prepared(t, child[k])))
+            touched |= 1u << k;
+    }
+    return touched;
+}
+
+unsigned tri_box_children_touched_portable(tri_box_triangle *t, const box3 child[8], unsigned open)
+{
+    if (!t->ready)
+        prepare_axes(t);
+    return children_touched(t, child, open);
+}
+
+#if defined(__x86_64__) || defined(__i386__)
+/* The same code with each lane group in one register instead of two. */
+__attribute__((target("avx2"))) static unsigned children_touched_avx2(tri_box_triangle *t, const box3 child[8],
+                                                                     unsigned open)
+{
+    return children_touched(t, child, open);
+}
+#endif
+
+unsigned tri_box_children_touched(tri_box_triangle *t, const box3 child[8], unsigned open)
+{
+#if defined(__x86_64__) || defined(__i386__)
+    static int avx2 = -1; /* a benign race: every thread stores the same answer */
+    if (avx2 < 0)
+        avx2 = __builtin_cpu_supports("avx2") ? 1 : 0;
+    if (avx2) {
+        if (!t->ready)
+            prepare_axes(t);
+        return children_touched_avx2(t, child, open);
+    }
+#endif
+    return tri_box_children_touched_portable(t, child, open);
 }
 
 /* Where edge p -> q crosses the split plane x_k = c_k strictly between its ends, the

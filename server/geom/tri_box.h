@@ -24,11 +24,34 @@ typedef struct tri_box_triangle {
     double edge_delta[3][3];   /* fl(q - p) for edge e = v[e] -> v[e + 1], per coordinate */
     int normal_sign[3];        /* exact signs of the normal's components (all 0: zero area) */
     orient3d_plane plane;
+    /* The nine edge x axis tests as tri_box_children_touched runs them: for edge e, lane k
+     * holds axis k's, lane 3 nothing (all zero). dj, di are edge_delta's components j, i
+     * (edge_axis_separates' naming), above and below the triangle points its two tests
+     * measure from (each chosen by the sign of the normal's component k), and active is
+     * 0 where the edge gives no axis (parallel to axis k, or of zero length). */
+    struct {
+        double dj[3][4], di[3][4];
+        double above_i[3][4], above_j[3][4], below_i[3][4], below_j[3][4];
+        long long active[3][4]; /* -1 (all bits set) or 0 */
+    } lanes;
     int ready;                 /* edge_delta, normal_sign and plane set (on first need) */
+    int lanes_ready;           /* lanes set (tri_box_children_touched, on first need) */
 } tri_box_triangle;
 
 void tri_box_prepare(tri_box_triangle *t, const vec3 tri[3]);
 int tri_box_overlap_prepared(tri_box_triangle *t, box3 box);
+
+/* Of the boxes child[k] named in `open`, those the prepared triangle touches, exactly:
+ * the same answers as tri_box_overlap_prepared, for any boxes. Each box first takes the
+ * axes' float filters, the nine edge axes four lanes at a time and without branches; only
+ * a box they leave open (an undecided filter, and no axis decided separating) takes the
+ * prepared test, whose exact stages then decide. The build's children are mostly not
+ * touched and mostly decided by the filters, so the branches and index arithmetic of
+ * the one-axis-at-a-time test were most of its cost. */
+unsigned tri_box_children_touched(tri_box_triangle *t, const box3 child[8], unsigned open);
+/* The same without the AVX2 code path, which tri_box_children_touched takes where the
+ * processor has it: for tests, which check both. */
+unsigned tri_box_children_touched_portable(tri_box_triangle *t, const box3 child[8], unsigned open);
 
 /* The children of a box with split point c that the triangle certainly touches at a
  * point where one of its edges crosses a split plane strictly between the edge's ends: the

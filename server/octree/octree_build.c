@@ -201,9 +201,7 @@ static void compute_reach(const build_ctx *ctx, shared_list *list)
             if (open) {
                 tri_box_triangle t;
                 tri_box_prepare(&t, tri);
-                for (int k = 0; k < 8; k++)
-                    if ((open >> k) & 1 && !tri_box_overlap_prepared(&t, child[k]))
-                        reach &= ~(1u << k);
+                reach &= ~(open & ~tri_box_children_touched(&t, child, open));
             }
         }
         list->reach[i] = (uint8_t)reach;

@@ -62,15 +62,19 @@ static float_bounds leaf_bounds(const octree *tree, octree_node leaf, box3 cube)
  * it at or below b.lo. All of it is exact in doubles: the inputs are floats. */
 static void node_frame(const float_bounds *b, traversal_node *n)
 {
+    /* Every value here is finite and none is negative where a maximum is taken, so plain
+     * comparisons give fmax's answers. */
     double extent = 0, largest = 0;
     for (int a = 0; a < 3; a++) {
         double e = (double)b->hi[a] - (double)b->lo[a];
         extent = e > extent ? e : extent;
-        double m = fmax(fabs((double)b->lo[a]), fabs((double)b->hi[a]));
+        double lo = fabs((double)b->lo[a]), hi = fabs((double)b->hi[a]);
+        double m = lo > hi ? lo : hi;
         largest = m > largest ? m : largest;
     }
-    double need = fmax(extent / 254.0, ldexp(largest, -22));
-    need = fmax(need, 0x1p-126);
+    double need = extent / 254.0, floor_need = ldexp(largest, -22);
+    need = need > floor_need ? need : floor_need;
+    need = need > 0x1p-126 ? need : 0x1p-126;
     int e;
     frexp(need, &e); /* need = f * 2^e, 0.5 <= f < 1, so 2^e >= need */
     double scale = ldexp(1.0, e);
@@ -79,16 +83,31 @@ static void node_frame(const float_bounds *b, traversal_node *n)
         n->origin[a] = (float)(floor((double)b->lo[a] / scale) * scale);
 }
 
-static int quantize_down(double x, double origin, double scale)
+/* (x - origin) / scale rounded down (up) to a step, clamped to 0..255. scale is a power
+ * of two in the float range (node_frame), so its reciprocal is an exact power of two too,
+ * and the product is the same real value as the quotient, rounded the same way: the
+ * division this replaces cost more than the rest of the quantization. Within
+ * [0, 255] the conversion's truncation is the floor, and the ceiling is one more when the
+ * value is not an integer; outside, the clamps give what floor and ceil would have. */
+static int quantize_down(double x, double origin, double inverse_scale)
 {
-    double q = floor((x - origin) / scale);
-    return q < 0 ? 0 : q > 255 ? 255 : (int)q;
+    double q = (x - origin) * inverse_scale;
+    if (!(q > 0))
+        return 0;
+    if (q >= 255)
+        return 255;
+    return (int)q;
 }
 
-static int quantize_up(double x, double origin, double scale)
+static int quantize_up(double x, double origin, double inverse_scale)
 {
-    double q = ceil((x - origin) / scale);
-    return q < 0 ? 0 : q > 255 ? 255 : (int)q;
+    double q = (x - origin) * inverse_scale;
+    if (!(q > 0))
+        return 0;
+    if (q > 255)
+        return 255;
+    int t = (int)q;
+    return (double)t < q ? t + 1 : t;
 }
 
 /* Compiles the subtree of octree node `index` with cube `cube`: *ref names what the walk
@@ -135,13 +154,14 @@ static int compile_node(compile_ctx *ctx, uint32_t index, box3 cube, uint32_t *r
     }
     traversal_node *n = &ctx->nodes[at];
     node_frame(bounds, n);
+    double inverse_scale = 1.0 / (double)n->scale; /* exact: a power of two */
     for (int k = 0; k < 8; k++) {
         n->child[k] = child[k];
         for (int a = 0; a < 3; a++) {
             int lo = 255, hi = 0; /* an empty lane: never met (its child is TRAVERSAL_EMPTY too) */
             if (child[k] != TRAVERSAL_EMPTY) {
-                lo = quantize_down(kid[k].lo[a], n->origin[a], n->scale);
-                hi = quantize_up(kid[k].hi[a], n->origin[a], n->scale);
+                lo = quantize_down(kid[k].lo[a], n->origin[a], inverse_scale);
+                hi = quantize_up(kid[k].hi[a], n->origin[a], inverse_scale);
             }
             n->q[a][k] = (uint8_t)lo;
             n->q[3 + a][k] = (uint8_t)hi;
