@@ -196,7 +196,7 @@ static inline float float_above_difference(double x, double o)
 /* Both float bounds of the real difference x - o at once, as float_below_difference and
  * float_above_difference give them: one subtraction, one conversion, and the rounding
  * error only when the conversion was exact. */
-static inline void float_bounds_of_difference(double x, double o, float *below, float *above)
+static inline __attribute__((always_inline)) void float_bounds_of_difference(double x, double o, float *below, float *above)
 {
     double d = x - o;
     if (!(d >= -FLT_MAX && d <= FLT_MAX)) {
