@@ -19,7 +19,6 @@
 
 #include "geom/predicates.h"
 #include "geom/ray_tri.h"
-#include "geom/ray_tri_float.h"
 #include "geom/vec3.h"
 
 /* ------------------------------------------------------------------ seeded RNG */
@@ -1720,107 +1719,6 @@ static void test_fan_filter_decides_as_each_ray_alone(void **state)
     assert_true(hits * 10 > rays);
 }
 
-/* The float prefilter (ray_tri_float.h) rejects only triangles the exact test misses,
- * whatever the interval, and the AVX2 lanes give the scalar mask. The world is a cube of
- * side 2^k at an offset; triangles are on a grid (rays through their vertices and along
- * their edges), slivers, zero-area, tiny, and the origins up to 15 sides away, with
- * direction components down to 2^-60 of the largest. */
-static void test_float_filter_rejects_only_exact_misses(void **state)
-{
-    (void)state;
-    rng r = rng_for(52);
-    int avx2 = 0;
-#if defined(__x86_64__)
-    avx2 = __builtin_cpu_supports("avx2");
-#endif
-    enum { TRIS = 8, VERTS = 3 * TRIS };
-    size_t tested = 0, rejected = 0, exact_misses = 0, clear_misses = 0, clear_rejected = 0;
-    for (int c = 0; c < 6000; c++) {
-        double side = ldexp(1.0, (int)(rng_u64(&r) % 40) - 20);
-        vec3 lo = c % 4 == 0 ? vec3_make(0, 0, 0) : c % 4 == 1 ? vec3_make(1e6, -1e6, 3e6) : vec3_make(-5e9, 7e9, 1e9);
-        float_frame frame;
-        assert_int_equal(float_frame_for(&frame, lo, side), 0);
-        vec3 v[VERTS];
-        for (int i = 0; i < VERTS; i++) {
-            /* On a grid of 1/8 of the side, so rays aimed at vertices and edge midpoints
-             * meet them exactly, often with zero edge functions. */
-            vec3 g = rng_grid_vec(&r, 0, 8, 8);
-            v[i] = vec3_add(lo, vec3_scale(g, side));
-        }
-        int shape = c % 5;
-        if (shape == 3) /* off the grid: the floats round every vertex */
-            for (int i = 0; i < VERTS; i++)
-                v[i] = vec3_add(lo, vec3_scale(rng_vec(&r, 0, 1), side));
-        if (shape == 1) /* slivers and zero-area ones */
-            for (int t = 0; t < TRIS; t++)
-                v[3 * t + 2] = vec3_add(v[3 * t], vec3_scale(vec3_sub(v[3 * t + 1], v[3 * t]), t % 2 ? 0.5 : 1.0));
-        if (shape == 2) /* tiny: 2^-30 of the side */
-            for (int t = 0; t < TRIS; t++)
-                for (int k = 1; k < 3; k++)
-                    v[3 * t + k] = vec3_add(v[3 * t], vec3_scale(rng_grid_vec(&r, -4, 4, 4), side * 0x1p-30));
-        float fv[VERTS][3];
-        uint32_t corners[TRIS][3], ids[TRIS];
-        for (int i = 0; i < VERTS; i++)
-            float_frame_point(&frame, v[i], fv[i]);
-        for (int t = 0; t < TRIS; t++) {
-            corners[t][0] = (uint32_t)(3 * t);
-            corners[t][1] = (uint32_t)(3 * t + 1);
-            corners[t][2] = (uint32_t)(3 * t + 2);
-            ids[t] = (uint32_t)(TRIS - 1 - t);
-        }
-        double away = c % 3 == 0 ? 1.0 : c % 3 == 1 ? 4.0 : 15.0;
-        vec3 o = vec3_add(lo, vec3_scale(rng_vec(&r, -away, away), side));
-        const vec3 *aim = &v[rng_u64(&r) % VERTS];
-        vec3 target = rng_u64(&r) % 2 ? *aim : vec3_scale(vec3_add(v[0], v[1]), 0.5);
-        if (shape == 3) {
-            /* Just inside an edge, 2^-28 of the side from it: a hit that the floats'
-             * rounding of the vertices (2^-24 of the side) could put outside. */
-            int t = (int)(rng_u64(&r) % TRIS);
-            vec3 mid = vec3_scale(vec3_add(v[3 * t], v[3 * t + 1]), 0.5);
-            target = vec3_add(mid, vec3_scale(vec3_sub(v[3 * t + 2], mid), 0x1p-28));
-        }
-        vec3 d = vec3_sub(target, o);
-        if (c % 7 == 0)
-            d.y = d.x * 0x1p-60;
-        if (c % 11 == 0)
-            d = vec3_scale(d, 0x1p200);
-        if (d.x == 0 && d.y == 0 && d.z == 0)
-            d = vec3_make(1, 0, 0);
-        ray_float rf;
-        if (!ray_float_init(&rf, &frame, o, d))
-            continue;
-        unsigned count = 1 + (unsigned)(rng_u64(&r) % TRIS);
-        unsigned plain = ray_float_misses8(&rf, &fv[0][0], (const uint32_t(*)[3])corners, ids, count, 0);
-        assert_int_equal(ray_float_misses8(&rf, &fv[0][0], (const uint32_t(*)[3])corners, ids, count, avx2), plain);
-        assert_int_equal(plain >> count, 0);
-        for (unsigned i = 0; i < count; i++) {
-            const uint32_t *cn = corners[ids[i]];
-            vec3 tri[3] = {v[cn[0]], v[cn[1]], v[cn[2]]};
-            ray_tri_hit h;
-            int hit = ray_tri_exact(o, d, -INFINITY, INFINITY, tri, &h);
-            int out = (plain >> i) & 1;
-            if (out && hit)
-                fail_msg("case %d: triangle %u rejected, but the exact test hits it at t %a", c, ids[i], h.t);
-            tested++;
-            rejected += out;
-            exact_misses += !hit;
-            /* A clear miss: the ray passes the triangle's plane point well outside it. */
-            static const uint32_t one = 0;
-            static const uint32_t self[1][3] = {{0, 1, 2}};
-            int double_rejects = ray_tri_exact_misses4(o, d, tri, self, &one, 1, 0) != 0;
-            clear_misses += double_rejects && shape == 0;
-            clear_rejected += double_rejects && shape == 0 && out;
-        }
-    }
-    printf("  float filter: %zu candidates, %zu exact misses, %zu rejected; of %zu the double filter rejects on "
-           "plain triangles, %zu\n", tested, exact_misses, rejected, clear_misses, clear_rejected);
-    /* Not vacuous: there were hits to keep, and on ordinary triangles it rejects nearly all
-     * that the double filter does. */
-    assert_true(tested - exact_misses > 1000);
-    assert_true(clear_misses > 1000);
-    assert_true(clear_rejected * 100 > clear_misses * 95);
-}
-
 int main(void)
 {
     const char *env = getenv("TRIOCT_SEED");
@@ -1831,7 +1729,6 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_random_rays_match_rational_reference),
         cmocka_unit_test(test_fan_filter_decides_as_each_ray_alone),
-        cmocka_unit_test(test_float_filter_rejects_only_exact_misses),
         cmocka_unit_test(test_random_rays_with_huge_offsets_and_tiny_sizes),
         cmocka_unit_test(test_near_boundary_rays_match_reference),
         cmocka_unit_test(test_closed_meshes_are_crossed_with_correct_parity),
