@@ -1171,9 +1171,16 @@ PREFETCH_HELPER void compiled_prefetch_next(compiled_walk *c, const octree *tree
             octree_node leaf = octree_leaf_of_ref(tree, e.ref);                                               \
             w->local.leaves_visited++;                                                                        \
             if (pipelined) {                                                                                  \
-                prefetch_span(&tree->leaf_items[leaf.first], leaf.count * sizeof(uint32_t));                  \
                 c->pending_leaf = e.ref;                                                                      \
-                c->pending_stage = 0;                                                                         \
+                /* A short leaf's list was asked for when it reached the top of the stack: its  */         \
+                /* corners can be asked for now. A long one's list is asked for first. */                    \
+                if (e.ref & TRAVERSAL_SPAN) {                                                                 \
+                    prefetch_leaf_corners(tree, leaf);                                                        \
+                    c->pending_stage = 1;                                                                     \
+                } else {                                                                                      \
+                    prefetch_span(&tree->leaf_items[leaf.first], leaf.count * sizeof(uint32_t));              \
+                    c->pending_stage = 0;                                                                     \
+                }                                                                                             \
                 return 1;                                                                                     \
             }                                                                                                 \
             /* Asked for together, so their misses overlap instead of coming one test at a time. */         \
