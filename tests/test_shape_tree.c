@@ -26,10 +26,13 @@ static uint64_t base_seed = 20261202;
 
 static const accuracy_mode modes[] = {ACCURACY_EXACT, ACCURACY_SEED, ACCURACY_FAST};
 
-/* boxes: 1 for triangle boxes (a world's), 2 for node bounds (a query shape's). */
-static octree *build_tree(const mesh_data *m, double resolution, int boxes, double seed_eps)
+/* boxes: 1 for triangle boxes (a world's), 2 for node bounds (a query shape's). plain: no
+ * compiled form, so the descent reads the world's octree nodes and cubes instead of the
+ * form's content bounds. */
+static octree *build_tree_plain(const mesh_data *m, double resolution, int boxes, double seed_eps, int plain)
 {
     octree_def def = octree_default_def();
+    def.plain_walk = plain;
     def.resolution = resolution;
     def.triangle_boxes = boxes == 1;
     def.node_bounds = boxes == 2;
@@ -39,7 +42,14 @@ static octree *build_tree(const mesh_data *m, double resolution, int boxes, doub
     octree *t = octree_build(&v, &def, &err);
     if (!t)
         fail_msg("build failed: %s", err.message);
+    if (plain && t->traversal.present)
+        fail_msg("a plain walk's tree has a compiled form");
     return t;
+}
+
+static octree *build_tree(const mesh_data *m, double resolution, int boxes, double seed_eps)
+{
+    return build_tree_plain(m, resolution, boxes, seed_eps, 0);
 }
 
 static vec3 posed_vertex(const pose *p, vec3 s)
@@ -195,11 +205,17 @@ static void run_random_poses(scene *s, uint64_t seed, int boxes, int brute)
     printf("scene %s: world %zu triangles, shape %zu, seed %llu%s\n", s->name, s->world.triangle_count,
            s->shape.triangle_count, (unsigned long long)seed, boxes ? ", triangle boxes" : "");
     octree *world = build_tree(&s->world, 0, boxes, 1e-9);
+    octree *plain_world = build_tree_plain(&s->world, 0, boxes, 1e-9, 1);
     /* Shape trees with node bounds against worlds without triangle boxes, and plain
      * ones against worlds with them. */
     octree *shape = build_tree(&s->shape, 0, boxes ? 0 : 2, 1e-9);
     checker c = {&s->world, &s->shape, world, shape, malloc(CAP * sizeof(mesh_pair)), malloc(CAP * sizeof(mesh_pair)),
                  brute};
+    /* Both ways of reading the world are exercised. */
+    assert_true(world->traversal.present);
+    checker plain = c;
+    plain.world = plain_world;
+    plain.brute = 0;
     rng r = rng_seeded(seed);
     double reach = 1.5 * shape_radius(&s->shape);
     for (size_t m = 0; m < 3; m++) {
@@ -209,6 +225,8 @@ static void run_random_poses(scene *s, uint64_t seed, int boxes, int brute)
             char what[64];
             snprintf(what, sizeof what, "%s pose %d", s->name, i);
             size_t n = check_pose(&c, &p, modes[m], what);
+            snprintf(what, sizeof what, "%s pose %d, world without its compiled form", s->name, i);
+            assert_int_equal(check_pose(&plain, &p, modes[m], what), n);
             hit += n > 0;
             miss += n == 0;
         }
@@ -220,6 +238,7 @@ static void run_random_poses(scene *s, uint64_t seed, int boxes, int brute)
     free(c.expect);
     free(c.got);
     octree_free(world);
+    octree_free(plain_world);
     octree_free(shape);
 }
 

@@ -3,9 +3,11 @@
  * together, pose by pose.
  *
  * Invariant: a pair (world node W, shape node S) is on the stack only if the world box of
- * W, grown on each axis by g (the pose's rounding bound e plus the mode's slack), may meet
- * the image R S + t of S's local box, i.e. no separating axis among the 15 of a box and a
- * parallelepiped proves them apart by more than the test's own rounding bound. So every
+ * W (its content bounds when the world has its compiled form, else its cube), grown on each
+ * axis by g (the pose's rounding bound e, the mode's slack and the rounding of the world
+ * box's bounds), may meet the image R S + t of S's local box, i.e. no separating axis
+ * among the 15 of a box and a parallelepiped proves them apart by more than the test's own
+ * rounding bound. So every
  * pair of leaves that could hold a contact is reached, and a contact is reported exactly
  * when the mode's final test accepts the pair: the answers are octree_mesh's.
  *
@@ -15,8 +17,9 @@
  * q's local triangle is of the local ones, so x lies within e of R y + t. y lies in a
  * shape leaf listing q (membership is exact and closed), and R y + t in the image of that
  * leaf's box and of all its ancestors'. In exact mode a contact point x of q and a world
- * triangle w lies in a world leaf listing w; in fast and seed mode, w has a point within
- * the mode's slack of x (octree_modes.c). Either way the world leaf's box grown by g meets
+ * triangle w lies in a world leaf listing w, so in its cube and in the box around w: in
+ * the leaf's content bounds; in fast and seed mode, w has a point within the mode's slack
+ * of x (octree_modes.c), in such a leaf's. Either way the world leaf's box grown by g meets
  * the shape leaf's image, as do all their ancestors' boxes: no pair on the way is dropped.
  *
  * The separating-axis test is computed in double and rejects a pair only when the
@@ -61,6 +64,7 @@ typedef struct pose_frame {
     double margin[AXES];  /* the rounding bound of the test along each axis */
     double widen[3];      /* g: e plus the mode's slack, per world axis */
     double grow;          /* the mode's slack (0 in exact mode) */
+    double content_pad;   /* grow plus the rounding of a world box's bounds */
     double scale;         /* how much the pose stretches a shape length, for the split choice */
 } pose_frame;
 
@@ -98,16 +102,23 @@ static int pose_frame_make(pose_frame *f, const octree *world, const octree *sha
     box3 sw = shape->world, ww = world->world;
     double ms[3] = {fmax(fabs(sw.lo.x), fabs(sw.hi.x)), fmax(fabs(sw.lo.y), fabs(sw.hi.y)),
                     fmax(fabs(sw.lo.z), fabs(sw.hi.z))};
-    double mw = fmax(max_abs3(ww.lo.x, ww.lo.y, ww.lo.z), max_abs3(ww.hi.x, ww.hi.y, ww.hi.z));
+    /* M_w bounds every world box coordinate the test sees: the cube's, and the compiled
+     * form's content bounds, which overshoot the cube by less than a side (a node frame's
+     * step is below a hundredth of the cube's side, octree_traversal.c). */
+    double side = fmax(ww.hi.x - ww.lo.x, fmax(ww.hi.y - ww.lo.y, ww.hi.z - ww.lo.z));
+    double mw = fmax(max_abs3(ww.lo.x, ww.lo.y, ww.lo.z), max_abs3(ww.hi.x, ww.hi.y, ww.hi.z)) + 2 * side;
     if (!(max_abs3(ms[0], ms[1], ms[2]) <= POSE_RANGE_MAX) || !(mw <= POSE_RANGE_MAX) ||
         !(max_abs3(t[0], t[1], t[2]) <= POSE_RANGE_MAX) || !(grow >= 0.0 && grow <= POSE_RANGE_MAX))
         return 0;
     f->at = at;
     f->grow = grow;
+    /* A content bound of the compiled form, world.lo + offset, rounds once (by u M_w), and
+     * growing it rounds again: 4u M_w covers both. */
+    f->content_pad = grow + 4 * U * mw + UNDERFLOW_PAD;
     double tk[3];
     for (int k = 0; k < 3; k++) {
         tk[k] = fabs(r[3 * k]) * ms[0] + fabs(r[3 * k + 1]) * ms[1] + fabs(r[3 * k + 2]) * ms[2] + fabs(t[k]);
-        f->widen[k] = 5 * U * tk[k] + UNDERFLOW_PAD + grow;
+        f->widen[k] = 5 * U * tk[k] + UNDERFLOW_PAD + f->content_pad;
     }
     double col[3][3];
     for (int i = 0; i < 3; i++)
@@ -576,12 +587,52 @@ static int leaf_pair(pose_query *pq, octree_node wn, box3 content, octree_node s
 
 static double box_width(box3 b) { return b.hi.x - b.lo.x; }
 
+static double box_extent(box3 b) { return fmax(b.hi.x - b.lo.x, fmax(b.hi.y - b.lo.y, b.hi.z - b.lo.z)); }
+
 /* What a shape node's image is tested with: the bounds of its triangles within its box
  * when the tree has them (octree_def.node_bounds), else the box itself. Either holds every
  * local point of the node's triangles that lies in the node. */
 static inline box3 shape_node_box(const octree *shape, uint32_t node, box3 cell)
 {
     return shape->node_bounds ? shape->node_bounds[node] : cell;
+}
+
+/* The world side of a pair. With the world's compiled form (octree_traversal.h) a world
+ * node is a compiled node or a leaf reference, and its box the content bounds its parent
+ * records: the union of its triangles' boxes clipped to its cube, which a surface fills
+ * far less than the cube. Every contact point of the node's triangles within its cube lies
+ * in them, so they stand in for the cube in every test (widened by the frame's content_pad
+ * for the rounding of world.lo + offset). Without the form a world node is an octree node
+ * and its box its cube. */
+static inline int world_is_leaf(const octree *world, int form, uint32_t ref)
+{
+    return form ? (ref & TRAVERSAL_LEAF) != 0 : world->nodes[ref].count != NODE_INTERIOR;
+}
+
+static inline octree_node world_leaf_of(const octree *world, int form, uint32_t ref)
+{
+    return world->nodes[form ? ref & ~TRAVERSAL_LEAF : ref];
+}
+
+/* Lane k's content bounds: origin + q scale is exact (octree_traversal.h), the sum with
+ * the world's corner rounds once. */
+static inline box3 lane_box(const octree *world, const traversal_node *n, int k)
+{
+    double sc = n->scale;
+    vec3 o = world->world.lo;
+    return (box3){{o.x + ((double)n->origin[0] + (double)n->q[TRAVERSAL_LO_X][k] * sc),
+                   o.y + ((double)n->origin[1] + (double)n->q[TRAVERSAL_LO_Y][k] * sc),
+                   o.z + ((double)n->origin[2] + (double)n->q[TRAVERSAL_LO_Z][k] * sc)},
+                  {o.x + ((double)n->origin[0] + (double)n->q[TRAVERSAL_HI_X][k] * sc),
+                   o.y + ((double)n->origin[1] + (double)n->q[TRAVERSAL_HI_Y][k] * sc),
+                   o.z + ((double)n->origin[2] + (double)n->q[TRAVERSAL_HI_Z][k] * sc)}};
+}
+
+/* A world leaf's content: with the form its box already is; else computed from its
+ * triangles. */
+static inline box3 world_leaf_box(const octree *world, int form, octree_node n, box3 b)
+{
+    return form ? b : world_leaf_content(world, n, b);
 }
 
 /* The two trees together from their roots (see the top of the file). Where one node of a
@@ -592,9 +643,13 @@ static void descend(pose_query *pq, const pose_frame *f)
     shape_scratch *s = pq->s;
     const octree *world = s->world, *shape = s->shape;
     query_stats *stats = pq->stats;
-    double g = f->grow;
+    double g = f->content_pad;
+    int form = world->traversal.present;
     stats->nodes_visited++;
     if (world->nodes[0].count == 0 || shape->nodes[0].count == 0)
+        return;
+    uint32_t world_root = form ? world->traversal.root : 0;
+    if (world_root == TRAVERSAL_EMPTY)
         return;
     box_side side;
     shape_side_of(f, shape_node_box(shape, 0, shape->world), &side);
@@ -602,11 +657,11 @@ static void descend(pose_query *pq, const pose_frame *f)
         return;
     pair_entry *stack = s->stack;
     size_t top = 0;
-    stack[top++] = (pair_entry){0, 0, world->world, shape->world};
+    stack[top++] = (pair_entry){world_root, 0, world->world, shape->world};
     while (top > 0) {
         pair_entry e = stack[--top];
-        octree_node wn = world->nodes[e.world_node], sn = shape->nodes[e.shape_node];
-        int world_leaf = wn.count != NODE_INTERIOR, shape_leaf = sn.count != NODE_INTERIOR;
+        octree_node sn = shape->nodes[e.shape_node];
+        int world_leaf = world_is_leaf(world, form, e.world_node), shape_leaf = sn.count != NODE_INTERIOR;
         if (world_leaf && shape_leaf) {
             stats->leaves_visited++;
             const box3 *sb = leaf_bounds_get(s, pq->at, e.shape_node);
@@ -614,16 +669,15 @@ static void descend(pose_query *pq, const pose_frame *f)
                 pq->status = OCTREE_ERR_NOMEM;
                 return;
             }
-            box3 content = box_grown(world_leaf_content(world, wn, e.world_box), g);
+            octree_node wn = world_leaf_of(world, form, e.world_node);
+            box3 content = box_grown(world_leaf_box(world, form, wn, e.world_box), g);
             if (!boxes_apart(*sb, content) && leaf_pair(pq, wn, content, sn))
                 return;
             continue;
         }
         /* The larger node splits, so the two boxes stay of a size. */
-        int split_world = shape_leaf || (!world_leaf && box_width(e.world_box) >= f->scale * box_width(e.shape_box));
+        int split_world = shape_leaf || (!world_leaf && box_extent(e.world_box) >= f->scale * box_width(e.shape_box));
         if (split_world) {
-            vec3 c = octree_split_point(world, e.world_box);
-            const octree_node *kids = &world->nodes[wn.first];
             const box3 *sb = NULL;
             if (shape_leaf && !(sb = leaf_bounds_get(s, pq->at, e.shape_node))) {
                 pq->status = OCTREE_ERR_NOMEM;
@@ -631,18 +685,36 @@ static void descend(pose_query *pq, const pose_frame *f)
             }
             if (!shape_leaf)
                 shape_side_of(f, shape_node_box(shape, e.shape_node, e.shape_box), &side);
-            for (int k = 0; k < 8; k++) {
-                if (kids[k].count == 0)
-                    continue;
-                box3 cb = box_child(e.world_box, c, box_octant_upper_bits[k]);
-                stats->nodes_visited++;
-                if (shape_leaf ? !boxes_apart(box_grown(cb, g), *sb) : !world_box_apart(f, cb, &side))
-                    stack[top++] = (pair_entry){wn.first + (uint32_t)k, e.shape_node, cb, e.shape_box};
+            if (form) {
+                const traversal_node *n = &world->traversal.nodes[e.world_node];
+                for (int k = 0; k < 8; k++) {
+                    uint32_t ref = n->child[k];
+                    if (ref == TRAVERSAL_EMPTY)
+                        continue;
+                    box3 cb = lane_box(world, n, k);
+                    stats->nodes_visited++;
+                    if (shape_leaf ? !boxes_apart(box_grown(cb, g), *sb) : !world_box_apart(f, cb, &side))
+                        stack[top++] = (pair_entry){ref, e.shape_node, cb, e.shape_box};
+                }
+            } else {
+                octree_node wn = world->nodes[e.world_node];
+                vec3 c = octree_split_point(world, e.world_box);
+                const octree_node *kids = &world->nodes[wn.first];
+                for (int k = 0; k < 8; k++) {
+                    if (kids[k].count == 0)
+                        continue;
+                    box3 cb = box_child(e.world_box, c, box_octant_upper_bits[k]);
+                    stats->nodes_visited++;
+                    if (shape_leaf ? !boxes_apart(box_grown(cb, g), *sb) : !world_box_apart(f, cb, &side))
+                        stack[top++] = (pair_entry){wn.first + (uint32_t)k, e.shape_node, cb, e.shape_box};
+                }
             }
         } else {
             vec3 c = octree_split_point(shape, e.shape_box);
             const octree_node *kids = &shape->nodes[sn.first];
-            world_side_of(f, world_leaf ? world_leaf_content(world, wn, e.world_box) : e.world_box, &side);
+            box3 wb = world_leaf ? world_leaf_box(world, form, world_leaf_of(world, form, e.world_node), e.world_box)
+                                 : e.world_box;
+            world_side_of(f, wb, &side);
             for (int k = 0; k < 8; k++) {
                 if (kids[k].count == 0)
                     continue;
