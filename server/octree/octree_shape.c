@@ -296,8 +296,10 @@ typedef struct shape_scratch {
      * posed_stamp[q] == epoch, and its exact query side when prepared_stamp[q] == epoch. */
     posed_triangle *posed;
     uint32_t *posed_stamp, *prepared_stamp;
-    /* Per shape node: the bounds of a leaf's posed triangles, when leaf_stamp == epoch. */
+    /* Per shape node: the bounds of a leaf's posed triangles, when leaf_stamp == epoch, and
+     * (exact mode, a world with triangle boxes) the union of their outward float boxes. */
     box3 *leaf_bounds;
+    triangle_box *leaf_box;
     uint32_t *leaf_stamp;
     pair_entry *stack;
     pair_set tested;
@@ -407,6 +409,7 @@ static void scratch_free(shape_scratch *s)
     free(s->posed_stamp);
     free(s->prepared_stamp);
     free(s->leaf_bounds);
+    free(s->leaf_box);
     free(s->leaf_stamp);
     free(s->stack);
     free(s->hits);
@@ -423,13 +426,15 @@ static int scratch_arrays(shape_scratch *s)
     s->posed_stamp = calloc(n, sizeof *s->posed_stamp);
     s->prepared_stamp = calloc(n, sizeof *s->prepared_stamp);
     s->leaf_bounds = malloc(nodes * sizeof *s->leaf_bounds);
+    s->leaf_box = malloc(nodes * sizeof *s->leaf_box);
     s->leaf_stamp = calloc(nodes, sizeof *s->leaf_stamp);
-    if (s->posed && s->posed_stamp && s->prepared_stamp && s->leaf_bounds && s->leaf_stamp)
+    if (s->posed && s->posed_stamp && s->prepared_stamp && s->leaf_bounds && s->leaf_box && s->leaf_stamp)
         return 0;
     free(s->posed);
     free(s->posed_stamp);
     free(s->prepared_stamp);
     free(s->leaf_bounds);
+    free(s->leaf_box);
     free(s->leaf_stamp);
     s->posed = NULL;
     return -1;
@@ -481,12 +486,22 @@ static const box3 *leaf_bounds_get(shape_scratch *s, const pose *at, uint32_t no
     s->leaf_stamp[node] = s->epoch;
     octree_node n = s->shape->nodes[node];
     const uint32_t *items = s->shape->leaf_items + n.first;
-    *b = posed_get(s, at, items[0])->query.box;
+    const posed_triangle *p = posed_get(s, at, items[0]);
+    *b = p->query.box;
+    triangle_box fb = p->box;
+    int boxed = s->mode == ACCURACY_EXACT && s->world->triangle_boxes;
     for (uint32_t i = 1; i < n.count; i++) {
-        box3 qb = posed_get(s, at, items[i])->query.box;
-        b->lo = vec3_min(b->lo, qb.lo);
-        b->hi = vec3_max(b->hi, qb.hi);
+        p = posed_get(s, at, items[i]);
+        b->lo = vec3_min(b->lo, p->query.box.lo);
+        b->hi = vec3_max(b->hi, p->query.box.hi);
+        if (boxed)
+            for (int k = 0; k < 3; k++) {
+                fb.lo[k] = fminf(fb.lo[k], p->box.lo[k]);
+                fb.hi[k] = fmaxf(fb.hi[k], p->box.hi[k]);
+            }
     }
+    if (boxed)
+        s->leaf_box[node] = fb;
     return b;
 }
 
@@ -562,24 +577,51 @@ static box3 world_leaf_content(const octree *world, octree_node n, box3 cell)
  * triangle (a point of it within the slack of the shape triangle) lies in some world leaf
  * whose content its grown bounds meet, and that leaf's pair with the shape leaf holding
  * the preimage is reached too. Exact mode skips a world triangle whose outward box is
- * strictly apart from the shape triangle's, as triangle queries do. Returns 1 when the
- * query is over. */
-static int leaf_pair(pose_query *pq, octree_node wn, box3 content, octree_node sn)
+ * strictly apart from the shape triangle's, as triangle queries do; first against the
+ * union of the shape leaf's triangles' boxes, so that each world triangle far from the
+ * whole leaf costs one test rather than one per shape triangle. Returns 1 when the query
+ * is over. */
+#define NEAR_CHUNK 64
+
+static int leaf_pair(pose_query *pq, octree_node wn, box3 content, uint32_t shape_node)
 {
     shape_scratch *s = pq->s;
     const octree *world = s->world;
-    const triangle_box *boxes = s->mode == ACCURACY_EXACT ? world->triangle_boxes : NULL;
-    for (uint32_t i = 0; i < sn.count; i++) {
-        uint32_t q = s->shape->leaf_items[sn.first + i];
-        posed_triangle *p = posed_get(s, pq->at, q);
-        if (boxes_apart(p->query.box, content))
-            continue;
-        for (uint32_t j = 0; j < wn.count; j++) {
-            uint32_t w = world->leaf_items[wn.first + j];
-            if (boxes && triangle_boxes_apart(&boxes[w], &p->box))
+    octree_node sn = s->shape->nodes[shape_node];
+    const uint32_t *shape_items = s->shape->leaf_items + sn.first, *world_items = world->leaf_items + wn.first;
+    if (!(s->mode == ACCURACY_EXACT && world->triangle_boxes)) {
+        for (uint32_t i = 0; i < sn.count; i++) {
+            uint32_t q = shape_items[i];
+            posed_triangle *p = posed_get(s, pq->at, q);
+            if (boxes_apart(p->query.box, content))
                 continue;
-            if (take_pair(pq, p, q, w))
-                return 1;
+            for (uint32_t j = 0; j < wn.count; j++)
+                if (take_pair(pq, p, q, world_items[j]))
+                    return 1;
+        }
+        return 0;
+    }
+    const triangle_box *boxes = world->triangle_boxes, *leaf_box = &s->leaf_box[shape_node];
+    uint32_t near[NEAR_CHUNK];
+    for (uint32_t start = 0; start < wn.count; start += NEAR_CHUNK) {
+        uint32_t end = wn.count - start < NEAR_CHUNK ? wn.count : start + NEAR_CHUNK, m = 0;
+        for (uint32_t j = start; j < end; j++) {
+            uint32_t w = world_items[j];
+            near[m] = w;
+            m += !triangle_boxes_apart(&boxes[w], leaf_box);
+        }
+        if (m == 0)
+            continue;
+        for (uint32_t i = 0; i < sn.count; i++) {
+            uint32_t q = shape_items[i];
+            posed_triangle *p = posed_get(s, pq->at, q);
+            if (boxes_apart(p->query.box, content))
+                continue;
+            for (uint32_t j = 0; j < m; j++) {
+                uint32_t w = near[j];
+                if (!triangle_boxes_apart(&boxes[w], &p->box) && take_pair(pq, p, q, w))
+                    return 1;
+            }
         }
     }
     return 0;
@@ -671,7 +713,7 @@ static void descend(pose_query *pq, const pose_frame *f)
             }
             octree_node wn = world_leaf_of(world, form, e.world_node);
             box3 content = box_grown(world_leaf_box(world, form, wn, e.world_box), g);
-            if (!boxes_apart(*sb, content) && leaf_pair(pq, wn, content, sn))
+            if (!boxes_apart(*sb, content) && leaf_pair(pq, wn, content, e.shape_node))
                 return;
             continue;
         }
