@@ -264,6 +264,14 @@ static inline box3 box_grown(box3 b, double g)
 
 /* ---------- per-call scratch ---------- */
 
+/* A shape vertex under the current pose, and (exact mode, a world with triangle boxes)
+ * its outward float box relative to the world's corner. The rounding is monotonic, so the
+ * union of a triangle's vertices' float boxes is the triangle's own outward box. */
+typedef struct posed_vertex {
+    vec3 v;
+    float lo[3], hi[3];
+} posed_vertex;
+
 /* A shape triangle under the current pose: its posed vertices and bounds, computed when a
  * leaf first needs them, and (exact mode) the query side of the exact test, computed when
  * the triangle is first tested. */
@@ -296,6 +304,11 @@ typedef struct shape_scratch {
      * posed_stamp[q] == epoch, and its exact query side when prepared_stamp[q] == epoch. */
     posed_triangle *posed;
     uint32_t *posed_stamp, *prepared_stamp;
+    /* Per shape vertex: posed_vertices[v] holds the current pose when vertex_stamp[v] ==
+     * epoch. A vertex is shared by about six triangles, so it is posed once, not six
+     * times. */
+    struct posed_vertex *posed_vertices;
+    uint32_t *vertex_stamp;
     /* Per shape node: the bounds of a leaf's posed triangles, when leaf_stamp == epoch, and
      * (exact mode, a world with triangle boxes) the union of their outward float boxes. */
     box3 *leaf_bounds;
@@ -407,35 +420,37 @@ static void scratch_free(shape_scratch *s)
         free(s->tested.slots);
     free(s->posed);
     free(s->posed_stamp);
-    free(s->prepared_stamp);
+    free(s->posed_vertices);
     free(s->leaf_bounds);
     free(s->leaf_box);
-    free(s->leaf_stamp);
     free(s->stack);
     free(s->hits);
     free(s);
 }
 
-/* The per-triangle and per-node arrays, on the first pose that reaches a shape leaf. */
+/* The per-triangle, per-vertex and per-node arrays, on the first pose that reaches a
+ * shape leaf; the stamps in one zeroed block. */
 static int scratch_arrays(shape_scratch *s)
 {
     if (s->posed)
         return 0;
-    size_t n = s->shape->triangle_count, nodes = s->shape->node_count;
+    size_t n = s->shape->triangle_count, nodes = s->shape->node_count, verts = s->shape->used_vertex_count;
     s->posed = malloc(n * sizeof *s->posed);
-    s->posed_stamp = calloc(n, sizeof *s->posed_stamp);
-    s->prepared_stamp = calloc(n, sizeof *s->prepared_stamp);
+    s->posed_vertices = malloc(verts * sizeof *s->posed_vertices);
+    s->posed_stamp = calloc(2 * n + verts + nodes, sizeof *s->posed_stamp);
     s->leaf_bounds = malloc(nodes * sizeof *s->leaf_bounds);
     s->leaf_box = malloc(nodes * sizeof *s->leaf_box);
-    s->leaf_stamp = calloc(nodes, sizeof *s->leaf_stamp);
-    if (s->posed && s->posed_stamp && s->prepared_stamp && s->leaf_bounds && s->leaf_box && s->leaf_stamp)
+    if (s->posed && s->posed_vertices && s->posed_stamp && s->leaf_bounds && s->leaf_box) {
+        s->prepared_stamp = s->posed_stamp + n;
+        s->vertex_stamp = s->prepared_stamp + n;
+        s->leaf_stamp = s->vertex_stamp + verts;
         return 0;
+    }
     free(s->posed);
+    free(s->posed_vertices);
     free(s->posed_stamp);
-    free(s->prepared_stamp);
     free(s->leaf_bounds);
     free(s->leaf_box);
-    free(s->leaf_stamp);
     s->posed = NULL;
     return -1;
 }
@@ -444,11 +459,10 @@ static int scratch_arrays(shape_scratch *s)
 static void scratch_next_pose(shape_scratch *s)
 {
     if (++s->epoch == 0) {
-        if (s->posed) {
-            memset(s->posed_stamp, 0, s->shape->triangle_count * sizeof *s->posed_stamp);
-            memset(s->prepared_stamp, 0, s->shape->triangle_count * sizeof *s->prepared_stamp);
-            memset(s->leaf_stamp, 0, s->shape->node_count * sizeof *s->leaf_stamp);
-        }
+        if (s->posed)
+            memset(s->posed_stamp, 0,
+                   (2 * s->shape->triangle_count + s->shape->used_vertex_count + s->shape->node_count) *
+                       sizeof *s->posed_stamp);
         s->epoch = 1;
     }
     pair_set_clear(&s->tested);
@@ -462,14 +476,37 @@ static posed_triangle *posed_get(shape_scratch *s, const pose *at, uint32_t q)
     if (s->posed_stamp[q] == s->epoch)
         return p;
     s->posed_stamp[q] = s->epoch;
-    vec3 local[3];
-    octree_triangle_vertices(s->shape, q, local);
+    const uint32_t *corner = s->shape->corners[q];
+    const posed_vertex *pv[3];
+    int boxed = s->mode == ACCURACY_EXACT && s->world->triangle_boxes;
+    for (int k = 0; k < 3; k++) {
+        uint32_t i = corner[k];
+        posed_vertex *x = &s->posed_vertices[i];
+        if (s->vertex_stamp[i] != s->epoch) {
+            s->vertex_stamp[i] = s->epoch;
+            x->v = octree_apply_pose(at, s->shape->vertices[i]);
+            if (boxed) {
+                vec3 o = s->world->world.lo;
+                triangle_box b = triangle_box_around(x->v, x->v, o);
+                memcpy(x->lo, b.lo, sizeof x->lo);
+                memcpy(x->hi, b.hi, sizeof x->hi);
+            }
+        }
+        pv[k] = x;
+        p->query.v[k] = x->v;
+    }
     vec3 *v = p->query.v;
-    for (int k = 0; k < 3; k++)
-        v[k] = octree_apply_pose(at, local[k]);
     p->query.box = (box3){vec3_min(vec3_min(v[0], v[1]), v[2]), vec3_max(vec3_max(v[0], v[1]), v[2])};
-    if (s->mode == ACCURACY_EXACT && s->world->triangle_boxes)
-        p->box = triangle_box_around(p->query.box.lo, p->query.box.hi, s->world->world.lo);
+    if (boxed)
+        for (int k = 0; k < 3; k++) {
+            float lo = pv[0]->lo[k], hi = pv[0]->hi[k];
+            lo = pv[1]->lo[k] < lo ? pv[1]->lo[k] : lo;
+            lo = pv[2]->lo[k] < lo ? pv[2]->lo[k] : lo;
+            hi = pv[1]->hi[k] > hi ? pv[1]->hi[k] : hi;
+            hi = pv[2]->hi[k] > hi ? pv[2]->hi[k] : hi;
+            p->box.lo[k] = lo;
+            p->box.hi[k] = hi;
+        }
     return p;
 }
 
@@ -496,8 +533,8 @@ static const box3 *leaf_bounds_get(shape_scratch *s, const pose *at, uint32_t no
         b->hi = vec3_max(b->hi, p->query.box.hi);
         if (boxed)
             for (int k = 0; k < 3; k++) {
-                fb.lo[k] = fminf(fb.lo[k], p->box.lo[k]);
-                fb.hi[k] = fmaxf(fb.hi[k], p->box.hi[k]);
+                fb.lo[k] = p->box.lo[k] < fb.lo[k] ? p->box.lo[k] : fb.lo[k];
+                fb.hi[k] = p->box.hi[k] > fb.hi[k] ? p->box.hi[k] : fb.hi[k];
             }
     }
     if (boxed)
