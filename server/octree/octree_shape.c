@@ -281,14 +281,18 @@ typedef struct posed_triangle {
 } posed_triangle;
 
 /* Internal (shape, world) id pairs tested under the current pose: a triangle sits in
- * several leaves, so the same pair can meet in several leaf pairs. */
+ * several leaves, so the same pair can meet in several leaf pairs. A slot holds a key of
+ * the current pose only when its stamp is the set's epoch, so starting a pose clears
+ * nothing: most poses test a few dozen pairs, and wiping the table cost more than that. */
 #define PAIR_SET_INLINE 256
-#define PAIR_EMPTY UINT64_MAX
 
 typedef struct pair_set {
-    uint64_t *slots;
+    uint64_t *keys;
+    uint32_t *stamps;
     size_t mask, count;
-    uint64_t inline_slots[PAIR_SET_INLINE];
+    uint32_t epoch;
+    uint64_t inline_keys[PAIR_SET_INLINE];
+    uint32_t inline_stamps[PAIR_SET_INLINE];
 } pair_set;
 
 typedef struct pair_entry {
@@ -323,17 +327,29 @@ typedef struct shape_scratch {
 
 static void pair_set_clear(pair_set *s)
 {
-    if (s->count)
-        memset(s->slots, 0xff, (s->mask + 1) * sizeof *s->slots);
+    if (++s->epoch == 0) {
+        memset(s->stamps, 0, (s->mask + 1) * sizeof *s->stamps);
+        s->epoch = 1;
+    }
     s->count = 0;
 }
 
 static void pair_set_init(pair_set *s)
 {
-    s->slots = s->inline_slots;
+    s->keys = s->inline_keys;
+    s->stamps = s->inline_stamps;
     s->mask = PAIR_SET_INLINE - 1;
-    s->count = 1;
-    pair_set_clear(s);
+    s->count = 0;
+    s->epoch = 1;
+    memset(s->stamps, 0, sizeof s->inline_stamps);
+}
+
+static void pair_set_free(pair_set *s)
+{
+    if (s->keys != s->inline_keys) {
+        free(s->keys);
+        free(s->stamps);
+    }
 }
 
 static size_t pair_slot(uint64_t key, size_t mask) { return (size_t)((key * 0x9E3779B97F4A7C15ull) >> 40) & mask; }
@@ -341,22 +357,25 @@ static size_t pair_slot(uint64_t key, size_t mask) { return (size_t)((key * 0x9E
 static int pair_set_grow(pair_set *s)
 {
     size_t cap = 2 * (s->mask + 1);
-    uint64_t *slots = malloc(cap * sizeof *slots);
-    if (!slots)
+    uint64_t *keys = malloc(cap * sizeof *keys);
+    uint32_t *stamps = calloc(cap, sizeof *stamps);
+    if (!keys || !stamps) {
+        free(keys);
+        free(stamps);
         return -1;
-    memset(slots, 0xff, cap * sizeof *slots);
-    for (size_t i = 0; i <= s->mask; i++) {
-        uint64_t key = s->slots[i];
-        if (key == PAIR_EMPTY)
-            continue;
-        size_t k = pair_slot(key, cap - 1);
-        while (slots[k] != PAIR_EMPTY)
-            k = (k + 1) & (cap - 1);
-        slots[k] = key;
     }
-    if (s->slots != s->inline_slots)
-        free(s->slots);
-    s->slots = slots;
+    for (size_t i = 0; i <= s->mask; i++) {
+        if (s->stamps[i] != s->epoch)
+            continue;
+        size_t k = pair_slot(s->keys[i], cap - 1);
+        while (stamps[k] == s->epoch)
+            k = (k + 1) & (cap - 1);
+        keys[k] = s->keys[i];
+        stamps[k] = s->epoch;
+    }
+    pair_set_free(s);
+    s->keys = keys;
+    s->stamps = stamps;
     s->mask = cap - 1;
     return 0;
 }
@@ -366,21 +385,21 @@ static inline int pair_set_insert(pair_set *s, uint64_t key)
 {
     size_t k = pair_slot(key, s->mask);
     for (;;) {
-        uint64_t x = s->slots[k];
-        if (x == key)
-            return 0;
-        if (x == PAIR_EMPTY)
+        if (s->stamps[k] != s->epoch)
             break;
+        if (s->keys[k] == key)
+            return 0;
         k = (k + 1) & s->mask;
     }
     if (2 * (s->count + 1) > s->mask + 1) {
         if (pair_set_grow(s) != 0)
             return -1;
         k = pair_slot(key, s->mask);
-        while (s->slots[k] != PAIR_EMPTY)
+        while (s->stamps[k] == s->epoch)
             k = (k + 1) & s->mask;
     }
-    s->slots[k] = key;
+    s->keys[k] = key;
+    s->stamps[k] = s->epoch;
     s->count++;
     return 1;
 }
@@ -416,8 +435,7 @@ static void scratch_free(shape_scratch *s)
 {
     if (!s)
         return;
-    if (s->tested.slots != s->tested.inline_slots)
-        free(s->tested.slots);
+    pair_set_free(&s->tested);
     free(s->posed);
     free(s->posed_stamp);
     free(s->posed_vertices);
