@@ -994,13 +994,15 @@ octree_status octree_mesh_tree_batch(const octree *world, const octree *shape, c
 /* ---------- shapes given as meshes ---------- */
 
 /* Whether building the shape's tree for `poses` poses costs less than searching the world
- * from the root for each posed triangle (bench/bench_shapes.c measures both). */
+ * from the root for each posed triangle (bench/bench_shapes.c measures both). The build
+ * costs about as much as a few poses' per-triangle searches, so a lone pose or a handful
+ * (octree_mesh, small batches) takes the per-triangle path. */
 #define SHAPE_TREE_MIN_TRIANGLES 8
-#define SHAPE_TREE_MIN_WORK 8
+#define SHAPE_TREE_MIN_POSES 8
 
 static int shape_tree_pays(size_t triangles, size_t poses)
 {
-    return triangles >= SHAPE_TREE_MIN_TRIANGLES && poses * triangles >= SHAPE_TREE_MIN_WORK;
+    return triangles >= SHAPE_TREE_MIN_TRIANGLES && poses >= SHAPE_TREE_MIN_POSES;
 }
 
 /* The shape's tree, or NULL when it cannot be built (over its budget, out of memory, an
