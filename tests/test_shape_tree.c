@@ -26,10 +26,13 @@ static uint64_t base_seed = 20261202;
 
 static const accuracy_mode modes[] = {ACCURACY_EXACT, ACCURACY_SEED, ACCURACY_FAST};
 
-/* boxes: 1 for triangle boxes (a world's), 2 for node bounds (a query shape's). */
-static octree *build_tree(const mesh_data *m, double resolution, int boxes, double seed_eps)
+/* boxes: 1 for triangle boxes (a world's), 2 for node bounds (a query shape's). plain: no
+ * compiled form, so the descent reads the world's octree nodes and cubes instead of the
+ * form's content bounds. */
+static octree *build_tree_plain(const mesh_data *m, double resolution, int boxes, double seed_eps, int plain)
 {
     octree_def def = octree_default_def();
+    def.plain_walk = plain;
     def.resolution = resolution;
     def.triangle_boxes = boxes == 1;
     def.node_bounds = boxes == 2;
@@ -39,7 +42,14 @@ static octree *build_tree(const mesh_data *m, double resolution, int boxes, doub
     octree *t = octree_build(&v, &def, &err);
     if (!t)
         fail_msg("build failed: %s", err.message);
+    if (plain && t->traversal.present)
+        fail_msg("a plain walk's tree has a compiled form");
     return t;
+}
+
+static octree *build_tree(const mesh_data *m, double resolution, int boxes, double seed_eps)
+{
+    return build_tree_plain(m, resolution, boxes, seed_eps, 0);
 }
 
 static vec3 posed_vertex(const pose *p, vec3 s)
@@ -195,11 +205,17 @@ static void run_random_poses(scene *s, uint64_t seed, int boxes, int brute)
     printf("scene %s: world %zu triangles, shape %zu, seed %llu%s\n", s->name, s->world.triangle_count,
            s->shape.triangle_count, (unsigned long long)seed, boxes ? ", triangle boxes" : "");
     octree *world = build_tree(&s->world, 0, boxes, 1e-9);
+    octree *plain_world = build_tree_plain(&s->world, 0, boxes, 1e-9, 1);
     /* Shape trees with node bounds against worlds without triangle boxes, and plain
      * ones against worlds with them. */
     octree *shape = build_tree(&s->shape, 0, boxes ? 0 : 2, 1e-9);
     checker c = {&s->world, &s->shape, world, shape, malloc(CAP * sizeof(mesh_pair)), malloc(CAP * sizeof(mesh_pair)),
                  brute};
+    /* Both ways of reading the world are exercised. */
+    assert_true(world->traversal.present);
+    checker plain = c;
+    plain.world = plain_world;
+    plain.brute = 0;
     rng r = rng_seeded(seed);
     double reach = 1.5 * shape_radius(&s->shape);
     for (size_t m = 0; m < 3; m++) {
@@ -209,6 +225,8 @@ static void run_random_poses(scene *s, uint64_t seed, int boxes, int brute)
             char what[64];
             snprintf(what, sizeof what, "%s pose %d", s->name, i);
             size_t n = check_pose(&c, &p, modes[m], what);
+            snprintf(what, sizeof what, "%s pose %d, world without its compiled form", s->name, i);
+            assert_int_equal(check_pose(&plain, &p, modes[m], what), n);
             hit += n > 0;
             miss += n == 0;
         }
@@ -220,6 +238,7 @@ static void run_random_poses(scene *s, uint64_t seed, int boxes, int brute)
     free(c.expect);
     free(c.got);
     octree_free(world);
+    octree_free(plain_world);
     octree_free(shape);
 }
 
@@ -559,6 +578,57 @@ static void test_batches_and_inline_shapes_agree(void **state)
     mesh_data_free(&shape);
 }
 
+/* An inline shape gets a tree only for a batch of 8 poses or more and a shape of 8
+ * triangles or more; below either the per-triangle path answers, with the same answers
+ * (a small batch here, octree_mesh's single poses in the test above). */
+static void test_small_requests_take_the_per_triangle_path(void **state)
+{
+    (void)state;
+    uint64_t seed = base_seed + 7;
+    mesh_data world = meshgen_terrain(seed, (box3){{0, 0, 0}, {8, 8, 1}}, 16, 16);
+    mesh_data shape = meshgen_torus((vec3){0, 0, 0}, 0.5, 0.15, 16, 8);
+    mesh_data tet = tetra((vec3){0, 0, 0}, (vec3){0.5, 0, 0}, (vec3){0, 0.5, 0}, (vec3){0, 0, 0.5});
+    mesh_view sv = mesh_data_view(&shape), tv = mesh_data_view(&tet);
+    assert_null(octree_shape_tree_for(&sv, 1));
+    assert_null(octree_shape_tree_for(&sv, 7));
+    octree *t = octree_shape_tree_for(&sv, 8);
+    assert_non_null(t);
+    assert_non_null(t->node_bounds);
+    octree_free(t);
+    assert_int_equal(tet.triangle_count, 4);
+    assert_null(octree_shape_tree_for(&tv, 1000));
+
+    octree *wt = build_tree(&world, 0, 1, 1e-9);
+    enum { POSES = 7, ROOM = 512 };
+    pose poses[POSES];
+    rng r = rng_seeded(seed);
+    for (int i = 0; i < POSES; i++)
+        poses[i] = near_surface_pose(&r, &world, &shape, 2.0);
+    mesh_pair *a = malloc(POSES * ROOM * sizeof *a), *b = malloc(ROOM * sizeof *b);
+    int hits = 0;
+    for (size_t m = 0; m < 3; m++) {
+        mesh_output outs[POSES];
+        octree_status sts[POSES];
+        for (int i = 0; i < POSES; i++)
+            outs[i] = (mesh_output){.pairs = a + i * ROOM, .capacity = ROOM};
+        assert_int_equal(octree_mesh_batch(wt, &sv, poses, POSES, 1, modes[m], outs, sts, NULL), OCTREE_OK);
+        for (int i = 0; i < POSES; i++) {
+            mesh_output old = {.pairs = b, .capacity = ROOM};
+            assert_int_equal(sts[i], OCTREE_OK);
+            assert_int_equal(octree_mesh_as_triangles(wt, &sv, &poses[i], 1, modes[m], &old, NULL), OCTREE_OK);
+            assert_same_output(&old, &outs[i], "small batch");
+            hits += old.hit;
+        }
+    }
+    assert_true(hits > 0 && hits < 3 * POSES);
+    free(a);
+    free(b);
+    octree_free(wt);
+    mesh_data_free(&world);
+    mesh_data_free(&shape);
+    mesh_data_free(&tet);
+}
+
 /* Poses outside the range of the shape tree's error bounds (entries past 2^32, offsets
  * past 2^400) are answered by the per-triangle path, including a posed vertex that
  * overflows, which is OCTREE_ERR_NONFINITE as before. */
@@ -741,6 +811,7 @@ int main(void)
         cmocka_unit_test(test_touching_shapes),
         cmocka_unit_test(test_contact_at_a_rounded_posed_vertex),
         cmocka_unit_test(test_batches_and_inline_shapes_agree),
+        cmocka_unit_test(test_small_requests_take_the_per_triangle_path),
         cmocka_unit_test(test_poses_out_of_range_answer_as_before),
         cmocka_unit_test(test_shape_tree_resolution_does_not_change_answers),
         cmocka_unit_test(test_seed_epsilon_that_matters),

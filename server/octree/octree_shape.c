@@ -3,9 +3,11 @@
  * together, pose by pose.
  *
  * Invariant: a pair (world node W, shape node S) is on the stack only if the world box of
- * W, grown on each axis by g (the pose's rounding bound e plus the mode's slack), may meet
- * the image R S + t of S's local box, i.e. no separating axis among the 15 of a box and a
- * parallelepiped proves them apart by more than the test's own rounding bound. So every
+ * W (its content bounds when the world has its compiled form, else its cube), grown on each
+ * axis by g (the pose's rounding bound e, the mode's slack and the rounding of the world
+ * box's bounds), may meet the image R S + t of S's local box, i.e. no separating axis
+ * among the 15 of a box and a parallelepiped proves them apart by more than the test's own
+ * rounding bound. So every
  * pair of leaves that could hold a contact is reached, and a contact is reported exactly
  * when the mode's final test accepts the pair: the answers are octree_mesh's.
  *
@@ -15,8 +17,9 @@
  * q's local triangle is of the local ones, so x lies within e of R y + t. y lies in a
  * shape leaf listing q (membership is exact and closed), and R y + t in the image of that
  * leaf's box and of all its ancestors'. In exact mode a contact point x of q and a world
- * triangle w lies in a world leaf listing w; in fast and seed mode, w has a point within
- * the mode's slack of x (octree_modes.c). Either way the world leaf's box grown by g meets
+ * triangle w lies in a world leaf listing w, so in its cube and in the box around w: in
+ * the leaf's content bounds; in fast and seed mode, w has a point within the mode's slack
+ * of x (octree_modes.c), in such a leaf's. Either way the world leaf's box grown by g meets
  * the shape leaf's image, as do all their ancestors' boxes: no pair on the way is dropped.
  *
  * The separating-axis test is computed in double and rejects a pair only when the
@@ -61,6 +64,7 @@ typedef struct pose_frame {
     double margin[AXES];  /* the rounding bound of the test along each axis */
     double widen[3];      /* g: e plus the mode's slack, per world axis */
     double grow;          /* the mode's slack (0 in exact mode) */
+    double content_pad;   /* grow plus the rounding of a world box's bounds */
     double scale;         /* how much the pose stretches a shape length, for the split choice */
 } pose_frame;
 
@@ -98,16 +102,23 @@ static int pose_frame_make(pose_frame *f, const octree *world, const octree *sha
     box3 sw = shape->world, ww = world->world;
     double ms[3] = {fmax(fabs(sw.lo.x), fabs(sw.hi.x)), fmax(fabs(sw.lo.y), fabs(sw.hi.y)),
                     fmax(fabs(sw.lo.z), fabs(sw.hi.z))};
-    double mw = fmax(max_abs3(ww.lo.x, ww.lo.y, ww.lo.z), max_abs3(ww.hi.x, ww.hi.y, ww.hi.z));
+    /* M_w bounds every world box coordinate the test sees: the cube's, and the compiled
+     * form's content bounds, which overshoot the cube by less than a side (a node frame's
+     * step is below a hundredth of the cube's side, octree_traversal.c). */
+    double side = fmax(ww.hi.x - ww.lo.x, fmax(ww.hi.y - ww.lo.y, ww.hi.z - ww.lo.z));
+    double mw = fmax(max_abs3(ww.lo.x, ww.lo.y, ww.lo.z), max_abs3(ww.hi.x, ww.hi.y, ww.hi.z)) + 2 * side;
     if (!(max_abs3(ms[0], ms[1], ms[2]) <= POSE_RANGE_MAX) || !(mw <= POSE_RANGE_MAX) ||
         !(max_abs3(t[0], t[1], t[2]) <= POSE_RANGE_MAX) || !(grow >= 0.0 && grow <= POSE_RANGE_MAX))
         return 0;
     f->at = at;
     f->grow = grow;
+    /* A content bound of the compiled form, world.lo + offset, rounds once (by u M_w), and
+     * growing it rounds again: 4u M_w covers both. */
+    f->content_pad = grow + 4 * U * mw + UNDERFLOW_PAD;
     double tk[3];
     for (int k = 0; k < 3; k++) {
         tk[k] = fabs(r[3 * k]) * ms[0] + fabs(r[3 * k + 1]) * ms[1] + fabs(r[3 * k + 2]) * ms[2] + fabs(t[k]);
-        f->widen[k] = 5 * U * tk[k] + UNDERFLOW_PAD + grow;
+        f->widen[k] = 5 * U * tk[k] + UNDERFLOW_PAD + f->content_pad;
     }
     double col[3][3];
     for (int i = 0; i < 3; i++)
@@ -253,6 +264,14 @@ static inline box3 box_grown(box3 b, double g)
 
 /* ---------- per-call scratch ---------- */
 
+/* A shape vertex under the current pose, and (exact mode, a world with triangle boxes)
+ * its outward float box relative to the world's corner. The rounding is monotonic, so the
+ * union of a triangle's vertices' float boxes is the triangle's own outward box. */
+typedef struct posed_vertex {
+    vec3 v;
+    float lo[3], hi[3];
+} posed_vertex;
+
 /* A shape triangle under the current pose: its posed vertices and bounds, computed when a
  * leaf first needs them, and (exact mode) the query side of the exact test, computed when
  * the triangle is first tested. */
@@ -262,14 +281,18 @@ typedef struct posed_triangle {
 } posed_triangle;
 
 /* Internal (shape, world) id pairs tested under the current pose: a triangle sits in
- * several leaves, so the same pair can meet in several leaf pairs. */
+ * several leaves, so the same pair can meet in several leaf pairs. A slot holds a key of
+ * the current pose only when its stamp is the set's epoch, so starting a pose clears
+ * nothing: most poses test a few dozen pairs, and wiping the table cost more than that. */
 #define PAIR_SET_INLINE 256
-#define PAIR_EMPTY UINT64_MAX
 
 typedef struct pair_set {
-    uint64_t *slots;
+    uint64_t *keys;
+    uint32_t *stamps;
     size_t mask, count;
-    uint64_t inline_slots[PAIR_SET_INLINE];
+    uint32_t epoch;
+    uint64_t inline_keys[PAIR_SET_INLINE];
+    uint32_t inline_stamps[PAIR_SET_INLINE];
 } pair_set;
 
 typedef struct pair_entry {
@@ -285,8 +308,15 @@ typedef struct shape_scratch {
      * posed_stamp[q] == epoch, and its exact query side when prepared_stamp[q] == epoch. */
     posed_triangle *posed;
     uint32_t *posed_stamp, *prepared_stamp;
-    /* Per shape node: the bounds of a leaf's posed triangles, when leaf_stamp == epoch. */
+    /* Per shape vertex: posed_vertices[v] holds the current pose when vertex_stamp[v] ==
+     * epoch. A vertex is shared by about six triangles, so it is posed once, not six
+     * times. */
+    struct posed_vertex *posed_vertices;
+    uint32_t *vertex_stamp;
+    /* Per shape node: the bounds of a leaf's posed triangles, when leaf_stamp == epoch, and
+     * (exact mode, a world with triangle boxes) the union of their outward float boxes. */
     box3 *leaf_bounds;
+    triangle_box *leaf_box;
     uint32_t *leaf_stamp;
     pair_entry *stack;
     pair_set tested;
@@ -297,17 +327,29 @@ typedef struct shape_scratch {
 
 static void pair_set_clear(pair_set *s)
 {
-    if (s->count)
-        memset(s->slots, 0xff, (s->mask + 1) * sizeof *s->slots);
+    if (++s->epoch == 0) {
+        memset(s->stamps, 0, (s->mask + 1) * sizeof *s->stamps);
+        s->epoch = 1;
+    }
     s->count = 0;
 }
 
 static void pair_set_init(pair_set *s)
 {
-    s->slots = s->inline_slots;
+    s->keys = s->inline_keys;
+    s->stamps = s->inline_stamps;
     s->mask = PAIR_SET_INLINE - 1;
-    s->count = 1;
-    pair_set_clear(s);
+    s->count = 0;
+    s->epoch = 1;
+    memset(s->stamps, 0, sizeof s->inline_stamps);
+}
+
+static void pair_set_free(pair_set *s)
+{
+    if (s->keys != s->inline_keys) {
+        free(s->keys);
+        free(s->stamps);
+    }
 }
 
 static size_t pair_slot(uint64_t key, size_t mask) { return (size_t)((key * 0x9E3779B97F4A7C15ull) >> 40) & mask; }
@@ -315,22 +357,25 @@ static size_t pair_slot(uint64_t key, size_t mask) { return (size_t)((key * 0x9E
 static int pair_set_grow(pair_set *s)
 {
     size_t cap = 2 * (s->mask + 1);
-    uint64_t *slots = malloc(cap * sizeof *slots);
-    if (!slots)
+    uint64_t *keys = malloc(cap * sizeof *keys);
+    uint32_t *stamps = calloc(cap, sizeof *stamps);
+    if (!keys || !stamps) {
+        free(keys);
+        free(stamps);
         return -1;
-    memset(slots, 0xff, cap * sizeof *slots);
-    for (size_t i = 0; i <= s->mask; i++) {
-        uint64_t key = s->slots[i];
-        if (key == PAIR_EMPTY)
-            continue;
-        size_t k = pair_slot(key, cap - 1);
-        while (slots[k] != PAIR_EMPTY)
-            k = (k + 1) & (cap - 1);
-        slots[k] = key;
     }
-    if (s->slots != s->inline_slots)
-        free(s->slots);
-    s->slots = slots;
+    for (size_t i = 0; i <= s->mask; i++) {
+        if (s->stamps[i] != s->epoch)
+            continue;
+        size_t k = pair_slot(s->keys[i], cap - 1);
+        while (stamps[k] == s->epoch)
+            k = (k + 1) & (cap - 1);
+        keys[k] = s->keys[i];
+        stamps[k] = s->epoch;
+    }
+    pair_set_free(s);
+    s->keys = keys;
+    s->stamps = stamps;
     s->mask = cap - 1;
     return 0;
 }
@@ -340,21 +385,21 @@ static inline int pair_set_insert(pair_set *s, uint64_t key)
 {
     size_t k = pair_slot(key, s->mask);
     for (;;) {
-        uint64_t x = s->slots[k];
-        if (x == key)
-            return 0;
-        if (x == PAIR_EMPTY)
+        if (s->stamps[k] != s->epoch)
             break;
+        if (s->keys[k] == key)
+            return 0;
         k = (k + 1) & s->mask;
     }
     if (2 * (s->count + 1) > s->mask + 1) {
         if (pair_set_grow(s) != 0)
             return -1;
         k = pair_slot(key, s->mask);
-        while (s->slots[k] != PAIR_EMPTY)
+        while (s->stamps[k] == s->epoch)
             k = (k + 1) & s->mask;
     }
-    s->slots[k] = key;
+    s->keys[k] = key;
+    s->stamps[k] = s->epoch;
     s->count++;
     return 1;
 }
@@ -390,36 +435,40 @@ static void scratch_free(shape_scratch *s)
 {
     if (!s)
         return;
-    if (s->tested.slots != s->tested.inline_slots)
-        free(s->tested.slots);
+    pair_set_free(&s->tested);
     free(s->posed);
     free(s->posed_stamp);
-    free(s->prepared_stamp);
+    free(s->posed_vertices);
     free(s->leaf_bounds);
-    free(s->leaf_stamp);
+    free(s->leaf_box);
     free(s->stack);
     free(s->hits);
     free(s);
 }
 
-/* The per-triangle and per-node arrays, on the first pose that reaches a shape leaf. */
+/* The per-triangle, per-vertex and per-node arrays, on the first pose that reaches a
+ * shape leaf; the stamps in one zeroed block. */
 static int scratch_arrays(shape_scratch *s)
 {
     if (s->posed)
         return 0;
-    size_t n = s->shape->triangle_count, nodes = s->shape->node_count;
+    size_t n = s->shape->triangle_count, nodes = s->shape->node_count, verts = s->shape->used_vertex_count;
     s->posed = malloc(n * sizeof *s->posed);
-    s->posed_stamp = calloc(n, sizeof *s->posed_stamp);
-    s->prepared_stamp = calloc(n, sizeof *s->prepared_stamp);
+    s->posed_vertices = malloc(verts * sizeof *s->posed_vertices);
+    s->posed_stamp = calloc(2 * n + verts + nodes, sizeof *s->posed_stamp);
     s->leaf_bounds = malloc(nodes * sizeof *s->leaf_bounds);
-    s->leaf_stamp = calloc(nodes, sizeof *s->leaf_stamp);
-    if (s->posed && s->posed_stamp && s->prepared_stamp && s->leaf_bounds && s->leaf_stamp)
+    s->leaf_box = malloc(nodes * sizeof *s->leaf_box);
+    if (s->posed && s->posed_vertices && s->posed_stamp && s->leaf_bounds && s->leaf_box) {
+        s->prepared_stamp = s->posed_stamp + n;
+        s->vertex_stamp = s->prepared_stamp + n;
+        s->leaf_stamp = s->vertex_stamp + verts;
         return 0;
+    }
     free(s->posed);
+    free(s->posed_vertices);
     free(s->posed_stamp);
-    free(s->prepared_stamp);
     free(s->leaf_bounds);
-    free(s->leaf_stamp);
+    free(s->leaf_box);
     s->posed = NULL;
     return -1;
 }
@@ -428,11 +477,10 @@ static int scratch_arrays(shape_scratch *s)
 static void scratch_next_pose(shape_scratch *s)
 {
     if (++s->epoch == 0) {
-        if (s->posed) {
-            memset(s->posed_stamp, 0, s->shape->triangle_count * sizeof *s->posed_stamp);
-            memset(s->prepared_stamp, 0, s->shape->triangle_count * sizeof *s->prepared_stamp);
-            memset(s->leaf_stamp, 0, s->shape->node_count * sizeof *s->leaf_stamp);
-        }
+        if (s->posed)
+            memset(s->posed_stamp, 0,
+                   (2 * s->shape->triangle_count + s->shape->used_vertex_count + s->shape->node_count) *
+                       sizeof *s->posed_stamp);
         s->epoch = 1;
     }
     pair_set_clear(&s->tested);
@@ -446,14 +494,37 @@ static posed_triangle *posed_get(shape_scratch *s, const pose *at, uint32_t q)
     if (s->posed_stamp[q] == s->epoch)
         return p;
     s->posed_stamp[q] = s->epoch;
-    vec3 local[3];
-    octree_triangle_vertices(s->shape, q, local);
+    const uint32_t *corner = s->shape->corners[q];
+    const posed_vertex *pv[3];
+    int boxed = s->mode == ACCURACY_EXACT && s->world->triangle_boxes;
+    for (int k = 0; k < 3; k++) {
+        uint32_t i = corner[k];
+        posed_vertex *x = &s->posed_vertices[i];
+        if (s->vertex_stamp[i] != s->epoch) {
+            s->vertex_stamp[i] = s->epoch;
+            x->v = octree_apply_pose(at, s->shape->vertices[i]);
+            if (boxed) {
+                vec3 o = s->world->world.lo;
+                triangle_box b = triangle_box_around(x->v, x->v, o);
+                memcpy(x->lo, b.lo, sizeof x->lo);
+                memcpy(x->hi, b.hi, sizeof x->hi);
+            }
+        }
+        pv[k] = x;
+        p->query.v[k] = x->v;
+    }
     vec3 *v = p->query.v;
-    for (int k = 0; k < 3; k++)
-        v[k] = octree_apply_pose(at, local[k]);
     p->query.box = (box3){vec3_min(vec3_min(v[0], v[1]), v[2]), vec3_max(vec3_max(v[0], v[1]), v[2])};
-    if (s->mode == ACCURACY_EXACT && s->world->triangle_boxes)
-        p->box = triangle_box_around(p->query.box.lo, p->query.box.hi, s->world->world.lo);
+    if (boxed)
+        for (int k = 0; k < 3; k++) {
+            float lo = pv[0]->lo[k], hi = pv[0]->hi[k];
+            lo = pv[1]->lo[k] < lo ? pv[1]->lo[k] : lo;
+            lo = pv[2]->lo[k] < lo ? pv[2]->lo[k] : lo;
+            hi = pv[1]->hi[k] > hi ? pv[1]->hi[k] : hi;
+            hi = pv[2]->hi[k] > hi ? pv[2]->hi[k] : hi;
+            p->box.lo[k] = lo;
+            p->box.hi[k] = hi;
+        }
     return p;
 }
 
@@ -470,12 +541,22 @@ static const box3 *leaf_bounds_get(shape_scratch *s, const pose *at, uint32_t no
     s->leaf_stamp[node] = s->epoch;
     octree_node n = s->shape->nodes[node];
     const uint32_t *items = s->shape->leaf_items + n.first;
-    *b = posed_get(s, at, items[0])->query.box;
+    const posed_triangle *p = posed_get(s, at, items[0]);
+    *b = p->query.box;
+    triangle_box fb = p->box;
+    int boxed = s->mode == ACCURACY_EXACT && s->world->triangle_boxes;
     for (uint32_t i = 1; i < n.count; i++) {
-        box3 qb = posed_get(s, at, items[i])->query.box;
-        b->lo = vec3_min(b->lo, qb.lo);
-        b->hi = vec3_max(b->hi, qb.hi);
+        p = posed_get(s, at, items[i]);
+        b->lo = vec3_min(b->lo, p->query.box.lo);
+        b->hi = vec3_max(b->hi, p->query.box.hi);
+        if (boxed)
+            for (int k = 0; k < 3; k++) {
+                fb.lo[k] = p->box.lo[k] < fb.lo[k] ? p->box.lo[k] : fb.lo[k];
+                fb.hi[k] = p->box.hi[k] > fb.hi[k] ? p->box.hi[k] : fb.hi[k];
+            }
     }
+    if (boxed)
+        s->leaf_box[node] = fb;
     return b;
 }
 
@@ -551,24 +632,51 @@ static box3 world_leaf_content(const octree *world, octree_node n, box3 cell)
  * triangle (a point of it within the slack of the shape triangle) lies in some world leaf
  * whose content its grown bounds meet, and that leaf's pair with the shape leaf holding
  * the preimage is reached too. Exact mode skips a world triangle whose outward box is
- * strictly apart from the shape triangle's, as triangle queries do. Returns 1 when the
- * query is over. */
-static int leaf_pair(pose_query *pq, octree_node wn, box3 content, octree_node sn)
+ * strictly apart from the shape triangle's, as triangle queries do; first against the
+ * union of the shape leaf's triangles' boxes, so that each world triangle far from the
+ * whole leaf costs one test rather than one per shape triangle. Returns 1 when the query
+ * is over. */
+#define NEAR_CHUNK 64
+
+static int leaf_pair(pose_query *pq, octree_node wn, box3 content, uint32_t shape_node)
 {
     shape_scratch *s = pq->s;
     const octree *world = s->world;
-    const triangle_box *boxes = s->mode == ACCURACY_EXACT ? world->triangle_boxes : NULL;
-    for (uint32_t i = 0; i < sn.count; i++) {
-        uint32_t q = s->shape->leaf_items[sn.first + i];
-        posed_triangle *p = posed_get(s, pq->at, q);
-        if (boxes_apart(p->query.box, content))
-            continue;
-        for (uint32_t j = 0; j < wn.count; j++) {
-            uint32_t w = world->leaf_items[wn.first + j];
-            if (boxes && triangle_boxes_apart(&boxes[w], &p->box))
+    octree_node sn = s->shape->nodes[shape_node];
+    const uint32_t *shape_items = s->shape->leaf_items + sn.first, *world_items = world->leaf_items + wn.first;
+    if (!(s->mode == ACCURACY_EXACT && world->triangle_boxes)) {
+        for (uint32_t i = 0; i < sn.count; i++) {
+            uint32_t q = shape_items[i];
+            posed_triangle *p = posed_get(s, pq->at, q);
+            if (boxes_apart(p->query.box, content))
                 continue;
-            if (take_pair(pq, p, q, w))
-                return 1;
+            for (uint32_t j = 0; j < wn.count; j++)
+                if (take_pair(pq, p, q, world_items[j]))
+                    return 1;
+        }
+        return 0;
+    }
+    const triangle_box *boxes = world->triangle_boxes, *leaf_box = &s->leaf_box[shape_node];
+    uint32_t near[NEAR_CHUNK];
+    for (uint32_t start = 0; start < wn.count; start += NEAR_CHUNK) {
+        uint32_t end = wn.count - start < NEAR_CHUNK ? wn.count : start + NEAR_CHUNK, m = 0;
+        for (uint32_t j = start; j < end; j++) {
+            uint32_t w = world_items[j];
+            near[m] = w;
+            m += !triangle_boxes_apart(&boxes[w], leaf_box);
+        }
+        if (m == 0)
+            continue;
+        for (uint32_t i = 0; i < sn.count; i++) {
+            uint32_t q = shape_items[i];
+            posed_triangle *p = posed_get(s, pq->at, q);
+            if (boxes_apart(p->query.box, content))
+                continue;
+            for (uint32_t j = 0; j < m; j++) {
+                uint32_t w = near[j];
+                if (!triangle_boxes_apart(&boxes[w], &p->box) && take_pair(pq, p, q, w))
+                    return 1;
+            }
         }
     }
     return 0;
@@ -576,12 +684,52 @@ static int leaf_pair(pose_query *pq, octree_node wn, box3 content, octree_node s
 
 static double box_width(box3 b) { return b.hi.x - b.lo.x; }
 
+static double box_extent(box3 b) { return fmax(b.hi.x - b.lo.x, fmax(b.hi.y - b.lo.y, b.hi.z - b.lo.z)); }
+
 /* What a shape node's image is tested with: the bounds of its triangles within its box
  * when the tree has them (octree_def.node_bounds), else the box itself. Either holds every
  * local point of the node's triangles that lies in the node. */
 static inline box3 shape_node_box(const octree *shape, uint32_t node, box3 cell)
 {
     return shape->node_bounds ? shape->node_bounds[node] : cell;
+}
+
+/* The world side of a pair. With the world's compiled form (octree_traversal.h) a world
+ * node is a compiled node or a leaf reference, and its box the content bounds its parent
+ * records: the union of its triangles' boxes clipped to its cube, which a surface fills
+ * far less than the cube. Every contact point of the node's triangles within its cube lies
+ * in them, so they stand in for the cube in every test (widened by the frame's content_pad
+ * for the rounding of world.lo + offset). Without the form a world node is an octree node
+ * and its box its cube. */
+static inline int world_is_leaf(const octree *world, int form, uint32_t ref)
+{
+    return form ? (ref & TRAVERSAL_LEAF) != 0 : world->nodes[ref].count != NODE_INTERIOR;
+}
+
+static inline octree_node world_leaf_of(const octree *world, int form, uint32_t ref)
+{
+    return world->nodes[form ? ref & ~TRAVERSAL_LEAF : ref];
+}
+
+/* Lane k's content bounds: origin + q scale is exact (octree_traversal.h), the sum with
+ * the world's corner rounds once. */
+static inline box3 lane_box(const octree *world, const traversal_node *n, int k)
+{
+    double sc = n->scale;
+    vec3 o = world->world.lo;
+    return (box3){{o.x + ((double)n->origin[0] + (double)n->q[TRAVERSAL_LO_X][k] * sc),
+                   o.y + ((double)n->origin[1] + (double)n->q[TRAVERSAL_LO_Y][k] * sc),
+                   o.z + ((double)n->origin[2] + (double)n->q[TRAVERSAL_LO_Z][k] * sc)},
+                  {o.x + ((double)n->origin[0] + (double)n->q[TRAVERSAL_HI_X][k] * sc),
+                   o.y + ((double)n->origin[1] + (double)n->q[TRAVERSAL_HI_Y][k] * sc),
+                   o.z + ((double)n->origin[2] + (double)n->q[TRAVERSAL_HI_Z][k] * sc)}};
+}
+
+/* A world leaf's content: with the form its box already is; else computed from its
+ * triangles. */
+static inline box3 world_leaf_box(const octree *world, int form, octree_node n, box3 b)
+{
+    return form ? b : world_leaf_content(world, n, b);
 }
 
 /* The two trees together from their roots (see the top of the file). Where one node of a
@@ -592,9 +740,13 @@ static void descend(pose_query *pq, const pose_frame *f)
     shape_scratch *s = pq->s;
     const octree *world = s->world, *shape = s->shape;
     query_stats *stats = pq->stats;
-    double g = f->grow;
+    double g = f->content_pad;
+    int form = world->traversal.present;
     stats->nodes_visited++;
     if (world->nodes[0].count == 0 || shape->nodes[0].count == 0)
+        return;
+    uint32_t world_root = form ? world->traversal.root : 0;
+    if (world_root == TRAVERSAL_EMPTY)
         return;
     box_side side;
     shape_side_of(f, shape_node_box(shape, 0, shape->world), &side);
@@ -602,11 +754,11 @@ static void descend(pose_query *pq, const pose_frame *f)
         return;
     pair_entry *stack = s->stack;
     size_t top = 0;
-    stack[top++] = (pair_entry){0, 0, world->world, shape->world};
+    stack[top++] = (pair_entry){world_root, 0, world->world, shape->world};
     while (top > 0) {
         pair_entry e = stack[--top];
-        octree_node wn = world->nodes[e.world_node], sn = shape->nodes[e.shape_node];
-        int world_leaf = wn.count != NODE_INTERIOR, shape_leaf = sn.count != NODE_INTERIOR;
+        octree_node sn = shape->nodes[e.shape_node];
+        int world_leaf = world_is_leaf(world, form, e.world_node), shape_leaf = sn.count != NODE_INTERIOR;
         if (world_leaf && shape_leaf) {
             stats->leaves_visited++;
             const box3 *sb = leaf_bounds_get(s, pq->at, e.shape_node);
@@ -614,16 +766,15 @@ static void descend(pose_query *pq, const pose_frame *f)
                 pq->status = OCTREE_ERR_NOMEM;
                 return;
             }
-            box3 content = box_grown(world_leaf_content(world, wn, e.world_box), g);
-            if (!boxes_apart(*sb, content) && leaf_pair(pq, wn, content, sn))
+            octree_node wn = world_leaf_of(world, form, e.world_node);
+            box3 content = box_grown(world_leaf_box(world, form, wn, e.world_box), g);
+            if (!boxes_apart(*sb, content) && leaf_pair(pq, wn, content, e.shape_node))
                 return;
             continue;
         }
         /* The larger node splits, so the two boxes stay of a size. */
-        int split_world = shape_leaf || (!world_leaf && box_width(e.world_box) >= f->scale * box_width(e.shape_box));
+        int split_world = shape_leaf || (!world_leaf && box_extent(e.world_box) >= f->scale * box_width(e.shape_box));
         if (split_world) {
-            vec3 c = octree_split_point(world, e.world_box);
-            const octree_node *kids = &world->nodes[wn.first];
             const box3 *sb = NULL;
             if (shape_leaf && !(sb = leaf_bounds_get(s, pq->at, e.shape_node))) {
                 pq->status = OCTREE_ERR_NOMEM;
@@ -631,18 +782,36 @@ static void descend(pose_query *pq, const pose_frame *f)
             }
             if (!shape_leaf)
                 shape_side_of(f, shape_node_box(shape, e.shape_node, e.shape_box), &side);
-            for (int k = 0; k < 8; k++) {
-                if (kids[k].count == 0)
-                    continue;
-                box3 cb = box_child(e.world_box, c, box_octant_upper_bits[k]);
-                stats->nodes_visited++;
-                if (shape_leaf ? !boxes_apart(box_grown(cb, g), *sb) : !world_box_apart(f, cb, &side))
-                    stack[top++] = (pair_entry){wn.first + (uint32_t)k, e.shape_node, cb, e.shape_box};
+            if (form) {
+                const traversal_node *n = &world->traversal.nodes[e.world_node];
+                for (int k = 0; k < 8; k++) {
+                    uint32_t ref = n->child[k];
+                    if (ref == TRAVERSAL_EMPTY)
+                        continue;
+                    box3 cb = lane_box(world, n, k);
+                    stats->nodes_visited++;
+                    if (shape_leaf ? !boxes_apart(box_grown(cb, g), *sb) : !world_box_apart(f, cb, &side))
+                        stack[top++] = (pair_entry){ref, e.shape_node, cb, e.shape_box};
+                }
+            } else {
+                octree_node wn = world->nodes[e.world_node];
+                vec3 c = octree_split_point(world, e.world_box);
+                const octree_node *kids = &world->nodes[wn.first];
+                for (int k = 0; k < 8; k++) {
+                    if (kids[k].count == 0)
+                        continue;
+                    box3 cb = box_child(e.world_box, c, box_octant_upper_bits[k]);
+                    stats->nodes_visited++;
+                    if (shape_leaf ? !boxes_apart(box_grown(cb, g), *sb) : !world_box_apart(f, cb, &side))
+                        stack[top++] = (pair_entry){wn.first + (uint32_t)k, e.shape_node, cb, e.shape_box};
+                }
             }
         } else {
             vec3 c = octree_split_point(shape, e.shape_box);
             const octree_node *kids = &shape->nodes[sn.first];
-            world_side_of(f, world_leaf ? world_leaf_content(world, wn, e.world_box) : e.world_box, &side);
+            box3 wb = world_leaf ? world_leaf_box(world, form, world_leaf_of(world, form, e.world_node), e.world_box)
+                                 : e.world_box;
+            world_side_of(f, wb, &side);
             for (int k = 0; k < 8; k++) {
                 if (kids[k].count == 0)
                     continue;
@@ -825,13 +994,15 @@ octree_status octree_mesh_tree_batch(const octree *world, const octree *shape, c
 /* ---------- shapes given as meshes ---------- */
 
 /* Whether building the shape's tree for `poses` poses costs less than searching the world
- * from the root for each posed triangle (bench/bench_shapes.c measures both). */
+ * from the root for each posed triangle (bench/bench_shapes.c measures both). The build
+ * costs about as much as a few poses' per-triangle searches, so a lone pose or a handful
+ * (octree_mesh, small batches) takes the per-triangle path. */
 #define SHAPE_TREE_MIN_TRIANGLES 8
-#define SHAPE_TREE_MIN_WORK 8
+#define SHAPE_TREE_MIN_POSES 8
 
 static int shape_tree_pays(size_t triangles, size_t poses)
 {
-    return triangles >= SHAPE_TREE_MIN_TRIANGLES && poses * triangles >= SHAPE_TREE_MIN_WORK;
+    return triangles >= SHAPE_TREE_MIN_TRIANGLES && poses >= SHAPE_TREE_MIN_POSES;
 }
 
 /* The shape's tree, or NULL when it cannot be built (over its budget, out of memory, an
