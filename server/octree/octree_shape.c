@@ -708,7 +708,7 @@ static inline int world_is_leaf(const octree *world, int form, uint32_t ref)
 
 static inline octree_node world_leaf_of(const octree *world, int form, uint32_t ref)
 {
-    return world->nodes[form ? ref & ~TRAVERSAL_LEAF : ref];
+    return form ? octree_leaf_of_ref(world, ref) : world->nodes[ref];
 }
 
 /* Lane k's content bounds: origin + q scale is exact (octree_traversal.h), the sum with
