@@ -1,6 +1,7 @@
 /* Building the fixed-resolution octree, in the seed document's shape: one node array, an
  * explicit stack, each node testing only its parent's triangle list. */
 #include <math.h>
+#include <stddef.h>
 #include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -13,6 +14,11 @@
 #include "hot_memory.h"
 #include "octree_internal.h"
 #include "octree_modes.h"
+
+#if defined(__x86_64__) || defined(__SSE2__)
+#include <emmintrin.h>
+#define BUILD_SSE2 1
+#endif
 
 const char *accuracy_mode_name(accuracy_mode mode)
 {
@@ -121,6 +127,8 @@ typedef struct build_entry {
 typedef struct triangle_bounds {
     vec3 lo, hi;
 } triangle_bounds;
+_Static_assert(sizeof(triangle_bounds) == 6 * sizeof(double) && offsetof(triangle_bounds, hi) == 3 * sizeof(double),
+               "bounds_reach_index reads a triangle's bounds as six doubles");
 
 typedef struct build_ctx {
     octree *tree;
@@ -130,6 +138,8 @@ typedef struct build_ctx {
     size_t budget; /* bytes the build may hold (octree_def.budget_bytes, resolved) */
     size_t held;   /* bytes it holds now */
     size_t asked;  /* the request that would have passed the budget, when one did */
+    /* box_octants_reached by bounds_reach_index's comparisons */
+    uint8_t reach_of_index[64];
 } build_ctx;
 
 /* Counts bytes against the budget before they are allocated: 0, or -1 (nothing counted)
@@ -191,6 +201,46 @@ static const uint64_t spread8[256] = {SPREAD64(0), SPREAD64(64), SPREAD64(128), 
  * rest with comparisons; only the other children it reaches take the full test, prepared
  * once for all of them. The child boxes are box_octant's (the same split, the same
  * box_child), the ones the children are built with. */
+/* box_octants_reached of a triangle's bounds in two steps: the six comparisons with the
+ * split point as an index (bit a: lo_a <= c_a; bit 3 + a: hi_a >= c_a), then reach_of_index
+ * (the same table lookups, done once a node). Under SSE2 the comparisons take two lanes
+ * at a time: most items reach one child, and this was a fifth of what each cost. */
+typedef struct split_lanes {
+#ifdef BUILD_SSE2
+    __m128d xy, z_any, any_x, yz;
+#else
+    vec3 c;
+#endif
+} split_lanes;
+
+static split_lanes split_lanes_of(vec3 c)
+{
+#ifdef BUILD_SSE2
+    /* The infinite lanes always compare true and are masked out. */
+    return (split_lanes){_mm_set_pd(c.y, c.x), _mm_set_pd(INFINITY, c.z), _mm_set_pd(c.x, -INFINITY),
+                         _mm_set_pd(c.z, c.y)};
+#else
+    return (split_lanes){c};
+#endif
+}
+
+static inline unsigned bounds_reach_index(const triangle_bounds *b, const split_lanes *s)
+{
+#ifdef BUILD_SSE2
+    const double *v = (const double *)(const void *)b; /* lo.x lo.y lo.z hi.x hi.y hi.z */
+    __m128d lo_xy = _mm_loadu_pd(v), lo_z_hi_x = _mm_loadu_pd(v + 2), hi_yz = _mm_loadu_pd(v + 4);
+    unsigned low = (unsigned)_mm_movemask_pd(_mm_cmple_pd(lo_xy, s->xy)) |
+                   ((unsigned)_mm_movemask_pd(_mm_cmple_pd(lo_z_hi_x, s->z_any)) & 1) << 2;
+    unsigned high = (unsigned)_mm_movemask_pd(_mm_cmpge_pd(lo_z_hi_x, s->any_x)) >> 1 |
+                    (unsigned)_mm_movemask_pd(_mm_cmpge_pd(hi_yz, s->yz)) << 1;
+    return low | high << 3;
+#else
+    vec3 c = s->c;
+    return (unsigned)(b->lo.x <= c.x) | (unsigned)(b->lo.y <= c.y) << 1 | (unsigned)(b->lo.z <= c.z) << 2 |
+           (unsigned)(b->hi.x >= c.x) << 3 | (unsigned)(b->hi.y >= c.y) << 4 | (unsigned)(b->hi.z >= c.z) << 5;
+#endif
+}
+
 static void compute_reach(const build_ctx *ctx, const uint32_t *items, uint32_t n, box3 box, uint8_t *reach,
                           uint32_t count[8])
 {
@@ -200,13 +250,14 @@ static void compute_reach(const build_ctx *ctx, const uint32_t *items, uint32_t 
         child[k] = box_child(box, c, box_octant_upper_bits[k]);
         count[k] = 0;
     }
+    split_lanes lanes_c = split_lanes_of(c);
     for (uint32_t done = 0; done < n;) {
         /* Byte lanes hold up to 255: counts are carried out every 255 items. */
         uint32_t stop = n - done > 255 ? done + 255 : n;
         uint64_t lanes = 0;
         for (uint32_t i = done; i < stop; i++) {
-            triangle_bounds b = ctx->bounds[items[i]];
-            unsigned r = box_octants_reached(b.lo, b.hi, c);
+            const triangle_bounds b = ctx->bounds[items[i]];
+            unsigned r = ctx->reach_of_index[bounds_reach_index(&b, &lanes_c)];
             if (r & (r - 1)) {
                 const vec3 *tri = ctx->tree->triangles[items[i]];
                 unsigned open = r & ~tri_box_children_proven(tri, box, c, r);
@@ -707,6 +758,10 @@ octree *octree_build(const mesh_view *mesh, const octree_def *def_in, octree_err
             hi = vec3_max(hi, tree->triangles[i][k]);
         }
     build_ctx ctx = {.tree = tree, .def = &def, .budget = budget, .held = steady};
+    for (unsigned i = 0; i < 64; i++)
+        ctx.reach_of_index[i] = box_octants_by_half[0][(i & 1) | (i >> 3 & 1) << 1] &
+                                box_octants_by_half[1][(i >> 1 & 1) | (i >> 4 & 1) << 1] &
+                                box_octants_by_half[2][(i >> 2 & 1) | (i >> 5 & 1) << 1];
     ctx.bounds = malloc(tree->triangle_count * sizeof *ctx.bounds);
     if (!ctx.bounds || reorder_triangles(tree, lo, hi) != OCTREE_OK) {
         free(ctx.bounds);
