@@ -995,11 +995,12 @@ static void test_children_touched_equals_reference(void **state)
 /* Each child tri_box_children_at_crossings names must be touched, on near-degenerate
  * cases (edges crossing split planes at lattice points, ulp nudges), uniform ones, and
  * ones scaled near the top of the double range, where the crossing arithmetic overflows
- * and must prove nothing. It must also name many: it exists to spare the full test. */
+ * and must prove nothing. It must also name many: it exists to spare the full test. Its
+ * AVX2 and portable paths must name the same children. */
 static void test_children_at_crossings_are_touched(void **state)
 {
     rng r = test_rng(state, 6);
-    int named = 0, touched_open = 0, wrong = 0;
+    int named = 0, touched_open = 0, wrong = 0, paths_differ = 0, crossings_seen = 0;
     for (int n = 0; n < 30000; n++) {
         vec3 tri[3];
         box3 box;
@@ -1014,6 +1015,21 @@ static void test_children_at_crossings_are_touched(void **state)
         }
         vec3 c = box_split_point(box);
         unsigned crossing = tri_box_children_at_crossings(tri, box, c, 0xff);
+        /* Both code paths name the same children when all are wanted; with fewer wanted,
+         * each may stop early (the AVX2 path after whole edges), but names no child the
+         * full search does not, and every wanted one the full search names. */
+        unsigned portable = tri_box_children_at_crossings_portable(tri, box, c, 0xff);
+        unsigned wanted = (unsigned)(rng_next(&r) & 0xff);
+        unsigned some = tri_box_children_at_crossings(tri, box, c, wanted);
+        unsigned some_portable = tri_box_children_at_crossings_portable(tri, box, c, wanted);
+        int differ = crossing != portable || (some & ~crossing) != 0 || (some_portable & ~crossing) != 0 ||
+                     (some & wanted) != (crossing & wanted) || (some_portable & wanted) != (crossing & wanted);
+        if (differ && paths_differ++ < 5) {
+            printf("paths differ: %02x and %02x named, %02x and %02x of %02x wanted: ", crossing, portable, some,
+                   some_portable, wanted);
+            print_case("crossing", tri, box);
+        }
+        crossings_seen += crossing != 0;
         for (int k = 0; k < 8; k++) {
             int touched = reference_tri_box(tri, box_octant(box, k));
             int claimed = (crossing >> k) & 1;
@@ -1039,8 +1055,11 @@ static void test_children_at_crossings_are_touched(void **state)
             if (!tri_box_overlap_exact(wide, box_octant(whole, k)) && wrong++ < 5)
                 printf("child %d of the overflowing case claimed but not touched\n", k);
         }
-    printf("crossings: %d children named of %d touched, %d wrongly\n", named, touched_open, wrong);
+    printf("crossings: %d children named of %d touched, %d wrongly; %d cases named some, %d where the paths "
+           "differ\n", named, touched_open, wrong, crossings_seen, paths_differ);
     assert_int_equal(wrong, 0);
+    assert_int_equal(paths_differ, 0);
+    assert_true(crossings_seen > 1000);
     assert_true(named > touched_open / 10);
 }
 

@@ -2,6 +2,7 @@
  * build and descend the octree, the seed document's epsilon test, and the plain double test. */
 #include "tri_box.h"
 
+#include <float.h>
 #include <string.h>
 
 #include "box_geometry.h"
@@ -333,7 +334,7 @@ unsigned tri_box_children_touched(tri_box_triangle *t, const box3 child[8], unsi
  * overflow gives an inf or NaN that fails every comparison, and the point proves nothing. */
 #define CROSSING_ROUNDING (8 * 0x1p-53)
 
-unsigned tri_box_children_at_crossings(const vec3 tri[3], box3 box, vec3 c, unsigned wanted)
+unsigned tri_box_children_at_crossings_portable(const vec3 tri[3], box3 box, vec3 c, unsigned wanted)
 {
     const double v[3][3] = {{tri[0].x, tri[0].y, tri[0].z}, {tri[1].x, tri[1].y, tri[1].z},
                             {tri[2].x, tri[2].y, tri[2].z}};
@@ -379,6 +380,97 @@ unsigned tri_box_children_at_crossings(const vec3 tri[3], box3 box, vec3 c, unsi
         }
     }
     return touched;
+}
+
+#if defined(__x86_64__) || defined(__i386__)
+/* crossing_children[k][upper]: the children two halves name at a crossing of the split
+ * plane of coordinate k (both halves along k), with bit 0 of upper set for the upper half
+ * along coordinate i = k + 1 and bit 1 for j = k + 2 (mod 3): the product of
+ * box_octants_by_half that the portable loop takes. Octant bits as box_octant_upper_bits. */
+static unsigned char crossing_children[3][4];
+
+static void crossing_children_fill(void)
+{
+    for (int k = 0; k < 3; k++)
+        for (unsigned upper = 0; upper < 4; upper++) {
+            int i = k == 2 ? 0 : k + 1, j = k == 0 ? 2 : k - 1;
+            unsigned halves[3] = {3, 3, 3};
+            halves[i] = upper & 1 ? 2 : 1;
+            halves[j] = upper & 2 ? 2 : 1;
+            crossing_children[k][upper] = (unsigned char)(box_octants_by_half[0][halves[0]] &
+                                                          box_octants_by_half[1][halves[1]] &
+                                                          box_octants_by_half[2][halves[2]]);
+        }
+}
+
+/* tri_box_children_at_crossings_portable with an edge's three split planes as the lanes
+ * of one register: the same operations on the same operands, so each lane proves what
+ * the portable loop proves for that edge and plane; only the search stops after whole
+ * edges, so more children may be named (each one proven). */
+__attribute__((target("avx2"))) static unsigned children_at_crossings_avx2(const vec3 tri[3], box3 box, vec3 c,
+                                                                          unsigned wanted)
+{
+    /* Lane k holds coordinate k, and the lanes of the two other coordinates i = k + 1
+     * and j = k + 2 (mod 3) hold them in the same rotation. */
+    const lanes4 split_k = {c.x, c.y, c.z, 0}, split_i = {c.y, c.z, c.x, 0}, split_j = {c.z, c.x, c.y, 0};
+    const lanes4 lo_i = {box.lo.y, box.lo.z, box.lo.x, 0}, lo_j = {box.lo.z, box.lo.x, box.lo.y, 0};
+    const lanes4 hi_i = {box.hi.y, box.hi.z, box.hi.x, 0}, hi_j = {box.hi.z, box.hi.x, box.hi.y, 0};
+    const lanes4 one = {1, 1, 1, 1}, largest = {DBL_MAX, DBL_MAX, DBL_MAX, DBL_MAX};
+    const lanes4 rounding = {CROSSING_ROUNDING, CROSSING_ROUNDING, CROSSING_ROUNDING, CROSSING_ROUNDING};
+    const lanes4 tiny = {0x1p-1070, 0x1p-1070, 0x1p-1070, 0x1p-1070};
+    lanes4 vk[3], vi[3], vj[3];
+    for (int n = 0; n < 3; n++) {
+        vk[n] = (lanes4){tri[n].x, tri[n].y, tri[n].z, 0};
+        vi[n] = (lanes4){tri[n].y, tri[n].z, tri[n].x, 0};
+        vj[n] = (lanes4){tri[n].z, tri[n].x, tri[n].y, 0};
+    }
+    unsigned touched = 0;
+    for (int e = 0; e < 3; e++) {
+        int q = e == 2 ? 0 : e + 1;
+        lanes4 pk = vk[e], qk = vk[q];
+        /* Lane 3 compares 0 < 0 and never crosses. */
+        mask4 crossing = ((pk < split_k) & (split_k < qk)) | ((qk < split_k) & (split_k < pk));
+        lanes4 den = qk - pk;
+        crossing &= ABS4(den) <= largest; /* an overflowed difference proves nothing */
+        /* A lane that does not cross divides by one instead of by a zero. */
+        lanes4 t = (split_k - pk) / PICK4(crossing, den, one);
+        lanes4 product_i = t * (vi[q] - vi[e]), product_j = t * (vj[q] - vj[e]);
+        lanes4 x_i = vi[e] + product_i, x_j = vj[e] + product_j;
+        lanes4 tol_i = rounding * (ABS4(vi[e]) + ABS4(product_i)) + tiny;
+        lanes4 tol_j = rounding * (ABS4(vj[e]) + ABS4(product_j)) + tiny;
+        lanes4 below_i = x_i - tol_i, above_i = x_i + tol_i, below_j = x_j - tol_j, above_j = x_j + tol_j;
+        mask4 lower_i = (below_i >= lo_i) & (above_i <= split_i), upper_i = (below_i >= split_i) & (above_i <= hi_i);
+        mask4 lower_j = (below_j >= lo_j) & (above_j <= split_j), upper_j = (below_j >= split_j) & (above_j <= hi_j);
+        mask4 certain = crossing & (lower_i | upper_i) & (lower_j | upper_j);
+        unsigned lanes = (unsigned)__builtin_ia32_movmskpd256((lanes4)certain);
+        /* The portable loop tries the lower half first. */
+        unsigned up_i = (unsigned)__builtin_ia32_movmskpd256((lanes4)(upper_i & ~lower_i));
+        unsigned up_j = (unsigned)__builtin_ia32_movmskpd256((lanes4)(upper_j & ~lower_j));
+        for (; lanes; lanes &= lanes - 1) {
+            int k = __builtin_ctz(lanes);
+            touched |= crossing_children[k][(up_i >> k & 1) | (up_j >> k & 1) << 1];
+        }
+        if ((wanted & ~touched) == 0)
+            return touched;
+    }
+    return touched;
+}
+#endif
+
+unsigned tri_box_children_at_crossings(const vec3 tri[3], box3 box, vec3 c, unsigned wanted)
+{
+#if defined(__x86_64__) || defined(__i386__)
+    /* A benign race: every thread stores the same table and the same answer, the table
+     * before the flag that says it is there. */
+    static int avx2 = -1;
+    if (__atomic_load_n(&avx2, __ATOMIC_ACQUIRE) < 0) {
+        crossing_children_fill();
+        __atomic_store_n(&avx2, __builtin_cpu_supports("avx2") ? 1 : 0, __ATOMIC_RELEASE);
+    }
+    if (avx2)
+        return children_at_crossings_avx2(tri, box, c, wanted);
+#endif
+    return tri_box_children_at_crossings_portable(tri, box, c, wanted);
 }
 
 int tri_box_overlap_exact(const vec3 tri[3], box3 box)

@@ -59,6 +59,11 @@ unsigned tri_box_children_touched_portable(tri_box_triangle *t, const box3 child
  * than its rounding error. A proof only: a child not named may still be touched. The
  * search stops once every child in the mask `wanted` is named. */
 unsigned tri_box_children_at_crossings(const vec3 tri[3], box3 box, vec3 c, unsigned wanted);
+/* The same without the AVX2 code path, which tri_box_children_at_crossings takes where the
+ * processor has it: for tests, which check both. With wanted 0xff both name the same
+ * children; with fewer, each may stop at a different point once the wanted are named (the
+ * AVX2 path only after a whole edge). */
+unsigned tri_box_children_at_crossings_portable(const vec3 tri[3], box3 box, vec3 c, unsigned wanted);
 
 /* Of the children `reach` of a box with split point c, those a triangle touching the box
  * certainly touches, shown without the full test: reach must be box_octants_reached of the

@@ -1,6 +1,7 @@
 /* Building the fixed-resolution octree, in the seed document's shape: one node array, an
  * explicit stack, each node testing only its parent's triangle list. */
 #include <math.h>
+#include <stddef.h>
 #include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -13,6 +14,11 @@
 #include "hot_memory.h"
 #include "octree_internal.h"
 #include "octree_modes.h"
+
+#if defined(__x86_64__) || defined(__SSE2__)
+#include <emmintrin.h>
+#define BUILD_SSE2 1
+#endif
 
 const char *accuracy_mode_name(accuracy_mode mode)
 {
@@ -96,19 +102,18 @@ typedef struct u32_array {
 /* First capacity of a build list. */
 #define U32_ARRAY_FIRST 64
 
-/* A triangle list shared by the eight children that test it; freed when the last of them
- * has built its own list (the seed's "interior nodes' lists are released after use"). */
+/* The eight children's triangle lists of a node that was split, side by side in one block:
+ * child k's items are items[first[k] .. first[k] + count[k]), in the order of the node's
+ * own list. The node decides every item's children once, in one pass, and writes each
+ * item straight into the lists it belongs to, so a child reads its list instead of
+ * filtering its parent's (before, each of the eight scanned the parent's list again).
+ * Freed when the last child has used its list (the seed's "interior nodes' lists are
+ * released after use"). The root's "parent" holds one list, every triangle, as child 0. */
 typedef struct shared_list {
     uint32_t *items;
-    uint32_t count;
+    uint32_t first[8], count[8];
     int pending_children;
-    box3 box; /* the box of the node that owns the list: every listed triangle touches it */
-    size_t bytes; /* what the list holds, counted against the build's budget */
-    /* Per item, bit k set when the item touches the seed's octant k of `box`, exactly.
-     * Computed once by the owner so that each of its eight children reads one byte per
-     * item, and a straddling item's test is prepared once for all its children. NULL for
-     * the root's list. */
-    uint8_t *reach;
+    size_t bytes; /* what the block holds, counted against the build's budget */
 } shared_list;
 
 typedef struct build_entry {
@@ -122,6 +127,8 @@ typedef struct build_entry {
 typedef struct triangle_bounds {
     vec3 lo, hi;
 } triangle_bounds;
+_Static_assert(sizeof(triangle_bounds) == 6 * sizeof(double) && offsetof(triangle_bounds, hi) == 3 * sizeof(double),
+               "bounds_reach_index reads a triangle's bounds as six doubles");
 
 typedef struct build_ctx {
     octree *tree;
@@ -131,6 +138,8 @@ typedef struct build_ctx {
     size_t budget; /* bytes the build may hold (octree_def.budget_bytes, resolved) */
     size_t held;   /* bytes it holds now */
     size_t asked;  /* the request that would have passed the budget, when one did */
+    /* box_octants_reached by bounds_reach_index's comparisons */
+    uint8_t reach_of_index[64];
 } build_ctx;
 
 /* Counts bytes against the budget before they are allocated: 0, or -1 (nothing counted)
@@ -162,8 +171,8 @@ static octree_status u32_reserve(build_ctx *ctx, u32_array *a, size_t extra)
     return OCTREE_OK;
 }
 
-/* Membership of the parent list's item i in a node's closed box: the parent has decided it
- * already for all eight children (see shared_list), exactly, whatever the tree's mode.
+/* Membership of a node's item in its children's closed boxes: the node decides it for
+ * all eight children at once (see shared_list), exactly, whatever the tree's mode.
  *
  * Every mode builds this same tree. Membership must be conservative in every mode (a
  * triangle touching the closed box is in the node), and a tree is queried in every mode
@@ -173,68 +182,114 @@ static octree_status u32_reserve(build_ctx *ctx, u32_array *a, size_t extra)
  * double triangle-box test dropped triangles that only touch a node, and the seed's
  * three-step test accepts whatever lies within epsilon, which in a world about as small
  * as epsilon is every node down to the last level; neither is conservative, and both cost
- * more than the exact decision (docs/engine.md has the figures). */
-static int triangle_in_node(const shared_list *parent, uint32_t i, const build_entry *e)
-{
-    /* The root: every triangle lies inside the world cube. */
-    return parent->reach ? (parent->reach[i] >> e->octant) & 1 : 1;
-}
+ * more than the exact decision (docs/engine.md has the figures). The root takes every
+ * triangle: every one lies inside the world cube. */
 
-/* The children a new interior node's items touch (see shared_list), exactly. A child the
+/* Bit 8k of spread8[r] is bit k of r: adding it counts, in eight byte lanes at once, how
+ * many items each child takes. */
+#define SPREAD1(r) ((uint64_t)((r) & 1) | (uint64_t)((r) >> 1 & 1) << 8 | (uint64_t)((r) >> 2 & 1) << 16 | \
+                    (uint64_t)((r) >> 3 & 1) << 24 | (uint64_t)((r) >> 4 & 1) << 32 | (uint64_t)((r) >> 5 & 1) << 40 | \
+                    (uint64_t)((r) >> 6 & 1) << 48 | (uint64_t)((r) >> 7 & 1) << 56)
+#define SPREAD4(r) SPREAD1(r), SPREAD1((r) + 1), SPREAD1((r) + 2), SPREAD1((r) + 3)
+#define SPREAD16(r) SPREAD4(r), SPREAD4((r) + 4), SPREAD4((r) + 8), SPREAD4((r) + 12)
+#define SPREAD64(r) SPREAD16(r), SPREAD16((r) + 16), SPREAD16((r) + 32), SPREAD16((r) + 48)
+static const uint64_t spread8[256] = {SPREAD64(0), SPREAD64(64), SPREAD64(128), SPREAD64(192)};
+
+/* The children a new interior node's items touch, exactly: reach[i] gets bit k when item
+ * i touches the seed's octant k, and count[k] how many items child k takes. A child the
  * item's bounds do not reach is not touched; tri_box_children_proven settles most of the
  * rest with comparisons; only the other children it reaches take the full test, prepared
  * once for all of them. The child boxes are box_octant's (the same split, the same
  * box_child), the ones the children are built with. */
-static void compute_reach(const build_ctx *ctx, shared_list *list)
+/* box_octants_reached of a triangle's bounds in two steps: the six comparisons with the
+ * split point as an index (bit a: lo_a <= c_a; bit 3 + a: hi_a >= c_a), then reach_of_index
+ * (the same table lookups, done once a node). Under SSE2 the comparisons take two lanes
+ * at a time: most items reach one child, and this was a fifth of what each cost. */
+typedef struct split_lanes {
+#ifdef BUILD_SSE2
+    __m128d xy, z_any, any_x, yz;
+#else
+    vec3 c;
+#endif
+} split_lanes;
+
+static split_lanes split_lanes_of(vec3 c)
 {
-    box3 box = list->box;
+#ifdef BUILD_SSE2
+    /* The infinite lanes always compare true and are masked out. */
+    return (split_lanes){_mm_set_pd(c.y, c.x), _mm_set_pd(INFINITY, c.z), _mm_set_pd(c.x, -INFINITY),
+                         _mm_set_pd(c.z, c.y)};
+#else
+    return (split_lanes){c};
+#endif
+}
+
+static inline unsigned bounds_reach_index(const triangle_bounds *b, const split_lanes *s)
+{
+#ifdef BUILD_SSE2
+    const double *v = (const double *)(const void *)b; /* lo.x lo.y lo.z hi.x hi.y hi.z */
+    __m128d lo_xy = _mm_loadu_pd(v), lo_z_hi_x = _mm_loadu_pd(v + 2), hi_yz = _mm_loadu_pd(v + 4);
+    unsigned low = (unsigned)_mm_movemask_pd(_mm_cmple_pd(lo_xy, s->xy)) |
+                   ((unsigned)_mm_movemask_pd(_mm_cmple_pd(lo_z_hi_x, s->z_any)) & 1) << 2;
+    unsigned high = (unsigned)_mm_movemask_pd(_mm_cmpge_pd(lo_z_hi_x, s->any_x)) >> 1 |
+                    (unsigned)_mm_movemask_pd(_mm_cmpge_pd(hi_yz, s->yz)) << 1;
+    return low | high << 3;
+#else
+    vec3 c = s->c;
+    return (unsigned)(b->lo.x <= c.x) | (unsigned)(b->lo.y <= c.y) << 1 | (unsigned)(b->lo.z <= c.z) << 2 |
+           (unsigned)(b->hi.x >= c.x) << 3 | (unsigned)(b->hi.y >= c.y) << 4 | (unsigned)(b->hi.z >= c.z) << 5;
+#endif
+}
+
+static void compute_reach(const build_ctx *ctx, const uint32_t *items, uint32_t n, box3 box, uint8_t *reach,
+                          uint32_t count[8])
+{
     vec3 c = octree_split_point(ctx->tree, box);
     box3 child[8];
-    for (int k = 0; k < 8; k++)
+    for (int k = 0; k < 8; k++) {
         child[k] = box_child(box, c, box_octant_upper_bits[k]);
-    for (uint32_t i = 0; i < list->count; i++) {
-        triangle_bounds b = ctx->bounds[list->items[i]];
-        unsigned reach = box_octants_reached(b.lo, b.hi, c);
-        if (reach & (reach - 1)) {
-            const vec3 *tri = ctx->tree->triangles[list->items[i]];
-            unsigned open = reach & ~tri_box_children_proven(tri, box, c, reach);
-            if (open) {
-                tri_box_triangle t;
-                tri_box_prepare(&t, tri);
-                reach &= ~(open & ~tri_box_children_touched(&t, child, open));
+        count[k] = 0;
+    }
+    split_lanes lanes_c = split_lanes_of(c);
+    for (uint32_t done = 0; done < n;) {
+        /* Byte lanes hold up to 255: counts are carried out every 255 items. */
+        uint32_t stop = n - done > 255 ? done + 255 : n;
+        uint64_t lanes = 0;
+        for (uint32_t i = done; i < stop; i++) {
+            const triangle_bounds b = ctx->bounds[items[i]];
+            unsigned r = ctx->reach_of_index[bounds_reach_index(&b, &lanes_c)];
+            if (r & (r - 1)) {
+                const vec3 *tri = ctx->tree->triangles[items[i]];
+                unsigned open = r & ~tri_box_children_proven(tri, box, c, r);
+                if (open) {
+                    tri_box_triangle t;
+                    tri_box_prepare(&t, tri);
+                    r &= ~(open & ~tri_box_children_touched(&t, child, open));
+                }
             }
+            reach[i] = (uint8_t)r;
+            lanes += spread8[r];
         }
-        list->reach[i] = (uint8_t)reach;
+        for (int k = 0; k < 8; k++)
+            count[k] += (uint32_t)(lanes >> 8 * k) & 0xff;
+        done = stop;
     }
 }
 
-/* Below the root the parent's bytes decide which of its items a child takes.
- * Items follow a Morton order, so a child's items come in runs and most groups of eight
- * bytes hold none of its bits: those are skipped with one test (of the whole group, so
- * the byte order does not matter). Within a group the items are appended without a
- * branch. Returns how many were written to out. */
-static size_t take_children_items(const shared_list *parent, int octant, uint32_t *out)
+/* Writes each item into the lists of the children its reach byte names (first[k]: where
+ * child k's list starts in out), keeping the node's order within each list. */
+static void split_items(const uint32_t *items, const uint8_t *reach, uint32_t n, const uint32_t first[8],
+                        uint32_t *out)
 {
-    const uint8_t *reach = parent->reach;
-    const uint32_t *items = parent->items;
-    uint32_t count = parent->count, i = 0;
-    size_t n = 0;
-    for (; i + 8 <= count; i += 8) {
-        uint64_t group;
-        memcpy(&group, reach + i, sizeof group);
-        group = (group >> octant) & 0x0101010101010101u;
-        if (group == 0)
-            continue;
-        for (uint32_t j = i; j < i + 8; j++) {
-            out[n] = items[j];
-            n += (reach[j] >> octant) & 1;
+    uint32_t at[8];
+    memcpy(at, first, sizeof at);
+    for (uint32_t i = 0; i < n; i++) {
+        unsigned r = reach[i];
+        while (r) {
+            out[at[__builtin_ctz(r)]++] = items[i];
+            r &= r - 1;
         }
     }
-    for (; i < count; i++) {
-        out[n] = items[i];
-        n += (reach[i] >> octant) & 1;
-    }
-    return n;
 }
 
 /* Children blocks start at node indices that are multiples of 8, in an array aligned to
@@ -278,7 +333,6 @@ static void release_list(build_ctx *ctx, shared_list *list)
     if (list && --list->pending_children == 0) {
         budget_give_back(ctx, list->bytes);
         free(list->items);
-        free(list->reach);
         free(list);
     }
 }
@@ -288,27 +342,27 @@ static octree_status build_nodes(build_ctx *ctx, int max_level)
 {
     octree *tree = ctx->tree;
     u32_array leaves = {0};
-    u32_array scratch = {0};
+    /* The reach bytes of the node being split, reused from node to node. */
+    uint8_t *reach = NULL;
+    size_t reach_capacity = 0;
     octree_status status = OCTREE_OK;
 
     /* The root's "parent list" is every triangle. */
     size_t all_bytes = sizeof(shared_list) + (tree->triangle_count ? tree->triangle_count : 1) * sizeof(uint32_t);
     if (budget_take(ctx, all_bytes) != 0)
         return OCTREE_ERR_BUDGET;
-    shared_list *all = malloc(sizeof *all);
+    shared_list *all = calloc(1, sizeof *all);
     if (!all)
         return OCTREE_ERR_NOMEM;
     all->bytes = all_bytes;
-    all->count = (uint32_t)tree->triangle_count;
+    all->count[0] = (uint32_t)tree->triangle_count;
     all->pending_children = 1;
-    all->box = tree->world;
-    all->reach = NULL;
-    all->items = malloc((all->count ? all->count : 1) * sizeof *all->items);
+    all->items = malloc((tree->triangle_count ? tree->triangle_count : 1) * sizeof *all->items);
     if (!all->items) {
         free(all);
         return OCTREE_ERR_NOMEM;
     }
-    for (uint32_t i = 0; i < all->count; i++)
+    for (uint32_t i = 0; i < all->count[0]; i++)
         all->items[i] = i;
 
     build_entry stack[OCTREE_STACK_MAX];
@@ -319,69 +373,80 @@ static octree_status build_nodes(build_ctx *ctx, int max_level)
 
     while (top > 0) {
         build_entry e = stack[--top];
-        scratch.count = 0;
-        if ((status = u32_reserve(ctx, &scratch, e.parent->count)) != OCTREE_OK) {
-            release_list(ctx, e.parent);
-            goto unwind;
-        }
-        if (e.parent->reach) {
-            scratch.count = take_children_items(e.parent, e.octant, scratch.items);
-        } else {
-            for (uint32_t i = 0; i < e.parent->count; i++)
-                if (triangle_in_node(e.parent, i, &e))
-                    scratch.items[scratch.count++] = e.parent->items[i];
-        }
-        release_list(ctx, e.parent);
+        const uint32_t *items = e.parent->items + e.parent->first[e.octant];
+        uint32_t count = e.parent->count[e.octant];
 
-        if (scratch.count == 0 || e.level >= max_level) {
-            if ((status = u32_reserve(ctx, &leaves, scratch.count)) != OCTREE_OK)
+        if (count == 0 || e.level >= max_level) {
+            if ((status = u32_reserve(ctx, &leaves, count)) != OCTREE_OK) {
+                release_list(ctx, e.parent);
                 goto unwind;
-            if (leaves.count + scratch.count > UINT32_MAX - 1) {
+            }
+            if (leaves.count + count > UINT32_MAX - 1) {
+                release_list(ctx, e.parent);
                 status = OCTREE_ERR_TOO_BIG;
                 goto unwind;
             }
-            tree->nodes[e.node] = (octree_node){(uint32_t)leaves.count, (uint32_t)scratch.count};
-            if (scratch.count) /* an empty leaf may come before any list exists */
-                memcpy(leaves.items + leaves.count, scratch.items, scratch.count * sizeof *scratch.items);
-            leaves.count += scratch.count;
+            tree->nodes[e.node] = (octree_node){(uint32_t)leaves.count, count};
+            if (count) /* an empty leaf may come before any list exists */
+                memcpy(leaves.items + leaves.count, items, count * sizeof *items);
+            leaves.count += count;
+            release_list(ctx, e.parent);
             continue;
         }
 
-        /* The list takes over scratch's items (already counted) and adds itself and a byte
-         * per item. */
-        size_t own_bytes = sizeof(shared_list) + scratch.count;
-        if (budget_take(ctx, own_bytes) != 0) {
+        if (count > reach_capacity) {
+            size_t cap = array_grown_capacity(reach_capacity, count, 1, 4096);
+            uint8_t *grown = NULL;
+            if (budget_take(ctx, cap - reach_capacity) != 0)
+                status = OCTREE_ERR_BUDGET;
+            else if (!(grown = realloc(reach, cap))) {
+                budget_give_back(ctx, cap - reach_capacity);
+                status = OCTREE_ERR_NOMEM;
+            }
+            if (status != OCTREE_OK) {
+                release_list(ctx, e.parent);
+                goto unwind;
+            }
+            reach = grown;
+            reach_capacity = cap;
+        }
+        uint32_t child_count[8];
+        compute_reach(ctx, items, count, e.box, reach, child_count);
+
+        size_t total = 0;
+        for (int k = 0; k < 8; k++)
+            total += child_count[k];
+        size_t bytes = sizeof(shared_list) + (total ? total : 1) * sizeof(uint32_t);
+        shared_list *list = NULL;
+        if (total > UINT32_MAX - 1)
+            status = OCTREE_ERR_TOO_BIG;
+        else if (budget_take(ctx, bytes) != 0)
             status = OCTREE_ERR_BUDGET;
-            goto unwind;
-        }
-        shared_list *list = malloc(sizeof *list);
-        if (!list) {
-            budget_give_back(ctx, own_bytes);
-            status = OCTREE_ERR_NOMEM;
-            goto unwind;
-        }
-        list->bytes = own_bytes + scratch.capacity * sizeof *scratch.items;
-        list->items = scratch.items;
-        list->count = (uint32_t)scratch.count;
-        list->pending_children = 8;
-        list->box = e.box;
-        list->reach = NULL;
-        scratch = (u32_array){0};
-        list->reach = malloc(list->count);
-        if (!list->reach) {
-            budget_give_back(ctx, list->bytes);
-            free(list->items);
+        else if (!(list = malloc(sizeof *list)) || !(list->items = malloc((total ? total : 1) * sizeof *list->items))) {
             free(list);
+            list = NULL;
+            budget_give_back(ctx, bytes);
             status = OCTREE_ERR_NOMEM;
+        }
+        if (!list) {
+            release_list(ctx, e.parent);
             goto unwind;
         }
-        compute_reach(ctx, list);
+        list->bytes = bytes;
+        list->pending_children = 8;
+        uint32_t at = 0;
+        for (int k = 0; k < 8; k++) {
+            list->first[k] = at;
+            list->count[k] = child_count[k];
+            at += child_count[k];
+        }
+        split_items(items, reach, count, list->first, list->items);
+        release_list(ctx, e.parent);
 
         int added = add_children(ctx, e.node);
         if (added != 0) {
             budget_give_back(ctx, list->bytes);
             free(list->items);
-            free(list->reach);
             free(list);
             status = added == -1 ? OCTREE_ERR_TOO_BIG : added == -3 ? OCTREE_ERR_BUDGET : OCTREE_ERR_NOMEM;
             goto unwind;
@@ -394,8 +459,8 @@ static octree_status build_nodes(build_ctx *ctx, int max_level)
                                          box_child(e.box, c, box_octant_upper_bits[k]), list};
     }
 
-    budget_give_back(ctx, scratch.capacity * sizeof *scratch.items);
-    free(scratch.items);
+    budget_give_back(ctx, reach_capacity);
+    free(reach);
     tree->leaf_items = leaves.items ? leaves.items : malloc(sizeof(uint32_t));
     tree->info.leaf_refs = leaves.count;
     if (!tree->leaf_items)
@@ -412,7 +477,7 @@ static octree_status build_nodes(build_ctx *ctx, int max_level)
 unwind:
     while (top > 0)
         release_list(ctx, stack[--top].parent);
-    free(scratch.items);
+    free(reach);
     free(leaves.items);
     return status;
 }
@@ -693,6 +758,10 @@ octree *octree_build(const mesh_view *mesh, const octree_def *def_in, octree_err
             hi = vec3_max(hi, tree->triangles[i][k]);
         }
     build_ctx ctx = {.tree = tree, .def = &def, .budget = budget, .held = steady};
+    for (unsigned i = 0; i < 64; i++)
+        ctx.reach_of_index[i] = box_octants_by_half[0][(i & 1) | (i >> 3 & 1) << 1] &
+                                box_octants_by_half[1][(i >> 1 & 1) | (i >> 4 & 1) << 1] &
+                                box_octants_by_half[2][(i >> 2 & 1) | (i >> 5 & 1) << 1];
     ctx.bounds = malloc(tree->triangle_count * sizeof *ctx.bounds);
     if (!ctx.bounds || reorder_triangles(tree, lo, hi) != OCTREE_OK) {
         free(ctx.bounds);
