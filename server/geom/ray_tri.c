@@ -42,11 +42,25 @@ static inline int sign_of(double x) { return (x > 0.0) - (x < 0.0); }
 
 /* ---------------------------------------------------------------- exact test: filters */
 
+/* The cross product u x v as its three rounded minors, and per component the padded sum of
+ * the two products' magnitudes that a dot product with it weighs in its error bound. */
+static inline void padded_cross(vec3 u, vec3 v, vec3 *cross, vec3 *mag)
+{
+    double p1 = u.y * v.z, p2 = u.z * v.y;
+    double p3 = u.z * v.x, p4 = u.x * v.z;
+    double p5 = u.x * v.y, p6 = u.y * v.x;
+    *cross = (vec3){p1 - p2, p3 - p4, p5 - p6};
+    *mag = (vec3){fabs(p1) + fabs(p2) + TRIPLE_PAD, fabs(p3) + fabs(p4) + TRIPLE_PAD,
+                  fabs(p5) + fabs(p6) + TRIPLE_PAD};
+}
+
 /* The edge function ((vi - o) x (vj - o)) . d, evaluated as ((vi - o) x (vj - vi)) . d: the
  * same real number, but its error bound scales with the edge length instead of the
  * distance to the origin twice, so the filter fails less often for far-away origins. */
 static inline double edge_function(vec3 a, vec3 e, vec3 d, double *err)
 {
+    /* padded_cross's products, with the magnitude sums left until w is known nonzero (a
+     * ray's exact tests are frequent enough for them to count). */
     double p1 = a.y * e.z, p2 = a.z * e.y;
     double p3 = a.z * e.x, p4 = a.x * e.z;
     double p5 = a.x * e.y, p6 = a.y * e.x;
@@ -86,12 +100,8 @@ static inline plane_param plane_param_of(vec3 o, vec3 d, const vec3 tri[3])
 {
     vec3 e1 = vec3_sub(tri[1], tri[0]), e2 = vec3_sub(tri[2], tri[0]);
     vec3 a = vec3_sub(tri[0], o);
-    double p1 = e1.y * e2.z, p2 = e1.z * e2.y;
-    double p3 = e1.z * e2.x, p4 = e1.x * e2.z;
-    double p5 = e1.x * e2.y, p6 = e1.y * e2.x;
-    vec3 n = {p1 - p2, p3 - p4, p5 - p6};
-    vec3 m = {fabs(p1) + fabs(p2) + TRIPLE_PAD, fabs(p3) + fabs(p4) + TRIPLE_PAD,
-              fabs(p5) + fabs(p6) + TRIPLE_PAD};
+    vec3 n, m;
+    padded_cross(e1, e2, &n, &m);
     plane_param pp;
     pp.num = n.x * a.x + n.y * a.y + n.z * a.z;
     pp.num_err =
@@ -602,29 +612,25 @@ void ray_fan_init(ray_fan *fan, vec3 o, const vec3 *directions, unsigned count)
 
 /* What edge_function computes before the direction comes in: a = v_k - o and e = v_j -
  * v_k, their six products, and per axis the difference and the padded magnitude sum that
- * the dot product with d and its bound weigh. */
+ * the dot product with d and its bound weigh (the same operations, so the same values). */
 typedef struct fan_edge {
-    double c[3], m[3];
+    vec3 c, m;
 } fan_edge;
 
 static inline fan_edge fan_edge_of(vec3 vk, vec3 vj, vec3 o)
 {
-    vec3 a = vec3_sub(vk, o), e = vec3_sub(vj, vk);
-    double p1 = a.y * e.z, p2 = a.z * e.y;
-    double p3 = a.z * e.x, p4 = a.x * e.z;
-    double p5 = a.x * e.y, p6 = a.y * e.x;
-    return (fan_edge){{p1 - p2, p3 - p4, p5 - p6},
-                      {fabs(p1) + fabs(p2) + TRIPLE_PAD, fabs(p3) + fabs(p4) + TRIPLE_PAD,
-                       fabs(p5) + fabs(p6) + TRIPLE_PAD}};
+    fan_edge g;
+    padded_cross(vec3_sub(vk, o), vec3_sub(vj, vk), &g.c, &g.m);
+    return g;
 }
 
 /* filtered_sign of one ray's edge function from its shared part. */
 static inline int fan_edge_sign(const fan_edge *g, const ray_fan *fan, unsigned i)
 {
-    double w = fan->d[0][i] * g->c[0] + fan->d[1][i] * g->c[1] + fan->d[2][i] * g->c[2];
+    double w = fan->d[0][i] * g->c.x + fan->d[1][i] * g->c.y + fan->d[2][i] * g->c.z;
     if (w == 0.0)
         return 0;
-    double perm = fan->dabs[0][i] * g->m[0] + fan->dabs[1][i] * g->m[1] + fan->dabs[2][i] * g->m[2];
+    double perm = fan->dabs[0][i] * g->m.x + fan->dabs[1][i] * g->m.y + fan->dabs[2][i] * g->m.z;
     return filtered_sign(w, TRIPLE_ERR_EXACT_ROW * perm + TRIPLE_ABS);
 }
 
@@ -646,14 +652,14 @@ RAY_TRI_AVX2 static inline __attribute__((always_inline)) void fan_edge4(const f
 {
     __m256d dx = _mm256_loadu_pd(&fan->d[0][4 * half]), dy = _mm256_loadu_pd(&fan->d[1][4 * half]),
             dz = _mm256_loadu_pd(&fan->d[2][4 * half]);
-    __m256d w = _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(dx, _mm256_set1_pd(g->c[0])),
-                                            _mm256_mul_pd(dy, _mm256_set1_pd(g->c[1]))),
-                              _mm256_mul_pd(dz, _mm256_set1_pd(g->c[2])));
+    __m256d w = _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(dx, _mm256_set1_pd(g->c.x)),
+                                            _mm256_mul_pd(dy, _mm256_set1_pd(g->c.y))),
+                              _mm256_mul_pd(dz, _mm256_set1_pd(g->c.z)));
     __m256d ax = _mm256_loadu_pd(&fan->dabs[0][4 * half]), ay = _mm256_loadu_pd(&fan->dabs[1][4 * half]),
             az = _mm256_loadu_pd(&fan->dabs[2][4 * half]);
-    __m256d perm = _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(ax, _mm256_set1_pd(g->m[0])),
-                                               _mm256_mul_pd(ay, _mm256_set1_pd(g->m[1]))),
-                                 _mm256_mul_pd(az, _mm256_set1_pd(g->m[2])));
+    __m256d perm = _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(ax, _mm256_set1_pd(g->m.x)),
+                                               _mm256_mul_pd(ay, _mm256_set1_pd(g->m.y))),
+                                 _mm256_mul_pd(az, _mm256_set1_pd(g->m.z)));
     __m256d err = _mm256_add_pd(_mm256_mul_pd(_mm256_set1_pd(TRIPLE_ERR_EXACT_ROW), perm), _mm256_set1_pd(TRIPLE_ABS));
     __m256d nonzero = _mm256_cmp_pd(w, _mm256_setzero_pd(), _CMP_NEQ_OQ);
     *pos = _mm256_and_pd(nonzero, _mm256_cmp_pd(w, err, _CMP_GT_OQ));
