@@ -195,12 +195,6 @@ static octree_status u32_reserve(build_ctx *ctx, u32_array *a, size_t extra)
 #define SPREAD64(r) SPREAD16(r), SPREAD16((r) + 16), SPREAD16((r) + 32), SPREAD16((r) + 48)
 static const uint64_t spread8[256] = {SPREAD64(0), SPREAD64(64), SPREAD64(128), SPREAD64(192)};
 
-/* The children a new interior node's items touch, exactly: reach[i] gets bit k when item
- * i touches the seed's octant k, and count[k] how many items child k takes. A child the
- * item's bounds do not reach is not touched; tri_box_children_proven settles most of the
- * rest with comparisons; only the other children it reaches take the full test, prepared
- * once for all of them. The child boxes are box_octant's (the same split, the same
- * box_child), the ones the children are built with. */
 /* box_octants_reached of a triangle's bounds in two steps: the six comparisons with the
  * split point as an index (bit a: lo_a <= c_a; bit 3 + a: hi_a >= c_a), then reach_of_index
  * (the same table lookups, done once a node). Under SSE2 the comparisons take two lanes
@@ -241,6 +235,12 @@ static inline unsigned bounds_reach_index(const triangle_bounds *b, const split_
 #endif
 }
 
+/* The children a new interior node's items touch, exactly: reach[i] gets bit k when item
+ * i touches the seed's octant k, and count[k] how many items child k takes. A child the
+ * item's bounds do not reach is not touched; tri_box_children_proven settles most of the
+ * rest with comparisons; only the other children it reaches take the full test, prepared
+ * once for all of them. The child boxes are box_octant's (the same split, the same
+ * box_child), the ones the children are built with. */
 static void compute_reach(const build_ctx *ctx, const uint32_t *items, uint32_t n, box3 box, uint8_t *reach,
                           uint32_t count[8])
 {
@@ -628,7 +628,8 @@ static octree_status index_triangles(build_ctx *ctx, const mesh_view *mesh)
     if (budget_take(ctx, peak) != 0)
         return OCTREE_ERR_BUDGET;
     uint32_t *number = malloc(mesh->vertex_count * sizeof *number);
-    tree->corners = malloc(n * sizeof *tree->corners);
+    /* Where queries read them at random (hot_memory.h), from the start: no copy later. */
+    tree->corners = hot_alloc((n ? n : 1) * sizeof *tree->corners);
     vec3 *used = malloc(mesh->vertex_count * sizeof *used);
     if (!number || !tree->corners || !used) {
         free(number);
@@ -882,7 +883,6 @@ octree *octree_build(const mesh_view *mesh, const octree_def *def_in, octree_err
     size_t padding = tree->node_count > 1 ? OCTREE_BLOCK_PADDING : 0;
     /* What queries read at random, onto huge pages where there are any (hot_memory.h). */
     hot_move((void **)&tree->vertices, tree->used_vertex_count * sizeof *tree->vertices);
-    hot_move((void **)&tree->corners, tree->triangle_count * sizeof *tree->corners);
     hot_move((void **)&tree->leaf_items, (tree->info.leaf_refs + tree->sliver_list_count) * sizeof *tree->leaf_items);
 
     octree_info *info = &tree->info;
