@@ -30,9 +30,10 @@ static int share_one_origin(const ray_input *rays, size_t count)
 octree_status octree_ray_batch(const octree *tree, const ray_input *rays, size_t count, ray_detail detail,
                                accuracy_mode mode, ray_output *outs, octree_status *statuses, query_stats *stats)
 {
-    /* Over the compiled form, rays from one origin walk one after the other (their
-     * memory is already in cache); the stream, which serves every other batch, walks the
-     * compiled form too when the tree has it. */
+    /* Over the compiled form, exact closest and any-hit rays from one origin walk in fans
+     * (octree_ray_fans, with AVX2); other rays from one origin walk one after the other
+     * (their memory is already in cache); the stream, which serves every other batch,
+     * walks the compiled form too when the tree has it. */
     int one_origin = share_one_origin(rays, count);
 #if defined(__x86_64__)
     if (tree->traversal.present && tree->traversal.avx2 && one_origin && mode == ACCURACY_EXACT &&

@@ -121,7 +121,8 @@ static inline void octree_triangle_vertices(const struct octree *tree, uint32_t 
 static inline octree_node octree_leaf_of_ref(const struct octree *tree, uint32_t ref)
 {
     if (ref & TRAVERSAL_SPAN)
-        return (octree_node){ref & TRAVERSAL_SPAN_FIRST_LIMIT, ((ref >> 25) & 31u) + 1};
+        return (octree_node){ref & TRAVERSAL_SPAN_FIRST_LIMIT,
+                             ((ref >> TRAVERSAL_SPAN_COUNT_SHIFT) & (TRAVERSAL_SPAN_COUNT_MAX - 1)) + 1};
     return tree->nodes[ref & ~TRAVERSAL_LEAF];
 }
 
@@ -225,6 +226,15 @@ static inline triangle_box triangle_box_around(vec3 lo, vec3 hi, vec3 origin)
                            float_below_difference(lo.z, origin.z)},
                           {float_above_difference(hi.x, origin.x), float_above_difference(hi.y, origin.y),
                            float_above_difference(hi.z, origin.z)}};
+}
+
+/* Grows *into to hold b as well (the union of two outward boxes is outward). */
+static inline void triangle_box_add(triangle_box *into, const triangle_box *b)
+{
+    for (int k = 0; k < 3; k++) {
+        into->lo[k] = b->lo[k] < into->lo[k] ? b->lo[k] : into->lo[k];
+        into->hi[k] = b->hi[k] > into->hi[k] ? b->hi[k] : into->hi[k];
+    }
 }
 
 /* 1 when two outward boxes are strictly apart along some axis, so the closed sets they

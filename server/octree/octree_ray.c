@@ -798,6 +798,14 @@ static inline int walk_step(ray_walk *w, const octree *tree, int pipelined)
 
 /* Writes the walk's answer to out, releases what it holds and returns its status; the
  * caller adds w->local to its counters. */
+/* Runs a walk begun by walk_init to its end by the double walk over the seed's nodes. */
+static void walk_double(ray_walk *w, const octree *tree)
+{
+    walk_root(w, tree);
+    while (walk_step(w, tree, 0))
+        ;
+}
+
 static octree_status walk_finish(ray_walk *w, const octree *tree, ray_output *out)
 {
     octree_status st = w->st;
@@ -1067,9 +1075,9 @@ static void walk_test_leaf_filtered(ray_walk *w, const octree *tree, octree_node
 PREFETCH_HELPER void prefetch_compiled_child(const octree *tree, uint32_t ref)
 {
     if (ref & TRAVERSAL_SPAN) { /* the leaf's list: at most 32 ids, three lines */
-        const uint32_t *list = &tree->leaf_items[ref & TRAVERSAL_SPAN_FIRST_LIMIT];
-        __builtin_prefetch(list);
-        __builtin_prefetch(list + ((ref >> 25) & 31u));
+        octree_node leaf = octree_leaf_of_ref(tree, ref);
+        __builtin_prefetch(&tree->leaf_items[leaf.first]);
+        __builtin_prefetch(&tree->leaf_items[leaf.first + leaf.count - 1]);
         return;
     }
     if (ref & TRAVERSAL_LEAF) {
@@ -1271,9 +1279,7 @@ static void compiled_stream_next(compiled_stream *s, const octree *tree, int k)
             s->live++;
             return;
         }
-        walk_root(w, tree);
-        while (walk_step(w, tree, 0))
-            ;
+        walk_double(w, tree);
         s->statuses[i] = walk_finish(w, tree, &s->outs[i]);
         if (s->statuses[i] == OCTREE_ERR_NOMEM)
             s->batch = OCTREE_ERR_NOMEM;
@@ -1441,9 +1447,7 @@ static void walk_alone(ray_walk *w, const octree *tree)
         compiled_run(w, &c, tree);
         return;
     }
-    walk_root(w, tree);
-    while (walk_step(w, tree, 0))
-        ;
+    walk_double(w, tree);
 }
 
 octree_status octree_ray(const octree *tree, const ray_input *ray, ray_detail detail, accuracy_mode mode,
@@ -1844,13 +1848,13 @@ octree_status octree_ray_fans(const octree *tree, const ray_input *rays, size_t 
         if (p->count == 0)
             continue;
         vec3 dirs[RAY_FAN_MAX];
-        for (unsigned k = 0; k < RAY_FAN_MAX; k++) {
-            unsigned from = k < p->count ? k : 0; /* unused lanes repeat the first ray */
-            dirs[k] = p->walk[from]->r.d;
+        for (unsigned k = 0; k < p->count; k++)
+            dirs[k] = p->walk[k]->r.d;
+        for (unsigned k = p->count; k < RAY_FAN_MAX; k++) { /* unused lanes repeat the first ray */
             for (int a = 0; a < 3; a++)
-                p->inv[a][k] = p->inv[a][from];
-            p->lo[k] = p->lo[from];
-            p->bound[k] = p->bound[from];
+                p->inv[a][k] = p->inv[a][0];
+            p->lo[k] = p->lo[0];
+            p->bound[k] = p->bound[0];
         }
         ray_fan_init(&p->fan, p->walk[0]->r.o, dirs, p->count);
         fan_run(p, tree);

@@ -92,6 +92,9 @@ static double max_abs3(double a, double b, double c) { return fmax(fabs(a), fmax
  *   m = 16u (sum_k |L_k| (T_k + M_w) + R_max) + pad
  * (computing m itself rounds by a few u of m, which 16 against 10.1 and 9 covers),
  * |p| > fl(r + m) proves |L . D*| exceeds the real radius: the exact sets are apart. */
+/* The longest side of b. */
+static double box_extent(box3 b) { return fmax(b.hi.x - b.lo.x, fmax(b.hi.y - b.lo.y, b.hi.z - b.lo.z)); }
+
 static int pose_frame_make(pose_frame *f, const octree *world, const octree *shape, const pose *at, double grow)
 {
     const double *r = at->r;
@@ -105,7 +108,7 @@ static int pose_frame_make(pose_frame *f, const octree *world, const octree *sha
     /* M_w bounds every world box coordinate the test sees: the cube's, and the compiled
      * form's content bounds, which overshoot the cube by less than a side (a node frame's
      * step is below a hundredth of the cube's side, octree_traversal.c). */
-    double side = fmax(ww.hi.x - ww.lo.x, fmax(ww.hi.y - ww.lo.y, ww.hi.z - ww.lo.z));
+    double side = box_extent(ww);
     double mw = fmax(max_abs3(ww.lo.x, ww.lo.y, ww.lo.z), max_abs3(ww.hi.x, ww.hi.y, ww.hi.z)) + 2 * side;
     if (!(max_abs3(ms[0], ms[1], ms[2]) <= POSE_RANGE_MAX) || !(mw <= POSE_RANGE_MAX) ||
         !(max_abs3(t[0], t[1], t[2]) <= POSE_RANGE_MAX) || !(grow >= 0.0 && grow <= POSE_RANGE_MAX))
@@ -269,7 +272,7 @@ static inline box3 box_grown(box3 b, double g)
  * union of a triangle's vertices' float boxes is the triangle's own outward box. */
 typedef struct posed_vertex {
     vec3 v;
-    float lo[3], hi[3];
+    triangle_box box;
 } posed_vertex;
 
 /* A shape triangle under the current pose: its posed vertices and bounds, computed when a
@@ -505,9 +508,7 @@ static posed_triangle *posed_get(shape_scratch *s, const pose *at, uint32_t q)
             x->v = octree_apply_pose(at, s->shape->vertices[i]);
             if (boxed) {
                 vec3 o = s->world->world.lo;
-                triangle_box b = triangle_box_around(x->v, x->v, o);
-                memcpy(x->lo, b.lo, sizeof x->lo);
-                memcpy(x->hi, b.hi, sizeof x->hi);
+                x->box = triangle_box_around(x->v, x->v, o);
             }
         }
         pv[k] = x;
@@ -515,16 +516,11 @@ static posed_triangle *posed_get(shape_scratch *s, const pose *at, uint32_t q)
     }
     vec3 *v = p->query.v;
     p->query.box = (box3){vec3_min(vec3_min(v[0], v[1]), v[2]), vec3_max(vec3_max(v[0], v[1]), v[2])};
-    if (boxed)
-        for (int k = 0; k < 3; k++) {
-            float lo = pv[0]->lo[k], hi = pv[0]->hi[k];
-            lo = pv[1]->lo[k] < lo ? pv[1]->lo[k] : lo;
-            lo = pv[2]->lo[k] < lo ? pv[2]->lo[k] : lo;
-            hi = pv[1]->hi[k] > hi ? pv[1]->hi[k] : hi;
-            hi = pv[2]->hi[k] > hi ? pv[2]->hi[k] : hi;
-            p->box.lo[k] = lo;
-            p->box.hi[k] = hi;
-        }
+    if (boxed) {
+        p->box = pv[0]->box;
+        triangle_box_add(&p->box, &pv[1]->box);
+        triangle_box_add(&p->box, &pv[2]->box);
+    }
     return p;
 }
 
@@ -550,10 +546,7 @@ static const box3 *leaf_bounds_get(shape_scratch *s, const pose *at, uint32_t no
         b->lo = vec3_min(b->lo, p->query.box.lo);
         b->hi = vec3_max(b->hi, p->query.box.hi);
         if (boxed)
-            for (int k = 0; k < 3; k++) {
-                fb.lo[k] = p->box.lo[k] < fb.lo[k] ? p->box.lo[k] : fb.lo[k];
-                fb.hi[k] = p->box.hi[k] > fb.hi[k] ? p->box.hi[k] : fb.hi[k];
-            }
+            triangle_box_add(&fb, &p->box);
     }
     if (boxed)
         s->leaf_box[node] = fb;
@@ -683,8 +676,6 @@ static int leaf_pair(pose_query *pq, octree_node wn, box3 content, uint32_t shap
 }
 
 static double box_width(box3 b) { return b.hi.x - b.lo.x; }
-
-static double box_extent(box3 b) { return fmax(b.hi.x - b.lo.x, fmax(b.hi.y - b.lo.y, b.hi.z - b.lo.z)); }
 
 /* What a shape node's image is tested with: the bounds of its triangles within its box
  * when the tree has them (octree_def.node_bounds), else the box itself. Either holds every

@@ -124,7 +124,7 @@ static int compile_node(compile_ctx *ctx, uint32_t index, box3 cube, uint32_t *r
             return 0;
         }
         if (node.count <= TRAVERSAL_SPAN_COUNT_MAX && node.first < TRAVERSAL_SPAN_FIRST_LIMIT)
-            *ref = TRAVERSAL_LEAF | TRAVERSAL_SPAN | (node.count - 1) << 25 | node.first;
+            *ref = TRAVERSAL_LEAF | TRAVERSAL_SPAN | (node.count - 1) << TRAVERSAL_SPAN_COUNT_SHIFT | node.first;
         else if (index < TRAVERSAL_SPAN)
             *ref = TRAVERSAL_LEAF | index;
         else

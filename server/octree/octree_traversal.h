@@ -34,7 +34,8 @@ struct octree;
  * its length less one. A longer leaf, or one further in, takes its octree node index in
  * bits 0-29 (octree_leaf_of_ref reads either). */
 #define TRAVERSAL_SPAN 0x40000000u
-#define TRAVERSAL_SPAN_FIRST_LIMIT ((1u << 25) - 1) /* first index below this: never TRAVERSAL_EMPTY */
+#define TRAVERSAL_SPAN_COUNT_SHIFT 25
+#define TRAVERSAL_SPAN_FIRST_LIMIT ((1u << TRAVERSAL_SPAN_COUNT_SHIFT) - 1) /* first below: never EMPTY */
 #define TRAVERSAL_SPAN_COUNT_MAX 32u
 
 /* Rows of traversal_node.q: the lower bounds along x, y, z, then the upper bounds. */
