@@ -817,5 +817,11 @@ int main(void)
         cmocka_unit_test(test_seed_epsilon_that_matters),
         cmocka_unit_test(test_node_bounds_hold_each_nodes_triangles),
     };
-    return cmocka_run_group_tests_name("shape_tree", tests, NULL, NULL);
+    /* Twice: the descent's child tests as this machine picks them (AVX2 where it is), and
+     * with the baseline lanes, so that both compiled copies answer every case. */
+    int failed = cmocka_run_group_tests_name("shape_tree", tests, NULL, NULL);
+    octree_shape_lanes_force_portable(1);
+    failed += cmocka_run_group_tests_name("shape_tree, baseline lanes", tests, NULL, NULL);
+    octree_shape_lanes_force_portable(0);
+    return failed;
 }

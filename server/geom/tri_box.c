@@ -6,6 +6,7 @@
 #include <string.h>
 
 #include "box_geometry.h"
+#include "lanes4.h"
 #include "predicates.h"
 
 /* ---------- exact ---------- */
@@ -166,15 +167,6 @@ int tri_box_overlap_prepared(tri_box_triangle *t, box3 box)
 }
 
 /* ---------- the filters of the exact test, for many children ---------- */
-
-/* Four lanes of doubles (GCC's vector extension): one AVX register, or two SSE ones. */
-typedef double lanes4 __attribute__((vector_size(32)));
-typedef long long mask4 __attribute__((vector_size(32)));
-
-#define LOAD4(p) (__extension__({ lanes4 v_; memcpy(&v_, (p), sizeof v_); v_; }))
-/* m ? a : b lane by lane, by bits: the chosen value itself, unrounded. */
-#define PICK4(m, a, b) ((lanes4)(((m) & (mask4)(a)) | (~(m) & (mask4)(b))))
-#define ABS4(x) ((lanes4)((mask4)(x) & (mask4){INT64_MAX, INT64_MAX, INT64_MAX, INT64_MAX}))
 
 /* What the float filters alone make of a box's axes. */
 enum { FILTERED_APART, FILTERED_TOUCHING, FILTERED_UNDECIDED };

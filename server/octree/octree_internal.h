@@ -291,6 +291,10 @@ static inline vec3 octree_apply_pose(const pose *at, vec3 p)
 /* octree_mesh's argument checks: OCTREE_OK, or the status octree_mesh returns for them. */
 octree_status octree_mesh_check(const mesh_view *shape, const pose *at, accuracy_mode mode);
 
+/* Tests only: 1 makes the shape-tree descent test its children with the baseline lanes
+ * even where AVX2 is there, so both copies are checked on one machine; 0 lets it choose. */
+void octree_shape_lanes_force_portable(int on);
+
 /* The caller's shape triangle i, in the shape's local frame. */
 typedef void (*octree_shape_triangle_fn)(const void *shape, size_t i, vec3 out[3]);
 

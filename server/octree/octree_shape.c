@@ -32,6 +32,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "../geom/lanes4.h"
 #include "../geom/predicates.h"
 #include "../geom/tri_tri.h"
 #include "octree_internal.h"
@@ -263,6 +264,106 @@ static inline int boxes_apart(box3 a, box3 b)
 static inline box3 box_grown(box3 b, double g)
 {
     return (box3){vec3_sub(b.lo, (vec3){g, g, g}), vec3_add(b.hi, (vec3){g, g, g})};
+}
+
+/* ---------- the children of one expansion, side by side ----------
+ *
+ * An expansion tests up to eight children against the node it keeps. These are the tests
+ * above (world_box_apart, shape_box_apart, and boxes_apart of a grown box) four children
+ * to a vector (lanes4.h), every operation in the same order as there, so each lane rounds
+ * exactly as the one-child test does and the bounds derived for it hold lane by lane; only
+ * the early exit at the first separating axis is gone, which changes no answer. Each
+ * returns the mask of the children that may meet (bit k for child k); the caller drops
+ * empty ones. */
+#define LANES_INLINE static inline __attribute__((always_inline))
+
+/* The children's boxes, coordinate by coordinate. */
+typedef struct child_boxes {
+    double lo[3][8], hi[3][8];
+} child_boxes;
+
+/* The compiled node's eight content bounds, as lane_box computes one. */
+LANES_INLINE void lanes_of_form(const octree *world, const traversal_node *n, child_boxes *b)
+{
+    const double o[3] = {world->world.lo.x, world->world.lo.y, world->world.lo.z};
+    double sc = n->scale;
+    for (int a = 0; a < 3; a++) {
+        double base = n->origin[a];
+        for (int h = 0; h < 8; h += 4) {
+            STORE4(&b->lo[a][h], o[a] + (base + BYTES4(n->q[TRAVERSAL_LO_X + a] + h) * sc));
+            STORE4(&b->hi[a][h], o[a] + (base + BYTES4(n->q[TRAVERSAL_HI_X + a] + h) * sc));
+        }
+    }
+}
+
+/* world_box_apart of children h..h+3 against s. */
+LANES_INLINE unsigned world_lanes_apart(const pose_frame *f, const child_boxes *b, int h, const box_side *s)
+{
+    lanes4 c[3], w[3];
+    for (int a = 0; a < 3; a++) {
+        lanes4 lo = LOAD4(&b->lo[a][h]), hi = LOAD4(&b->hi[a][h]);
+        c[a] = 0.5 * (lo + hi);
+        w[a] = 0.5 * (hi - lo) + f->widen[a];
+    }
+    mask4 apart = (ABS4(s->p[0] - c[0]) > s->r[0] + w[0] + f->margin[0]) |
+                  (ABS4(s->p[1] - c[1]) > s->r[1] + w[1] + f->margin[1]) |
+                  (ABS4(s->p[2] - c[2]) > s->r[2] + w[2] + f->margin[2]);
+    for (int a = 3; a < TESTED_AXES; a++) {
+        const double *l = f->axis[a], *la = f->axis_abs[a];
+        lanes4 p = l[0] * c[0] + l[1] * c[1] + l[2] * c[2];
+        lanes4 r = la[0] * w[0] + la[1] * w[1] + la[2] * w[2];
+        apart |= ABS4(s->p[a] - p) > s->r[a] + r + f->margin[a];
+    }
+    return BITS4(apart);
+}
+
+/* boxes_apart(box_grown(child, g), *sb) of children h..h+3. */
+LANES_INLINE unsigned lanes_apart_from_box(const child_boxes *b, int h, double g, const box3 *sb)
+{
+    mask4 apart = (LOAD4(&b->lo[0][h]) - g > sb->hi.x) | (LOAD4(&b->lo[1][h]) - g > sb->hi.y) |
+                  (LOAD4(&b->lo[2][h]) - g > sb->hi.z) | (LOAD4(&b->hi[0][h]) + g < sb->lo.x) |
+                  (LOAD4(&b->hi[1][h]) + g < sb->lo.y) | (LOAD4(&b->hi[2][h]) + g < sb->lo.z);
+    return BITS4(apart);
+}
+
+/* shape_box_apart of boxes[h..h+3] against w. */
+LANES_INLINE unsigned shape_lanes_apart(const pose_frame *f, const box3 *boxes, int h, const box_side *w)
+{
+    const box3 *x = boxes + h;
+    lanes4 lo[3] = {{x[0].lo.x, x[1].lo.x, x[2].lo.x, x[3].lo.x},
+                    {x[0].lo.y, x[1].lo.y, x[2].lo.y, x[3].lo.y},
+                    {x[0].lo.z, x[1].lo.z, x[2].lo.z, x[3].lo.z}};
+    lanes4 hi[3] = {{x[0].hi.x, x[1].hi.x, x[2].hi.x, x[3].hi.x},
+                    {x[0].hi.y, x[1].hi.y, x[2].hi.y, x[3].hi.y},
+                    {x[0].hi.z, x[1].hi.z, x[2].hi.z, x[3].hi.z}};
+    lanes4 cs[3], hs[3];
+    for (int a = 0; a < 3; a++) {
+        cs[a] = 0.5 * (lo[a] + hi[a]);
+        hs[a] = 0.5 * (hi[a] - lo[a]);
+    }
+    const double *r = f->at->r;
+    /* The centre posed as octree_apply_pose poses a vertex, as in shape_box_apart. */
+    lanes4 c[3] = {r[0] * cs[0] + r[1] * cs[1] + r[2] * cs[2] + f->at->t.x,
+                   r[3] * cs[0] + r[4] * cs[1] + r[5] * cs[2] + f->at->t.y,
+                   r[6] * cs[0] + r[7] * cs[1] + r[8] * cs[2] + f->at->t.z};
+    mask4 apart = {0, 0, 0, 0};
+    for (int a = 0; a < TESTED_AXES; a++) {
+        const double *l = f->axis[a], *q = f->reach[a];
+        lanes4 p = a < 3 ? c[a] : l[0] * c[0] + l[1] * c[1] + l[2] * c[2];
+        lanes4 rs = q[0] * hs[0] + q[1] * hs[1] + q[2] * hs[2];
+        apart |= ABS4(p - w->p[a]) > rs + w->r[a] + f->margin[a];
+    }
+    return BITS4(apart);
+}
+
+/* A world expansion: children whose boxes (left in b for the pushes) may meet the shape
+ * node's side s, or (s NULL) a shape leaf's posed bounds sb grown by g. */
+LANES_INLINE unsigned world_lanes_near(const pose_frame *f, const child_boxes *b, const box_side *s, const box3 *sb,
+                                       double g)
+{
+    unsigned apart = s ? world_lanes_apart(f, b, 0, s) | world_lanes_apart(f, b, 4, s) << 4
+                       : lanes_apart_from_box(b, 0, g, sb) | lanes_apart_from_box(b, 4, g, sb) << 4;
+    return ~apart & 0xffu;
 }
 
 /* ---------- per-call scratch ---------- */
@@ -723,9 +824,92 @@ static inline box3 world_leaf_box(const octree *world, int form, octree_node n, 
     return form ? b : world_leaf_content(world, n, b);
 }
 
+/* One expansion's child tests (the lanes above): a compiled world node's children, eight
+ * world cells, or eight shape boxes against the world node's side w. Each is compiled
+ * twice, for the baseline and for AVX2, and lane_tests_here picks one set per call. */
+LANES_INLINE unsigned form_children_near(const pose_frame *f, const octree *world, const traversal_node *n,
+                                         const box_side *s, const box3 *sb, double g, child_boxes *b)
+{
+    lanes_of_form(world, n, b);
+    return world_lanes_near(f, b, s, sb, g);
+}
+
+LANES_INLINE unsigned world_children_near(const pose_frame *f, const box3 cells[8], const box_side *s,
+                                          const box3 *sb, double g, child_boxes *b)
+{
+    for (int k = 0; k < 8; k++) {
+        b->lo[0][k] = cells[k].lo.x, b->lo[1][k] = cells[k].lo.y, b->lo[2][k] = cells[k].lo.z;
+        b->hi[0][k] = cells[k].hi.x, b->hi[1][k] = cells[k].hi.y, b->hi[2][k] = cells[k].hi.z;
+    }
+    return world_lanes_near(f, b, s, sb, g);
+}
+
+LANES_INLINE unsigned shape_children_near(const pose_frame *f, const box3 boxes[8], const box_side *w)
+{
+    return ~(shape_lanes_apart(f, boxes, 0, w) | shape_lanes_apart(f, boxes, 4, w) << 4) & 0xffu;
+}
+
+typedef struct lane_tests {
+    unsigned (*form)(const pose_frame *, const octree *, const traversal_node *, const box_side *, const box3 *,
+                     double, child_boxes *);
+    unsigned (*world)(const pose_frame *, const box3 *, const box_side *, const box3 *, double, child_boxes *);
+    unsigned (*shape)(const pose_frame *, const box3 *, const box_side *);
+} lane_tests;
+
+#define LANE_TESTS(suffix, attr)                                                                                  \
+    attr static unsigned form_children_##suffix(const pose_frame *f, const octree *world, const traversal_node *n, \
+                                                const box_side *s, const box3 *sb, double g, child_boxes *b)     \
+    {                                                                                                             \
+        return form_children_near(f, world, n, s, sb, g, b);                                                      \
+    }                                                                                                             \
+    attr static unsigned world_children_##suffix(const pose_frame *f, const box3 *cells, const box_side *s,        \
+                                                 const box3 *sb, double g, child_boxes *b)                       \
+    {                                                                                                             \
+        return world_children_near(f, cells, s, sb, g, b);                                                        \
+    }                                                                                                             \
+    attr static unsigned shape_children_##suffix(const pose_frame *f, const box3 *boxes, const box_side *w)        \
+    {                                                                                                             \
+        return shape_children_near(f, boxes, w);                                                                  \
+    }
+
+LANE_TESTS(portable, )
+#if defined(__x86_64__) || defined(__i386__)
+LANE_TESTS(avx2, __attribute__((target("avx2"))))
+#endif
+
+static int lanes_portable_forced;
+
+void octree_shape_lanes_force_portable(int on) { lanes_portable_forced = on; }
+
+static lane_tests lane_tests_here(void)
+{
+#if defined(__x86_64__) || defined(__i386__)
+    static int avx2 = -1; /* a benign race: every thread stores the same answer */
+    if (avx2 < 0)
+        avx2 = __builtin_cpu_supports("avx2") ? 1 : 0;
+    if (avx2 && !lanes_portable_forced)
+        return (lane_tests){form_children_avx2, world_children_avx2, shape_children_avx2};
+#endif
+    return (lane_tests){form_children_portable, world_children_portable, shape_children_portable};
+}
+
+/* Bits set in an eight-bit mask (no popcount instruction is assumed). */
+static inline unsigned live_count(unsigned m)
+{
+    m = (m & 0x55u) + (m >> 1 & 0x55u);
+    m = (m & 0x33u) + (m >> 2 & 0x33u);
+    return (m & 0x0fu) + (m >> 4);
+}
+
+static inline box3 lane_of(const child_boxes *b, int k)
+{
+    return (box3){{b->lo[0][k], b->lo[1][k], b->lo[2][k]}, {b->hi[0][k], b->hi[1][k], b->hi[2][k]}};
+}
+
 /* The two trees together from their roots (see the top of the file). Where one node of a
  * pair is a leaf its tight bounds stand in for its box: a shape leaf's posed triangles'
- * bounds (exact doubles, compared exactly), a world leaf's content. */
+ * bounds (exact doubles, compared exactly), a world leaf's content. An expansion tests its
+ * eight children side by side (the lane tests above) and pushes those that may meet. */
 static void descend(pose_query *pq, const pose_frame *f)
 {
     shape_scratch *s = pq->s;
@@ -733,6 +917,7 @@ static void descend(pose_query *pq, const pose_frame *f)
     query_stats *stats = pq->stats;
     double g = f->content_pad;
     int form = world->traversal.present;
+    lane_tests lanes = lane_tests_here();
     stats->nodes_visited++;
     if (world->nodes[0].count == 0 || shape->nodes[0].count == 0)
         return;
@@ -746,6 +931,8 @@ static void descend(pose_query *pq, const pose_frame *f)
     pair_entry *stack = s->stack;
     size_t top = 0;
     stack[top++] = (pair_entry){world_root, 0, world->world, shape->world};
+    child_boxes b;
+    box3 cells[8];
     while (top > 0) {
         pair_entry e = stack[--top];
         octree_node sn = shape->nodes[e.shape_node];
@@ -773,29 +960,32 @@ static void descend(pose_query *pq, const pose_frame *f)
             }
             if (!shape_leaf)
                 shape_side_of(f, shape_node_box(shape, e.shape_node, e.shape_box), &side);
+            const box_side *against = shape_leaf ? NULL : &side;
+            unsigned live = 0, near;
+            const uint32_t *refs = NULL;
+            uint32_t first = 0;
             if (form) {
                 const traversal_node *n = &world->traversal.nodes[e.world_node];
-                for (int k = 0; k < 8; k++) {
-                    uint32_t ref = n->child[k];
-                    if (ref == TRAVERSAL_EMPTY)
-                        continue;
-                    box3 cb = lane_box(world, n, k);
-                    stats->nodes_visited++;
-                    if (shape_leaf ? !boxes_apart(box_grown(cb, g), *sb) : !world_box_apart(f, cb, &side))
-                        stack[top++] = (pair_entry){ref, e.shape_node, cb, e.shape_box};
-                }
+                refs = n->child;
+                for (int k = 0; k < 8; k++)
+                    live |= (unsigned)(refs[k] != TRAVERSAL_EMPTY) << k;
+                near = lanes.form(f, world, n, against, sb, g, &b);
             } else {
                 octree_node wn = world->nodes[e.world_node];
                 vec3 c = octree_split_point(world, e.world_box);
                 const octree_node *kids = &world->nodes[wn.first];
+                first = wn.first;
                 for (int k = 0; k < 8; k++) {
-                    if (kids[k].count == 0)
-                        continue;
-                    box3 cb = box_child(e.world_box, c, box_octant_upper_bits[k]);
-                    stats->nodes_visited++;
-                    if (shape_leaf ? !boxes_apart(box_grown(cb, g), *sb) : !world_box_apart(f, cb, &side))
-                        stack[top++] = (pair_entry){wn.first + (uint32_t)k, e.shape_node, cb, e.shape_box};
+                    live |= (unsigned)(kids[k].count != 0) << k;
+                    cells[k] = box_child(e.world_box, c, box_octant_upper_bits[k]);
                 }
+                near = lanes.world(f, cells, against, sb, g, &b);
+            }
+            stats->nodes_visited += live_count(live);
+            for (unsigned m = near & live; m; m &= m - 1) {
+                int k = __builtin_ctz(m);
+                uint32_t ref = form ? refs[k] : first + (uint32_t)k;
+                stack[top++] = (pair_entry){ref, e.shape_node, lane_of(&b, k), e.shape_box};
             }
         } else {
             vec3 c = octree_split_point(shape, e.shape_box);
@@ -803,13 +993,17 @@ static void descend(pose_query *pq, const pose_frame *f)
             box3 wb = world_leaf ? world_leaf_box(world, form, world_leaf_of(world, form, e.world_node), e.world_box)
                                  : e.world_box;
             world_side_of(f, wb, &side);
+            unsigned live = 0;
             for (int k = 0; k < 8; k++) {
-                if (kids[k].count == 0)
-                    continue;
-                box3 cb = box_child(e.shape_box, c, box_octant_upper_bits[k]);
-                stats->nodes_visited++;
-                if (!shape_box_apart(f, shape_node_box(shape, sn.first + (uint32_t)k, cb), &side))
-                    stack[top++] = (pair_entry){e.world_node, sn.first + (uint32_t)k, e.world_box, cb};
+                live |= (unsigned)(kids[k].count != 0) << k;
+                cells[k] = box_child(e.shape_box, c, box_octant_upper_bits[k]);
+            }
+            const box3 *tested = shape->node_bounds ? shape->node_bounds + sn.first : cells;
+            unsigned near = lanes.shape(f, tested, &side);
+            stats->nodes_visited += live_count(live);
+            for (unsigned m = near & live; m; m &= m - 1) {
+                int k = __builtin_ctz(m);
+                stack[top++] = (pair_entry){e.world_node, sn.first + (uint32_t)k, e.world_box, cells[k]};
             }
         }
     }
