@@ -11,14 +11,26 @@
 typedef double lanes4 __attribute__((vector_size(32)));
 typedef long long mask4 __attribute__((vector_size(32)));
 typedef int32_t ints4 __attribute__((vector_size(16)));
+typedef uint8_t bytes16 __attribute__((vector_size(16)));
 
 #define LOAD4(p) (__extension__({ lanes4 v_; memcpy(&v_, (p), sizeof v_); v_; }))
 #define STORE4(p, v) (__extension__({ lanes4 w_ = (v); memcpy((p), &w_, sizeof w_); }))
 /* m ? a : b lane by lane, by bits: the chosen value itself, unrounded. */
 #define PICK4(m, a, b) ((lanes4)(((m) & (mask4)(a)) | (~(m) & (mask4)(b))))
 #define ABS4(x) ((lanes4)((mask4)(x) & (mask4){INT64_MAX, INT64_MAX, INT64_MAX, INT64_MAX}))
-/* Four bytes as doubles, exactly. */
-#define BYTES4(p) (__builtin_convertvector(((ints4){(p)[0], (p)[1], (p)[2], (p)[3]}), lanes4))
+/* Four bytes as doubles, exactly: each byte spread to the low end of a 32-bit lane (one
+ * byte shuffle under AVX2), then converted. A macro, since a function returning a vector
+ * would take a different calling convention in each target. */
+#define LANES4_SPREAD_BYTES ((bytes16){0, 16, 16, 16, 1, 16, 16, 16, 2, 16, 16, 16, 3, 16, 16, 16})
+#define BYTES4(p)                                                                                            \
+    (__extension__({                                                                                         \
+        uint32_t w_;                                                                                         \
+        memcpy(&w_, (p), sizeof w_);                                                                         \
+        ints4 packed_ = {(int32_t)w_, 0, 0, 0};                                                              \
+        __builtin_convertvector((ints4)__builtin_shuffle((bytes16)packed_, (bytes16){0}, LANES4_SPREAD_BYTES), \
+                                lanes4);                                                                     \
+    }))
+
 /* Bit k set where lane k of the mask is. */
 #define BITS4(m) ((unsigned)(((m)[0] & 1) | ((m)[1] & 2) | ((m)[2] & 4) | ((m)[3] & 8)))
 

@@ -283,17 +283,21 @@ typedef struct child_boxes {
 } child_boxes;
 
 /* The compiled node's eight content bounds, as lane_box computes one. */
+LANES_INLINE void lanes_of_form_axis(const traversal_node *n, int a, double o, child_boxes *b)
+{
+    double sc = n->scale, base = n->origin[a];
+    const uint8_t *lo = n->q[TRAVERSAL_LO_X + a], *hi = n->q[TRAVERSAL_HI_X + a];
+    STORE4(&b->lo[a][0], o + (base + BYTES4(lo) * sc));
+    STORE4(&b->lo[a][4], o + (base + BYTES4(lo + 4) * sc));
+    STORE4(&b->hi[a][0], o + (base + BYTES4(hi) * sc));
+    STORE4(&b->hi[a][4], o + (base + BYTES4(hi + 4) * sc));
+}
+
 LANES_INLINE void lanes_of_form(const octree *world, const traversal_node *n, child_boxes *b)
 {
-    const double o[3] = {world->world.lo.x, world->world.lo.y, world->world.lo.z};
-    double sc = n->scale;
-    for (int a = 0; a < 3; a++) {
-        double base = n->origin[a];
-        for (int h = 0; h < 8; h += 4) {
-            STORE4(&b->lo[a][h], o[a] + (base + BYTES4(n->q[TRAVERSAL_LO_X + a] + h) * sc));
-            STORE4(&b->hi[a][h], o[a] + (base + BYTES4(n->q[TRAVERSAL_HI_X + a] + h) * sc));
-        }
-    }
+    lanes_of_form_axis(n, 0, world->world.lo.x, b);
+    lanes_of_form_axis(n, 1, world->world.lo.y, b);
+    lanes_of_form_axis(n, 2, world->world.lo.z, b);
 }
 
 /* world_box_apart of children h..h+3 against s. */
@@ -359,11 +363,13 @@ LANES_INLINE unsigned shape_lanes_apart(const pose_frame *f, const box3 *boxes, 
 /* A world expansion: children whose boxes (left in b for the pushes) may meet the shape
  * node's side s, or (s NULL) a shape leaf's posed bounds sb grown by g. */
 LANES_INLINE unsigned world_lanes_near(const pose_frame *f, const child_boxes *b, const box_side *s, const box3 *sb,
-                                       double g)
+                                       double g, unsigned live)
 {
-    unsigned apart = s ? world_lanes_apart(f, b, 0, s) | world_lanes_apart(f, b, 4, s) << 4
-                       : lanes_apart_from_box(b, 0, g, sb) | lanes_apart_from_box(b, 4, g, sb) << 4;
-    return ~apart & 0xffu;
+    unsigned near = 0;
+    for (int h = 0; h < 8; h += 4)
+        if (live >> h & 0xfu)
+            near |= (~(s ? world_lanes_apart(f, b, h, s) : lanes_apart_from_box(b, h, g, sb)) & 0xfu) << h;
+    return near & live;
 }
 
 /* ---------- per-call scratch ---------- */
@@ -778,6 +784,14 @@ static int leaf_pair(pose_query *pq, octree_node wn, box3 content, uint32_t shap
 
 static double box_width(box3 b) { return b.hi.x - b.lo.x; }
 
+/* box_extent for the split choice, by comparisons: the choice only steers the descent, and
+ * libm's fmax is a call. */
+static inline double longest_side(box3 b)
+{
+    double x = b.hi.x - b.lo.x, y = b.hi.y - b.lo.y, z = b.hi.z - b.lo.z, m = x > y ? x : y;
+    return m > z ? m : z;
+}
+
 /* What a shape node's image is tested with: the bounds of its triangles within its box
  * when the tree has them (octree_def.node_bounds), else the box itself. Either holds every
  * local point of the node's triangles that lies in the node. */
@@ -828,48 +842,55 @@ static inline box3 world_leaf_box(const octree *world, int form, octree_node n, 
  * world cells, or eight shape boxes against the world node's side w. Each is compiled
  * twice, for the baseline and for AVX2, and lane_tests_here picks one set per call. */
 LANES_INLINE unsigned form_children_near(const pose_frame *f, const octree *world, const traversal_node *n,
-                                         const box_side *s, const box3 *sb, double g, child_boxes *b)
+                                         const box_side *s, const box3 *sb, double g, unsigned live, child_boxes *b)
 {
     lanes_of_form(world, n, b);
-    return world_lanes_near(f, b, s, sb, g);
+    return world_lanes_near(f, b, s, sb, g, live);
 }
 
 LANES_INLINE unsigned world_children_near(const pose_frame *f, const box3 cells[8], const box_side *s,
-                                          const box3 *sb, double g, child_boxes *b)
+                                          const box3 *sb, double g, unsigned live, child_boxes *b)
 {
     for (int k = 0; k < 8; k++) {
         b->lo[0][k] = cells[k].lo.x, b->lo[1][k] = cells[k].lo.y, b->lo[2][k] = cells[k].lo.z;
         b->hi[0][k] = cells[k].hi.x, b->hi[1][k] = cells[k].hi.y, b->hi[2][k] = cells[k].hi.z;
     }
-    return world_lanes_near(f, b, s, sb, g);
+    return world_lanes_near(f, b, s, sb, g, live);
 }
 
-LANES_INLINE unsigned shape_children_near(const pose_frame *f, const box3 boxes[8], const box_side *w)
+LANES_INLINE unsigned shape_children_near(const pose_frame *f, const box3 boxes[8], const box_side *w, unsigned live)
 {
-    return ~(shape_lanes_apart(f, boxes, 0, w) | shape_lanes_apart(f, boxes, 4, w) << 4) & 0xffu;
+    unsigned near = 0;
+    for (int h = 0; h < 8; h += 4)
+        if (live >> h & 0xfu)
+            near |= (~shape_lanes_apart(f, boxes, h, w) & 0xfu) << h;
+    return near & live;
 }
 
 typedef struct lane_tests {
     unsigned (*form)(const pose_frame *, const octree *, const traversal_node *, const box_side *, const box3 *,
-                     double, child_boxes *);
-    unsigned (*world)(const pose_frame *, const box3 *, const box_side *, const box3 *, double, child_boxes *);
-    unsigned (*shape)(const pose_frame *, const box3 *, const box_side *);
+                     double, unsigned, child_boxes *);
+    unsigned (*world)(const pose_frame *, const box3 *, const box_side *, const box3 *, double, unsigned,
+                      child_boxes *);
+    unsigned (*shape)(const pose_frame *, const box3 *, const box_side *, unsigned);
 } lane_tests;
 
 #define LANE_TESTS(suffix, attr)                                                                                  \
     attr static unsigned form_children_##suffix(const pose_frame *f, const octree *world, const traversal_node *n, \
-                                                const box_side *s, const box3 *sb, double g, child_boxes *b)     \
+                                                const box_side *s, const box3 *sb, double g, unsigned live,      \
+                                                child_boxes *b)                                                   \
     {                                                                                                             \
-        return form_children_near(f, world, n, s, sb, g, b);                                                      \
+        return form_children_near(f, world, n, s, sb, g, live, b);                                                \
     }                                                                                                             \
     attr static unsigned world_children_##suffix(const pose_frame *f, const box3 *cells, const box_side *s,        \
-                                                 const box3 *sb, double g, child_boxes *b)                       \
+                                                 const box3 *sb, double g, unsigned live, child_boxes *b)        \
     {                                                                                                             \
-        return world_children_near(f, cells, s, sb, g, b);                                                        \
+        return world_children_near(f, cells, s, sb, g, live, b);                                                  \
     }                                                                                                             \
-    attr static unsigned shape_children_##suffix(const pose_frame *f, const box3 *boxes, const box_side *w)        \
+    attr static unsigned shape_children_##suffix(const pose_frame *f, const box3 *boxes, const box_side *w,        \
+                                                 unsigned live)                                                   \
     {                                                                                                             \
-        return shape_children_near(f, boxes, w);                                                                  \
+        return shape_children_near(f, boxes, w, live);                                                            \
     }
 
 LANE_TESTS(portable, )
@@ -951,7 +972,7 @@ static void descend(pose_query *pq, const pose_frame *f)
             continue;
         }
         /* The larger node splits, so the two boxes stay of a size. */
-        int split_world = shape_leaf || (!world_leaf && box_extent(e.world_box) >= f->scale * box_width(e.shape_box));
+        int split_world = shape_leaf || (!world_leaf && longest_side(e.world_box) >= f->scale * box_width(e.shape_box));
         if (split_world) {
             const box3 *sb = NULL;
             if (shape_leaf && !(sb = leaf_bounds_get(s, pq->at, e.shape_node))) {
@@ -969,7 +990,7 @@ static void descend(pose_query *pq, const pose_frame *f)
                 refs = n->child;
                 for (int k = 0; k < 8; k++)
                     live |= (unsigned)(refs[k] != TRAVERSAL_EMPTY) << k;
-                near = lanes.form(f, world, n, against, sb, g, &b);
+                near = lanes.form(f, world, n, against, sb, g, live, &b);
             } else {
                 octree_node wn = world->nodes[e.world_node];
                 vec3 c = octree_split_point(world, e.world_box);
@@ -979,10 +1000,10 @@ static void descend(pose_query *pq, const pose_frame *f)
                     live |= (unsigned)(kids[k].count != 0) << k;
                     cells[k] = box_child(e.world_box, c, box_octant_upper_bits[k]);
                 }
-                near = lanes.world(f, cells, against, sb, g, &b);
+                near = lanes.world(f, cells, against, sb, g, live, &b);
             }
             stats->nodes_visited += live_count(live);
-            for (unsigned m = near & live; m; m &= m - 1) {
+            for (unsigned m = near; m; m &= m - 1) {
                 int k = __builtin_ctz(m);
                 uint32_t ref = form ? refs[k] : first + (uint32_t)k;
                 stack[top++] = (pair_entry){ref, e.shape_node, lane_of(&b, k), e.shape_box};
@@ -999,9 +1020,9 @@ static void descend(pose_query *pq, const pose_frame *f)
                 cells[k] = box_child(e.shape_box, c, box_octant_upper_bits[k]);
             }
             const box3 *tested = shape->node_bounds ? shape->node_bounds + sn.first : cells;
-            unsigned near = lanes.shape(f, tested, &side);
+            unsigned near = lanes.shape(f, tested, &side, live);
             stats->nodes_visited += live_count(live);
-            for (unsigned m = near & live; m; m &= m - 1) {
+            for (unsigned m = near; m; m &= m - 1) {
                 int k = __builtin_ctz(m);
                 stack[top++] = (pair_entry){e.world_node, sn.first + (uint32_t)k, e.world_box, cells[k]};
             }
