@@ -93,8 +93,13 @@ static double max_abs3(double a, double b, double c) { return fmax(fabs(a), fmax
  *   m = 16u (sum_k |L_k| (T_k + M_w) + R_max) + pad
  * (computing m itself rounds by a few u of m, which 16 against 10.1 and 9 covers),
  * |p| > fl(r + m) proves |L . D*| exceeds the real radius: the exact sets are apart. */
-/* The longest side of b. */
-static double box_extent(box3 b) { return fmax(b.hi.x - b.lo.x, fmax(b.hi.y - b.lo.y, b.hi.z - b.lo.z)); }
+/* The longest side of b, by comparisons (the descent's split choice asks at every pop, and
+ * libm's fmax is a call); b is finite wherever it is asked. */
+static inline double box_extent(box3 b)
+{
+    double x = b.hi.x - b.lo.x, y = b.hi.y - b.lo.y, z = b.hi.z - b.lo.z, m = x > y ? x : y;
+    return m > z ? m : z;
+}
 
 static int pose_frame_make(pose_frame *f, const octree *world, const octree *shape, const pose *at, double grow)
 {
@@ -236,25 +241,6 @@ static inline int world_box_apart(const pose_frame *f, box3 wb, const box_side *
     return 0;
 }
 
-/* A shape box against a world box's side, likewise. */
-static inline int shape_box_apart(const pose_frame *f, box3 sb, const box_side *w)
-{
-    const double *r = f->at->r;
-    double cs[3] = {0.5 * (sb.lo.x + sb.hi.x), 0.5 * (sb.lo.y + sb.hi.y), 0.5 * (sb.lo.z + sb.hi.z)};
-    double hs[3] = {0.5 * (sb.hi.x - sb.lo.x), 0.5 * (sb.hi.y - sb.lo.y), 0.5 * (sb.hi.z - sb.lo.z)};
-    double c[3] = {r[0] * cs[0] + r[1] * cs[1] + r[2] * cs[2] + f->at->t.x,
-                   r[3] * cs[0] + r[4] * cs[1] + r[5] * cs[2] + f->at->t.y,
-                   r[6] * cs[0] + r[7] * cs[1] + r[8] * cs[2] + f->at->t.z};
-    for (int a = 0; a < TESTED_AXES; a++) {
-        const double *l = f->axis[a], *q = f->reach[a];
-        double p = a < 3 ? c[a] : l[0] * c[0] + l[1] * c[1] + l[2] * c[2];
-        double rs = q[0] * hs[0] + q[1] * hs[1] + q[2] * hs[2];
-        if (fabs(p - w->p[a]) > rs + w->r[a] + f->margin[a])
-            return 1;
-    }
-    return 0;
-}
-
 static inline int boxes_apart(box3 a, box3 b)
 {
     return a.lo.x > b.hi.x || a.lo.y > b.hi.y || a.lo.z > b.hi.z || a.hi.x < b.lo.x || a.hi.y < b.lo.y ||
@@ -268,11 +254,13 @@ static inline box3 box_grown(box3 b, double g)
 
 /* ---------- the children of one expansion, side by side ----------
  *
- * An expansion tests up to eight children against the node it keeps. These are the tests
- * above (world_box_apart, shape_box_apart, and boxes_apart of a grown box) four children
- * to a vector (lanes4.h), every operation in the same order as there, so each lane rounds
- * exactly as the one-child test does and the bounds derived for it hold lane by lane; only
- * the early exit at the first separating axis is gone, which changes no answer. Each
+ * An expansion tests up to eight children against the node it keeps: world children by
+ * world_box_apart, shape children by the shape side of the same test (shape_side_of's
+ * projection and radius against the world node's side), and world children of a shape
+ * leaf by boxes_apart of a grown box. Four children go to a vector (lanes4.h), every
+ * operation in the order of the one-child expressions above, so each lane rounds exactly
+ * as they do and the bounds derived for them hold lane by lane; world_box_apart's early
+ * exit at the first separating axis is gone, which changes no answer. Each
  * returns the mask of the children that may meet (bit k for child k); the caller drops
  * empty ones. */
 #define LANES_INLINE static inline __attribute__((always_inline))
@@ -282,7 +270,8 @@ typedef struct child_boxes {
     double lo[3][8], hi[3][8];
 } child_boxes;
 
-/* The compiled node's eight content bounds, as lane_box computes one. */
+/* The compiled node's eight content bounds: origin + q scale is exact (octree_traversal.h),
+ * the sum with the world's corner rounds once. */
 LANES_INLINE void lanes_of_form_axis(const traversal_node *n, int a, double o, child_boxes *b)
 {
     double sc = n->scale, base = n->origin[a];
@@ -330,7 +319,8 @@ LANES_INLINE unsigned lanes_apart_from_box(const child_boxes *b, int h, double g
     return BITS4(apart);
 }
 
-/* shape_box_apart of boxes[h..h+3] against w. */
+/* Shape boxes[h..h+3], posed, against the world node's side w: shape_side_of's projection
+ * and radius of each, compared as world_box_apart compares. */
 LANES_INLINE unsigned shape_lanes_apart(const pose_frame *f, const box3 *boxes, int h, const box_side *w)
 {
     const box3 *x = boxes + h;
@@ -346,7 +336,7 @@ LANES_INLINE unsigned shape_lanes_apart(const pose_frame *f, const box3 *boxes, 
         hs[a] = 0.5 * (hi[a] - lo[a]);
     }
     const double *r = f->at->r;
-    /* The centre posed as octree_apply_pose poses a vertex, as in shape_box_apart. */
+    /* The centre posed as octree_apply_pose poses a vertex, as in shape_side_of. */
     lanes4 c[3] = {r[0] * cs[0] + r[1] * cs[1] + r[2] * cs[2] + f->at->t.x,
                    r[3] * cs[0] + r[4] * cs[1] + r[5] * cs[2] + f->at->t.y,
                    r[6] * cs[0] + r[7] * cs[1] + r[8] * cs[2] + f->at->t.z};
@@ -784,14 +774,6 @@ static int leaf_pair(pose_query *pq, octree_node wn, box3 content, uint32_t shap
 
 static double box_width(box3 b) { return b.hi.x - b.lo.x; }
 
-/* box_extent for the split choice, by comparisons: the choice only steers the descent, and
- * libm's fmax is a call. */
-static inline double longest_side(box3 b)
-{
-    double x = b.hi.x - b.lo.x, y = b.hi.y - b.lo.y, z = b.hi.z - b.lo.z, m = x > y ? x : y;
-    return m > z ? m : z;
-}
-
 /* What a shape node's image is tested with: the bounds of its triangles within its box
  * when the tree has them (octree_def.node_bounds), else the box itself. Either holds every
  * local point of the node's triangles that lies in the node. */
@@ -815,20 +797,6 @@ static inline int world_is_leaf(const octree *world, int form, uint32_t ref)
 static inline octree_node world_leaf_of(const octree *world, int form, uint32_t ref)
 {
     return form ? octree_leaf_of_ref(world, ref) : world->nodes[ref];
-}
-
-/* Lane k's content bounds: origin + q scale is exact (octree_traversal.h), the sum with
- * the world's corner rounds once. */
-static inline box3 lane_box(const octree *world, const traversal_node *n, int k)
-{
-    double sc = n->scale;
-    vec3 o = world->world.lo;
-    return (box3){{o.x + ((double)n->origin[0] + (double)n->q[TRAVERSAL_LO_X][k] * sc),
-                   o.y + ((double)n->origin[1] + (double)n->q[TRAVERSAL_LO_Y][k] * sc),
-                   o.z + ((double)n->origin[2] + (double)n->q[TRAVERSAL_LO_Z][k] * sc)},
-                  {o.x + ((double)n->origin[0] + (double)n->q[TRAVERSAL_HI_X][k] * sc),
-                   o.y + ((double)n->origin[1] + (double)n->q[TRAVERSAL_HI_Y][k] * sc),
-                   o.z + ((double)n->origin[2] + (double)n->q[TRAVERSAL_HI_Z][k] * sc)}};
 }
 
 /* A world leaf's content: with the form its box already is; else computed from its
@@ -972,7 +940,7 @@ static void descend(pose_query *pq, const pose_frame *f)
             continue;
         }
         /* The larger node splits, so the two boxes stay of a size. */
-        int split_world = shape_leaf || (!world_leaf && longest_side(e.world_box) >= f->scale * box_width(e.shape_box));
+        int split_world = shape_leaf || (!world_leaf && box_extent(e.world_box) >= f->scale * box_width(e.shape_box));
         if (split_world) {
             const box3 *sb = NULL;
             if (shape_leaf && !(sb = leaf_bounds_get(s, pq->at, e.shape_node))) {
