@@ -92,6 +92,15 @@ struct octree {
     octree_info info;
 };
 
+/* Bits set in an eight-bit mask. __builtin_popcount is a libgcc call where the baseline
+ * target has no popcount instruction, which cost a ray's filter more than this. */
+static inline unsigned bits_set8(unsigned m)
+{
+    m = (m & 0x55u) + (m >> 1 & 0x55u);
+    m = (m & 0x33u) + (m >> 2 & 0x33u);
+    return (m & 0x0fu) + (m >> 4);
+}
+
 static inline const uint32_t *octree_sliver_list(const struct octree *tree)
 {
     return tree->leaf_items + tree->info.leaf_refs;

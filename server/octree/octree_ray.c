@@ -1062,7 +1062,7 @@ static void walk_test_leaf_filtered(ray_walk *w, const octree *tree, octree_node
         unsigned k = leaf.count - i < 4 ? leaf.count - i : 4;
         unsigned miss = ray_tri_exact_misses4(w->r.o, w->r.d, tree->vertices, (const uint32_t(*)[3])tree->corners,
                                               &ids[i], k, tree->traversal.avx2);
-        w->local.candidates_tested += (uint64_t)__builtin_popcount(miss);
+        w->local.candidates_tested += bits_set8(miss);
         for (unsigned j = 0; j < k; j++)
             if (!((miss >> j) & 1) && !walk_test_unique(w, tree, ids[i + j]))
                 return;
@@ -1733,7 +1733,7 @@ FLOAT_WALK_AVX2 static void fan_run(compiled_fan *p, const octree *tree)
         unsigned live = e.rays & ~p->done & (unsigned)_mm256_movemask_ps(within);
         if (!live)
             continue;
-        if (__builtin_popcount(live) <= FAN_ALONE_MAX) {
+        if (bits_set8(live) <= FAN_ALONE_MAX) {
             /* Few rays left in this subtree: each walks it on its own, one after the other
              * (each ray's walk would have taken the subtree next), with the single ray's
              * cheaper steps; rays are independent, so their order does not matter. */
