@@ -256,8 +256,7 @@ static inline box3 box_grown(box3 b, double g)
  *
  * An expansion tests up to eight children against the node it keeps: world children by
  * world_box_apart, shape children by the shape side of the same test (shape_side_of's
- * projection and radius against the world node's side), and world children of a shape
- * leaf by boxes_apart of a grown box. Four children go to a vector (lanes4.h), every
+ * projection and radius against the world node's side). Four children go to a vector (lanes4.h), every
  * operation in the order of the one-child expressions above, so each lane rounds exactly
  * as they do and the bounds derived for them hold lane by lane; world_box_apart's early
  * exit at the first separating axis is gone, which changes no answer. Each
@@ -310,15 +309,6 @@ LANES_INLINE unsigned world_lanes_apart(const pose_frame *f, const child_boxes *
     return BITS4(apart);
 }
 
-/* boxes_apart(box_grown(child, g), *sb) of children h..h+3. */
-LANES_INLINE unsigned lanes_apart_from_box(const child_boxes *b, int h, double g, const box3 *sb)
-{
-    mask4 apart = (LOAD4(&b->lo[0][h]) - g > sb->hi.x) | (LOAD4(&b->lo[1][h]) - g > sb->hi.y) |
-                  (LOAD4(&b->lo[2][h]) - g > sb->hi.z) | (LOAD4(&b->hi[0][h]) + g < sb->lo.x) |
-                  (LOAD4(&b->hi[1][h]) + g < sb->lo.y) | (LOAD4(&b->hi[2][h]) + g < sb->lo.z);
-    return BITS4(apart);
-}
-
 /* Shape boxes[h..h+3], posed, against the world node's side w: shape_side_of's projection
  * and radius of each, compared as world_box_apart compares. */
 LANES_INLINE unsigned shape_lanes_apart(const pose_frame *f, const box3 *boxes, int h, const box_side *w)
@@ -351,15 +341,96 @@ LANES_INLINE unsigned shape_lanes_apart(const pose_frame *f, const box3 *boxes, 
 }
 
 /* A world expansion: children whose boxes (left in b for the pushes) may meet the shape
- * node's side s, or (s NULL) a shape leaf's posed bounds sb grown by g. */
-LANES_INLINE unsigned world_lanes_near(const pose_frame *f, const child_boxes *b, const box_side *s, const box3 *sb,
-                                       double g, unsigned live)
+ * node's side s. */
+LANES_INLINE unsigned world_lanes_near(const pose_frame *f, const child_boxes *b, const box_side *s, unsigned live)
 {
     unsigned near = 0;
     for (int h = 0; h < 8; h += 4)
         if (live >> h & 0xfu)
-            near |= (~(s ? world_lanes_apart(f, b, h, s) : lanes_apart_from_box(b, h, g, sb)) & 0xfu) << h;
+            near |= (~world_lanes_apart(f, b, h, s) & 0xfu) << h;
     return near & live;
+}
+
+/* One expansion's child tests (the lanes above): a compiled world node's children, eight
+ * world cells, or eight shape boxes against the world node's side w. Each is compiled
+ * twice, for the baseline and for AVX2, and lane_tests_here picks one set per call. */
+LANES_INLINE unsigned form_children_near(const pose_frame *f, const octree *world, const traversal_node *n,
+                                         const box_side *s, unsigned live, child_boxes *b)
+{
+    lanes_of_form(world, n, b);
+    return world_lanes_near(f, b, s, live);
+}
+
+LANES_INLINE unsigned world_children_near(const pose_frame *f, const box3 cells[8], const box_side *s,
+                                          unsigned live, child_boxes *b)
+{
+    for (int k = 0; k < 8; k++) {
+        b->lo[0][k] = cells[k].lo.x, b->lo[1][k] = cells[k].lo.y, b->lo[2][k] = cells[k].lo.z;
+        b->hi[0][k] = cells[k].hi.x, b->hi[1][k] = cells[k].hi.y, b->hi[2][k] = cells[k].hi.z;
+    }
+    return world_lanes_near(f, b, s, live);
+}
+
+LANES_INLINE unsigned shape_children_near(const pose_frame *f, const box3 boxes[8], const box_side *w, unsigned live)
+{
+    unsigned near = 0;
+    for (int h = 0; h < 8; h += 4)
+        if (live >> h & 0xfu)
+            near |= (~shape_lanes_apart(f, boxes, h, w) & 0xfu) << h;
+    return near & live;
+}
+
+typedef struct lane_tests {
+    unsigned (*form)(const pose_frame *, const octree *, const traversal_node *, const box_side *, unsigned,
+                     child_boxes *);
+    unsigned (*world)(const pose_frame *, const box3 *, const box_side *, unsigned, child_boxes *);
+    unsigned (*shape)(const pose_frame *, const box3 *, const box_side *, unsigned);
+} lane_tests;
+
+#define LANE_TESTS(suffix, attr)                                                                                  \
+    attr static unsigned form_children_##suffix(const pose_frame *f, const octree *world, const traversal_node *n, \
+                                                const box_side *s, unsigned live, child_boxes *b)                \
+    {                                                                                                             \
+        return form_children_near(f, world, n, s, live, b);                                                       \
+    }                                                                                                             \
+    attr static unsigned world_children_##suffix(const pose_frame *f, const box3 *cells, const box_side *s,        \
+                                                 unsigned live, child_boxes *b)                                  \
+    {                                                                                                             \
+        return world_children_near(f, cells, s, live, b);                                                         \
+    }                                                                                                             \
+    attr static unsigned shape_children_##suffix(const pose_frame *f, const box3 *boxes, const box_side *w,        \
+                                                 unsigned live)                                                   \
+    {                                                                                                             \
+        return shape_children_near(f, boxes, w, live);                                                            \
+    }
+
+LANE_TESTS(portable, )
+#if defined(__x86_64__) || defined(__i386__)
+LANE_TESTS(avx2, __attribute__((target("avx2"))))
+#endif
+
+static int lanes_portable_forced;
+
+void octree_shape_lanes_force_portable(int on) { lanes_portable_forced = on; }
+
+static lane_tests lane_tests_here(void)
+{
+#if defined(__x86_64__) || defined(__i386__)
+    static int avx2 = -1; /* a benign race: every thread stores the same answer */
+    if (avx2 < 0)
+        avx2 = __builtin_cpu_supports("avx2") ? 1 : 0;
+    if (avx2 && !lanes_portable_forced)
+        return (lane_tests){form_children_avx2, world_children_avx2, shape_children_avx2};
+#endif
+    return (lane_tests){form_children_portable, world_children_portable, shape_children_portable};
+}
+
+/* What a shape node's image is tested with: the bounds of its triangles within its box
+ * when the tree has them (octree_def.node_bounds), else the box itself. Either holds every
+ * local point of the node's triangles that lies in the node. */
+static inline box3 shape_node_box(const octree *shape, uint32_t node, box3 cell)
+{
+    return shape->node_bounds ? shape->node_bounds[node] : cell;
 }
 
 /* ---------- per-call scratch ---------- */
@@ -413,16 +484,10 @@ typedef struct shape_scratch {
      * times. */
     struct posed_vertex *posed_vertices;
     uint32_t *vertex_stamp;
-    /* Per shape node: the bounds of a leaf's posed triangles, when leaf_stamp == epoch, and
-     * (exact mode, a world with triangle boxes) the union of their outward float boxes. */
-    box3 *leaf_bounds;
-    triangle_box *leaf_box;
-    uint32_t *leaf_stamp;
     pair_entry *stack;
     pair_set tested;
     uint64_t *hits; /* (caller's shape id << 32 | caller's world id) */
     size_t hit_count, hit_capacity;
-    int out_of_memory;
 } shape_scratch;
 
 static void pair_set_clear(pair_set *s)
@@ -521,7 +586,6 @@ static shape_scratch *scratch_new(const octree *world, const octree *shape, accu
     s->mode = mode;
     s->hits = NULL;
     s->hit_count = s->hit_capacity = 0;
-    s->out_of_memory = 0;
     pair_set_init(&s->tested);
     s->stack = malloc(stack_capacity(world, shape) * sizeof *s->stack);
     if (!s->stack) {
@@ -539,36 +603,29 @@ static void scratch_free(shape_scratch *s)
     free(s->posed);
     free(s->posed_stamp);
     free(s->posed_vertices);
-    free(s->leaf_bounds);
-    free(s->leaf_box);
     free(s->stack);
     free(s->hits);
     free(s);
 }
 
-/* The per-triangle, per-vertex and per-node arrays, on the first pose that reaches a
- * shape leaf; the stamps in one zeroed block. */
+/* The per-triangle and per-vertex arrays, on the first pose that reaches a leaf pair; the
+ * stamps in one zeroed block. */
 static int scratch_arrays(shape_scratch *s)
 {
     if (s->posed)
         return 0;
-    size_t n = s->shape->triangle_count, nodes = s->shape->node_count, verts = s->shape->used_vertex_count;
+    size_t n = s->shape->triangle_count, verts = s->shape->used_vertex_count;
     s->posed = malloc(n * sizeof *s->posed);
     s->posed_vertices = malloc(verts * sizeof *s->posed_vertices);
-    s->posed_stamp = calloc(2 * n + verts + nodes, sizeof *s->posed_stamp);
-    s->leaf_bounds = malloc(nodes * sizeof *s->leaf_bounds);
-    s->leaf_box = malloc(nodes * sizeof *s->leaf_box);
-    if (s->posed && s->posed_vertices && s->posed_stamp && s->leaf_bounds && s->leaf_box) {
+    s->posed_stamp = calloc(2 * n + verts, sizeof *s->posed_stamp);
+    if (s->posed && s->posed_vertices && s->posed_stamp) {
         s->prepared_stamp = s->posed_stamp + n;
         s->vertex_stamp = s->prepared_stamp + n;
-        s->leaf_stamp = s->vertex_stamp + verts;
         return 0;
     }
     free(s->posed);
     free(s->posed_vertices);
     free(s->posed_stamp);
-    free(s->leaf_bounds);
-    free(s->leaf_box);
     s->posed = NULL;
     return -1;
 }
@@ -579,7 +636,7 @@ static void scratch_next_pose(shape_scratch *s)
     if (++s->epoch == 0) {
         if (s->posed)
             memset(s->posed_stamp, 0,
-                   (2 * s->shape->triangle_count + s->shape->used_vertex_count + s->shape->node_count) *
+                   (2 * s->shape->triangle_count + s->shape->used_vertex_count) *
                        sizeof *s->posed_stamp);
         s->epoch = 1;
     }
@@ -621,40 +678,13 @@ static posed_triangle *posed_get(shape_scratch *s, const pose *at, uint32_t q)
     return p;
 }
 
-/* The bounds of shape leaf `node`'s posed triangles; NULL when memory ran out. */
-static const box3 *leaf_bounds_get(shape_scratch *s, const pose *at, uint32_t node)
-{
-    if (scratch_arrays(s) != 0) {
-        s->out_of_memory = 1;
-        return NULL;
-    }
-    box3 *b = &s->leaf_bounds[node];
-    if (s->leaf_stamp[node] == s->epoch)
-        return b;
-    s->leaf_stamp[node] = s->epoch;
-    octree_node n = s->shape->nodes[node];
-    const uint32_t *items = s->shape->leaf_items + n.first;
-    const posed_triangle *p = posed_get(s, at, items[0]);
-    *b = p->query.box;
-    triangle_box fb = p->box;
-    int boxed = s->mode == ACCURACY_EXACT && s->world->triangle_boxes;
-    for (uint32_t i = 1; i < n.count; i++) {
-        p = posed_get(s, at, items[i]);
-        b->lo = vec3_min(b->lo, p->query.box.lo);
-        b->hi = vec3_max(b->hi, p->query.box.hi);
-        if (boxed)
-            triangle_box_add(&fb, &p->box);
-    }
-    if (boxed)
-        s->leaf_box[node] = fb;
-    return b;
-}
-
 /* ---------- candidate pairs ---------- */
 
 typedef struct pose_query {
     shape_scratch *s;
     const pose *at;
+    const pose_frame *frame; /* set by descend */
+    lane_tests lanes;
     int all_pairs;
     int any;
     octree_status status;
@@ -717,23 +747,43 @@ static box3 world_leaf_content(const octree *world, octree_node n, box3 cell)
     return (box3){vec3_max(b.lo, cell.lo), vec3_min(b.hi, cell.hi)};
 }
 
-/* A world leaf against a shape leaf. A shape triangle whose bounds, grown by the slack,
- * miss the world leaf's content need not be tested there: a contact with any world
- * triangle (a point of it within the slack of the shape triangle) lies in some world leaf
- * whose content its grown bounds meet, and that leaf's pair with the shape leaf holding
- * the preimage is reached too. Exact mode skips a world triangle whose outward box is
- * strictly apart from the shape triangle's, as triangle queries do; first against the
- * union of the shape leaf's triangles' boxes, so that each world triangle far from the
- * whole leaf costs one test rather than one per shape triangle. Returns 1 when the query
- * is over. */
 #define NEAR_CHUNK 64
 
-static int leaf_pair(pose_query *pq, octree_node wn, box3 content, uint32_t shape_node)
+/* The outward float box, relative to the world's corner, of a shape box along the world's
+ * axes: the first three axes of its side s, each centre s->p[k] with half-width s->r[k]
+ * grown by the world side's widening and twice the axis's margin. One margin bounds every
+ * rounding the test itself allows for; the second covers the two roundings here
+ * (r + 2m + widen, and p -+ it), each below u (|p| + it), and |p| is within the span that
+ * the margin is 16u of. */
+static triangle_box shape_side_float_box(const pose_frame *f, const box_side *s, vec3 corner)
+{
+    double e[3], p[3] = {s->p[0], s->p[1], s->p[2]};
+    for (int k = 0; k < 3; k++)
+        e[k] = s->r[k] + 2 * f->margin[k] + f->widen[k];
+    return triangle_box_around((vec3){p[0] - e[0], p[1] - e[1], p[2] - e[2]},
+                               (vec3){p[0] + e[0], p[1] + e[1], p[2] + e[2]}, corner);
+}
+
+/* A world leaf against a shape leaf (shape_cell its cell). A shape triangle whose bounds,
+ * grown by the slack, miss the world leaf's content need not be tested there: a contact
+ * with any world triangle (a point of it within the slack of the shape triangle) lies in
+ * some world leaf whose content its grown bounds meet, and that leaf's pair with the shape
+ * leaf holding the preimage is reached too. Exact mode skips a world triangle whose
+ * outward box is strictly apart from the shape triangle's, as triangle queries do; first
+ * against the shape leaf's posed box along the world's axes, which holds the preimage's
+ * image as the descent's test does, so that a world triangle far from the whole leaf costs
+ * one comparison, and a leaf pair with no world triangle near poses nothing. Returns 1
+ * when the query is over. */
+static int leaf_pair(pose_query *pq, octree_node wn, box3 content, uint32_t shape_node, box3 shape_cell)
 {
     shape_scratch *s = pq->s;
     const octree *world = s->world;
     octree_node sn = s->shape->nodes[shape_node];
     const uint32_t *shape_items = s->shape->leaf_items + sn.first, *world_items = world->leaf_items + wn.first;
+    if (scratch_arrays(s) != 0) {
+        pq->status = OCTREE_ERR_NOMEM;
+        return 1;
+    }
     if (!(s->mode == ACCURACY_EXACT && world->triangle_boxes)) {
         for (uint32_t i = 0; i < sn.count; i++) {
             uint32_t q = shape_items[i];
@@ -746,14 +796,20 @@ static int leaf_pair(pose_query *pq, octree_node wn, box3 content, uint32_t shap
         }
         return 0;
     }
-    const triangle_box *boxes = world->triangle_boxes, *leaf_box = &s->leaf_box[shape_node];
+    const triangle_box *boxes = world->triangle_boxes;
+    /* The world triangles whose boxes meet the world-axis box of the shape leaf's posed
+     * box, before any of the leaf's triangles is posed: most leaf pairs of a pose that
+     * touches nothing end here. */
+    box_side leaf_side;
+    shape_side_of(pq->frame, shape_node_box(s->shape, shape_node, shape_cell), &leaf_side);
+    triangle_box leaf_reach = shape_side_float_box(pq->frame, &leaf_side, world->world.lo);
     uint32_t near[NEAR_CHUNK];
     for (uint32_t start = 0; start < wn.count; start += NEAR_CHUNK) {
         uint32_t end = wn.count - start < NEAR_CHUNK ? wn.count : start + NEAR_CHUNK, m = 0;
         for (uint32_t j = start; j < end; j++) {
             uint32_t w = world_items[j];
             near[m] = w;
-            m += !triangle_boxes_apart(&boxes[w], leaf_box);
+            m += !triangle_boxes_apart(&boxes[w], &leaf_reach);
         }
         if (m == 0)
             continue;
@@ -774,13 +830,6 @@ static int leaf_pair(pose_query *pq, octree_node wn, box3 content, uint32_t shap
 
 static double box_width(box3 b) { return b.hi.x - b.lo.x; }
 
-/* What a shape node's image is tested with: the bounds of its triangles within its box
- * when the tree has them (octree_def.node_bounds), else the box itself. Either holds every
- * local point of the node's triangles that lies in the node. */
-static inline box3 shape_node_box(const octree *shape, uint32_t node, box3 cell)
-{
-    return shape->node_bounds ? shape->node_bounds[node] : cell;
-}
 
 /* The world side of a pair. With the world's compiled form (octree_traversal.h) a world
  * node is a compiled node or a leaf reference, and its box the content bounds its parent
@@ -806,99 +855,16 @@ static inline box3 world_leaf_box(const octree *world, int form, octree_node n, 
     return form ? b : world_leaf_content(world, n, b);
 }
 
-/* One expansion's child tests (the lanes above): a compiled world node's children, eight
- * world cells, or eight shape boxes against the world node's side w. Each is compiled
- * twice, for the baseline and for AVX2, and lane_tests_here picks one set per call. */
-LANES_INLINE unsigned form_children_near(const pose_frame *f, const octree *world, const traversal_node *n,
-                                         const box_side *s, const box3 *sb, double g, unsigned live, child_boxes *b)
-{
-    lanes_of_form(world, n, b);
-    return world_lanes_near(f, b, s, sb, g, live);
-}
-
-LANES_INLINE unsigned world_children_near(const pose_frame *f, const box3 cells[8], const box_side *s,
-                                          const box3 *sb, double g, unsigned live, child_boxes *b)
-{
-    for (int k = 0; k < 8; k++) {
-        b->lo[0][k] = cells[k].lo.x, b->lo[1][k] = cells[k].lo.y, b->lo[2][k] = cells[k].lo.z;
-        b->hi[0][k] = cells[k].hi.x, b->hi[1][k] = cells[k].hi.y, b->hi[2][k] = cells[k].hi.z;
-    }
-    return world_lanes_near(f, b, s, sb, g, live);
-}
-
-LANES_INLINE unsigned shape_children_near(const pose_frame *f, const box3 boxes[8], const box_side *w, unsigned live)
-{
-    unsigned near = 0;
-    for (int h = 0; h < 8; h += 4)
-        if (live >> h & 0xfu)
-            near |= (~shape_lanes_apart(f, boxes, h, w) & 0xfu) << h;
-    return near & live;
-}
-
-typedef struct lane_tests {
-    unsigned (*form)(const pose_frame *, const octree *, const traversal_node *, const box_side *, const box3 *,
-                     double, unsigned, child_boxes *);
-    unsigned (*world)(const pose_frame *, const box3 *, const box_side *, const box3 *, double, unsigned,
-                      child_boxes *);
-    unsigned (*shape)(const pose_frame *, const box3 *, const box_side *, unsigned);
-} lane_tests;
-
-#define LANE_TESTS(suffix, attr)                                                                                  \
-    attr static unsigned form_children_##suffix(const pose_frame *f, const octree *world, const traversal_node *n, \
-                                                const box_side *s, const box3 *sb, double g, unsigned live,      \
-                                                child_boxes *b)                                                   \
-    {                                                                                                             \
-        return form_children_near(f, world, n, s, sb, g, live, b);                                                \
-    }                                                                                                             \
-    attr static unsigned world_children_##suffix(const pose_frame *f, const box3 *cells, const box_side *s,        \
-                                                 const box3 *sb, double g, unsigned live, child_boxes *b)        \
-    {                                                                                                             \
-        return world_children_near(f, cells, s, sb, g, live, b);                                                  \
-    }                                                                                                             \
-    attr static unsigned shape_children_##suffix(const pose_frame *f, const box3 *boxes, const box_side *w,        \
-                                                 unsigned live)                                                   \
-    {                                                                                                             \
-        return shape_children_near(f, boxes, w, live);                                                            \
-    }
-
-LANE_TESTS(portable, )
-#if defined(__x86_64__) || defined(__i386__)
-LANE_TESTS(avx2, __attribute__((target("avx2"))))
-#endif
-
-static int lanes_portable_forced;
-
-void octree_shape_lanes_force_portable(int on) { lanes_portable_forced = on; }
-
-static lane_tests lane_tests_here(void)
-{
-#if defined(__x86_64__) || defined(__i386__)
-    static int avx2 = -1; /* a benign race: every thread stores the same answer */
-    if (avx2 < 0)
-        avx2 = __builtin_cpu_supports("avx2") ? 1 : 0;
-    if (avx2 && !lanes_portable_forced)
-        return (lane_tests){form_children_avx2, world_children_avx2, shape_children_avx2};
-#endif
-    return (lane_tests){form_children_portable, world_children_portable, shape_children_portable};
-}
-
-/* Bits set in an eight-bit mask (no popcount instruction is assumed). */
-static inline unsigned live_count(unsigned m)
-{
-    m = (m & 0x55u) + (m >> 1 & 0x55u);
-    m = (m & 0x33u) + (m >> 2 & 0x33u);
-    return (m & 0x0fu) + (m >> 4);
-}
-
 static inline box3 lane_of(const child_boxes *b, int k)
 {
     return (box3){{b->lo[0][k], b->lo[1][k], b->lo[2][k]}, {b->hi[0][k], b->hi[1][k], b->hi[2][k]}};
 }
 
-/* The two trees together from their roots (see the top of the file). Where one node of a
- * pair is a leaf its tight bounds stand in for its box: a shape leaf's posed triangles'
- * bounds (exact doubles, compared exactly), a world leaf's content. An expansion tests its
- * eight children side by side (the lane tests above) and pushes those that may meet. */
+/* The two trees together from their roots (see the top of the file). A shape node is
+ * tested by its triangles' bounds within its cell (octree_def.node_bounds) where the tree
+ * has them, a world leaf by its content. An expansion tests its eight children side by
+ * side (the lane tests above) and pushes those that may meet; a pair of leaves goes to
+ * leaf_pair. */
 static void descend(pose_query *pq, const pose_frame *f)
 {
     shape_scratch *s = pq->s;
@@ -907,6 +873,8 @@ static void descend(pose_query *pq, const pose_frame *f)
     double g = f->content_pad;
     int form = world->traversal.present;
     lane_tests lanes = lane_tests_here();
+    pq->frame = f;
+    pq->lanes = lanes;
     stats->nodes_visited++;
     if (world->nodes[0].count == 0 || shape->nodes[0].count == 0)
         return;
@@ -928,28 +896,16 @@ static void descend(pose_query *pq, const pose_frame *f)
         int world_leaf = world_is_leaf(world, form, e.world_node), shape_leaf = sn.count != NODE_INTERIOR;
         if (world_leaf && shape_leaf) {
             stats->leaves_visited++;
-            const box3 *sb = leaf_bounds_get(s, pq->at, e.shape_node);
-            if (!sb) {
-                pq->status = OCTREE_ERR_NOMEM;
-                return;
-            }
             octree_node wn = world_leaf_of(world, form, e.world_node);
             box3 content = box_grown(world_leaf_box(world, form, wn, e.world_box), g);
-            if (!boxes_apart(*sb, content) && leaf_pair(pq, wn, content, e.shape_node))
+            if (leaf_pair(pq, wn, content, e.shape_node, e.shape_box))
                 return;
             continue;
         }
         /* The larger node splits, so the two boxes stay of a size. */
         int split_world = shape_leaf || (!world_leaf && box_extent(e.world_box) >= f->scale * box_width(e.shape_box));
         if (split_world) {
-            const box3 *sb = NULL;
-            if (shape_leaf && !(sb = leaf_bounds_get(s, pq->at, e.shape_node))) {
-                pq->status = OCTREE_ERR_NOMEM;
-                return;
-            }
-            if (!shape_leaf)
-                shape_side_of(f, shape_node_box(shape, e.shape_node, e.shape_box), &side);
-            const box_side *against = shape_leaf ? NULL : &side;
+            shape_side_of(f, shape_node_box(shape, e.shape_node, e.shape_box), &side);
             unsigned live = 0, near;
             const uint32_t *refs = NULL;
             uint32_t first = 0;
@@ -958,7 +914,7 @@ static void descend(pose_query *pq, const pose_frame *f)
                 refs = n->child;
                 for (int k = 0; k < 8; k++)
                     live |= (unsigned)(refs[k] != TRAVERSAL_EMPTY) << k;
-                near = lanes.form(f, world, n, against, sb, g, live, &b);
+                near = lanes.form(f, world, n, &side, live, &b);
             } else {
                 octree_node wn = world->nodes[e.world_node];
                 vec3 c = octree_split_point(world, e.world_box);
@@ -968,9 +924,9 @@ static void descend(pose_query *pq, const pose_frame *f)
                     live |= (unsigned)(kids[k].count != 0) << k;
                     cells[k] = box_child(e.world_box, c, box_octant_upper_bits[k]);
                 }
-                near = lanes.world(f, cells, against, sb, g, live, &b);
+                near = lanes.world(f, cells, &side, live, &b);
             }
-            stats->nodes_visited += live_count(live);
+            stats->nodes_visited += bits_set8(live);
             for (unsigned m = near; m; m &= m - 1) {
                 int k = __builtin_ctz(m);
                 uint32_t ref = form ? refs[k] : first + (uint32_t)k;
@@ -989,7 +945,7 @@ static void descend(pose_query *pq, const pose_frame *f)
             }
             const box3 *tested = shape->node_bounds ? shape->node_bounds + sn.first : cells;
             unsigned near = lanes.shape(f, tested, &side, live);
-            stats->nodes_visited += live_count(live);
+            stats->nodes_visited += bits_set8(live);
             for (unsigned m = near; m; m &= m - 1) {
                 int k = __builtin_ctz(m);
                 stack[top++] = (pair_entry){e.world_node, sn.first + (uint32_t)k, e.world_box, cells[k]};
@@ -1091,7 +1047,7 @@ static octree_status mesh_tree_pose(shape_scratch *s, const pose *at, int all_pa
     uint64_t fallbacks_before = predicates_fallback_count();
     query_stats local = {0};
     scratch_next_pose(s);
-    pose_query pq = {s, at, all_pairs, 0, OCTREE_OK, &local};
+    pose_query pq = {.s = s, .at = at, .all_pairs = all_pairs, .status = OCTREE_OK, .stats = &local};
     double grow = 0.0;
     int over = 0;
     /* The frame's range is checked before anything is posed: outside it, the per-triangle
