@@ -237,6 +237,17 @@ static inline triangle_box triangle_box_around(vec3 lo, vec3 hi, vec3 origin)
                            float_above_difference(hi.z, origin.z)}};
 }
 
+/* The outward float box of the point p relative to origin: each difference rounded once,
+ * both bounds from it (float_bounds_of_difference). */
+static inline triangle_box triangle_box_of_point(vec3 p, vec3 origin)
+{
+    triangle_box b;
+    float_bounds_of_difference(p.x, origin.x, &b.lo[0], &b.hi[0]);
+    float_bounds_of_difference(p.y, origin.y, &b.lo[1], &b.hi[1]);
+    float_bounds_of_difference(p.z, origin.z, &b.lo[2], &b.hi[2]);
+    return b;
+}
+
 /* Grows *into to hold b as well (the union of two outward boxes is outward). */
 static inline void triangle_box_add(triangle_box *into, const triangle_box *b)
 {

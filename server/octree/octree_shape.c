@@ -661,8 +661,7 @@ static posed_triangle *posed_get(shape_scratch *s, const pose *at, uint32_t q)
             s->vertex_stamp[i] = s->epoch;
             x->v = octree_apply_pose(at, s->shape->vertices[i]);
             if (boxed) {
-                vec3 o = s->world->world.lo;
-                x->box = triangle_box_around(x->v, x->v, o);
+                x->box = triangle_box_of_point(x->v, s->world->world.lo);
             }
         }
         pv[k] = x;
@@ -693,16 +692,26 @@ typedef struct pose_query {
 
 /* Tests shape triangle q (posed) against world triangle w once per pose, records a
  * contact; 1 when the query is over (its first contact for yes/no, or out of memory). */
-static inline int take_pair(pose_query *pq, posed_triangle *p, uint32_t q, uint32_t w)
+static int test_fresh_pair(pose_query *pq, posed_triangle *p, uint32_t q, uint32_t w);
+
+static inline __attribute__((always_inline)) int take_pair(pose_query *pq, posed_triangle *p, uint32_t q,
+                                                          uint32_t w)
 {
-    shape_scratch *s = pq->s;
-    int fresh = pair_set_insert(&s->tested, (uint64_t)q << 32 | w);
+    /* Inlined: most pairs met were met before in another leaf pair (two of three on a
+     * collision-free Spider pose), and end here. */
+    int fresh = pair_set_insert(&pq->s->tested, (uint64_t)q << 32 | w);
     if (fresh == 0)
         return 0;
     if (fresh < 0) {
         pq->status = OCTREE_ERR_NOMEM;
         return 1;
     }
+    return test_fresh_pair(pq, p, q, w);
+}
+
+static int test_fresh_pair(pose_query *pq, posed_triangle *p, uint32_t q, uint32_t w)
+{
+    shape_scratch *s = pq->s;
     pq->stats->candidates_tested++;
     vec3 wt[3];
     octree_triangle_vertices(s->world, w, wt);
