@@ -758,31 +758,47 @@ static box3 world_leaf_content(const octree *world, octree_node n, box3 cell)
 
 #define NEAR_CHUNK 64
 
-/* The outward float box, relative to the world's corner, of a shape box along the world's
- * axes: the first three axes of its side s, each centre s->p[k] with half-width s->r[k]
- * grown by the world side's widening and twice the axis's margin. One margin bounds every
- * rounding the test itself allows for; the second covers the two roundings here
- * (r + 2m + widen, and p -+ it), each below u (|p| + it), and |p| is within the span that
- * the margin is 16u of. */
-static triangle_box shape_side_float_box(const pose_frame *f, const box_side *s, vec3 corner)
+/* The outward float box, relative to the world's corner, of shape box sb posed, along the
+ * world's axes: on axis k the centre and radius of shape_side_of (the same expressions),
+ * the radius grown by the world side's widening and twice the axis's margin. One margin
+ * bounds every rounding the descent's test allows for; the second covers the three
+ * roundings here (the radius sum, the centre -+ it, and less the corner), each below
+ * u (|centre| + radius + M_w), which the margin's 16u of the span and the roots' radius
+ * exceeds, so only the conversion to float needs rounding outward. */
+static triangle_box shape_reach_box(const pose_frame *f, box3 sb, vec3 corner)
 {
-    double e[3], p[3] = {s->p[0], s->p[1], s->p[2]};
-    for (int k = 0; k < 3; k++)
-        e[k] = s->r[k] + 2 * f->margin[k] + f->widen[k];
-    return triangle_box_around((vec3){p[0] - e[0], p[1] - e[1], p[2] - e[2]},
-                               (vec3){p[0] + e[0], p[1] + e[1], p[2] + e[2]}, corner);
+    const double *r = f->at->r;
+    double cs[3] = {0.5 * (sb.lo.x + sb.hi.x), 0.5 * (sb.lo.y + sb.hi.y), 0.5 * (sb.lo.z + sb.hi.z)};
+    double hs[3] = {0.5 * (sb.hi.x - sb.lo.x), 0.5 * (sb.hi.y - sb.lo.y), 0.5 * (sb.hi.z - sb.lo.z)};
+    double c[3] = {r[0] * cs[0] + r[1] * cs[1] + r[2] * cs[2] + f->at->t.x,
+                   r[3] * cs[0] + r[4] * cs[1] + r[5] * cs[2] + f->at->t.y,
+                   r[6] * cs[0] + r[7] * cs[1] + r[8] * cs[2] + f->at->t.z};
+    double o[3] = {corner.x, corner.y, corner.z};
+    triangle_box b;
+    for (int k = 0; k < 3; k++) {
+        const double *q = f->reach[k];
+        double e = q[0] * hs[0] + q[1] * hs[1] + q[2] * hs[2] + 2 * f->margin[k] + f->widen[k];
+        b.lo[k] = float_at_or_below((c[k] - e) - o[k]);
+        b.hi[k] = float_at_or_above((c[k] + e) - o[k]);
+    }
+    return b;
 }
 
-/* A world leaf against a shape leaf (shape_cell its cell). A shape triangle whose bounds,
- * grown by the slack, miss the world leaf's content need not be tested there: a contact
- * with any world triangle (a point of it within the slack of the shape triangle) lies in
- * some world leaf whose content its grown bounds meet, and that leaf's pair with the shape
- * leaf holding the preimage is reached too. Exact mode skips a world triangle whose
- * outward box is strictly apart from the shape triangle's, as triangle queries do; first
- * against the shape leaf's posed box along the world's axes, which holds the preimage's
- * image as the descent's test does, so that a world triangle far from the whole leaf costs
- * one comparison, and a leaf pair with no world triangle near poses nothing. Returns 1
- * when the query is over. */
+/* Whether some triangle of world leaf wn may meet shape node `node` (cell its cell): their
+ * outward boxes against the world-axis box of the node's posed box (exact mode, a world
+ * with triangle boxes). A leaf's triangles' boxes hug a slanted surface far closer than
+ * their union's box, the leaf's content, does. */
+static int world_leaf_near(const pose_query *pq, octree_node wn, uint32_t node, box3 cell)
+{
+    const octree *world = pq->s->world;
+    triangle_box reach = shape_reach_box(pq->frame, shape_node_box(pq->s->shape, node, cell), world->world.lo);
+    const uint32_t *items = world->leaf_items + wn.first;
+    for (uint32_t i = 0; i < wn.count; i++)
+        if (!triangle_boxes_apart(&world->triangle_boxes[items[i]], &reach))
+            return 1;
+    return 0;
+}
+
 static int leaf_pair(pose_query *pq, octree_node wn, box3 content, uint32_t shape_node, box3 shape_cell)
 {
     shape_scratch *s = pq->s;
@@ -809,9 +825,8 @@ static int leaf_pair(pose_query *pq, octree_node wn, box3 content, uint32_t shap
     /* The world triangles whose boxes meet the world-axis box of the shape leaf's posed
      * box, before any of the leaf's triangles is posed: most leaf pairs of a pose that
      * touches nothing end here. */
-    box_side leaf_side;
-    shape_side_of(pq->frame, shape_node_box(s->shape, shape_node, shape_cell), &leaf_side);
-    triangle_box leaf_reach = shape_side_float_box(pq->frame, &leaf_side, world->world.lo);
+    triangle_box leaf_reach = shape_reach_box(pq->frame, shape_node_box(s->shape, shape_node, shape_cell),
+                                              world->world.lo);
     uint32_t near[NEAR_CHUNK];
     for (uint32_t start = 0; start < wn.count; start += NEAR_CHUNK) {
         uint32_t end = wn.count - start < NEAR_CHUNK ? wn.count : start + NEAR_CHUNK, m = 0;
@@ -882,6 +897,7 @@ static void descend(pose_query *pq, const pose_frame *f)
     double g = f->content_pad;
     int form = world->traversal.present;
     lane_tests lanes = lane_tests_here();
+    int boxed = s->mode == ACCURACY_EXACT && world->triangle_boxes;
     pq->frame = f;
     pq->lanes = lanes;
     stats->nodes_visited++;
@@ -942,6 +958,9 @@ static void descend(pose_query *pq, const pose_frame *f)
                 stack[top++] = (pair_entry){ref, e.shape_node, lane_of(&b, k), e.shape_box};
             }
         } else {
+            if (world_leaf && boxed && !world_leaf_near(pq, world_leaf_of(world, form, e.world_node), e.shape_node,
+                                                        e.shape_box))
+                continue;
             vec3 c = octree_split_point(shape, e.shape_box);
             const octree_node *kids = &shape->nodes[sn.first];
             box3 wb = world_leaf ? world_leaf_box(world, form, world_leaf_of(world, form, e.world_node), e.world_box)
