@@ -6,9 +6,8 @@
  * W (its content bounds when the world has its compiled form, else its cube), grown on each
  * axis by g (the pose's rounding bound e, the mode's slack and the rounding of the world
  * box's bounds), may meet the image R S + t of S's local box, i.e. no separating axis
- * among the 15 of a box and a parallelepiped proves them apart by more than the test's own
- * rounding bound. So every
- * pair of leaves that could hold a contact is reached, and a contact is reported exactly
+ * among the six tested (the world's and the pose's; TESTED_AXES) proves them apart by more
+ * than the test's own rounding bound. So every pair of leaves that could hold a contact is reached, and a contact is reported exactly
  * when the mode's final test accepts the pair: the answers are octree_mesh's.
  *
  * Why such a pair of leaves is reached. A posed vertex is fl(R p + t), within e of the
@@ -47,13 +46,14 @@
 #define POSE_ENTRY_MAX 0x1p32
 #define POSE_RANGE_MAX 0x1p400
 
-/* The 15 candidate separating axes: the world's three, the pose's three columns (the
- * shape box's edges in the world frame) and the nine cross products of one of each. For
- * a rotation these are the box-box axes of the separating-axis theorem; for any other
+/* The separating axes tested: the world's three and the pose's three columns (the shape
+ * box's edges in the world frame). For a rotation these are six of the box-box axes of
+ * the separating-axis theorem (the nine cross products of one of each are the rest,
+ * which the descent does not test: a missed separation only keeps a pair); for any other
  * matrix they are still axes, and a separation along any axis is a proof. Every axis is
- * exact: a column is three matrix entries, and e_k x c permutes and negates them. */
-enum { AXES = 15 };
+ * exact: a column is three matrix entries. Only these six are built, once a pose. */
 #define TESTED_AXES 6
+enum { AXES = TESTED_AXES };
 
 typedef struct pose_frame {
     const pose *at;
@@ -140,15 +140,6 @@ static int pose_frame_make(pose_frame *f, const octree *world, const octree *sha
     for (int i = 0; i < 3; i++, a++)
         for (int j = 0; j < 3; j++)
             f->axis[a][j] = col[i][j];
-    for (int k = 0; k < 3; k++)
-        for (int i = 0; i < 3; i++, a++) {
-            const double *c = col[i];
-            double *l = f->axis[a];
-            /* e_k x c */
-            l[0] = k == 0 ? 0.0 : k == 1 ? c[2] : -c[1];
-            l[1] = k == 0 ? -c[2] : k == 1 ? 0.0 : c[0];
-            l[2] = k == 0 ? c[1] : k == 1 ? -c[0] : 0.0;
-        }
     double hw[3] = {0.5 * (ww.hi.x - ww.lo.x), 0.5 * (ww.hi.y - ww.lo.y), 0.5 * (ww.hi.z - ww.lo.z)};
     double hs[3] = {0.5 * (sw.hi.x - sw.lo.x), 0.5 * (sw.hi.y - sw.lo.y), 0.5 * (sw.hi.z - sw.lo.z)};
     for (a = 0; a < AXES; a++) {
