@@ -112,6 +112,42 @@ static void test_float_bounds_enclose_and_are_tight(void **state)
     }
 }
 
+/* The loose bounds a filter takes: at or below (above) y exactly, NaN and the far range
+ * on the safe side, and within a few float steps of the tight bound. */
+static void check_loose(double y)
+{
+    float lo = float_below_loosely(y), hi = float_above_loosely(y);
+    if (!((double)lo <= y) || !((double)hi >= y))
+        fail_msg("y %a: loose bounds %a, %a do not enclose", y, (double)lo, (double)hi);
+    float tight_lo = float_at_or_below(y), tight_hi = float_at_or_above(y);
+    if (fabs(y) <= 0x1p100) {
+        /* Two steps of the float grid at y at most: 2^-22 of |y| covers them, 2^-147 the
+         * subnormal ones. */
+        float step = (float)(fabs(y) * 0x1p-22 + 0x1p-147);
+        if (!(tight_lo - lo <= step) || !(hi - tight_hi <= step))
+            fail_msg("y %a: loose bounds %a, %a, tight %a, %a", y, (double)lo, (double)hi, (double)tight_lo,
+                     (double)tight_hi);
+    }
+}
+
+static void test_loose_float_bounds_enclose(void **state)
+{
+    (void)state;
+    static const double values[] = {0.0, -0.0, 0.1, -0.1, 1.0 / 3.0, 1e9 + 0.1, -1e9 - 0.1, 1.0, -1.0, 0x1p-60,
+                                    0x1p-1074, -0x1p-1074, 1e-310, 0x1p-126, 0x1p-149, 1e-40, 3e38, 0x1p100,
+                                    -0x1p100, 0x1.0000000000001p100, 1e300, -1e300, DBL_MAX, -DBL_MAX,
+                                    16777217.0, -16777217.0, 0x1.fffffffffffffp-1, 0x1.000001p0};
+    for (size_t i = 0; i < sizeof values / sizeof values[0]; i++) {
+        check_loose(values[i]);
+        check_loose(nextafter(values[i], INFINITY));
+        check_loose(nextafter(values[i], -INFINITY));
+    }
+    assert_true(float_below_loosely(NAN) == -INFINITY && float_above_loosely(NAN) == INFINITY);
+    rng r = rng_seeded(base_seed + 41);
+    for (int i = 0; i < 200000; i++)
+        check_loose(ldexp(rng_uniform(&r, -1, 1), (int)(rng_next(&r) % 300) - 150));
+}
+
 /* ---------- memory ---------- */
 
 static void test_bytes_are_as_documented(void **state)
@@ -596,6 +632,7 @@ int main(void)
     printf("seed %llu (TRIOCT_SEED reruns with another)\n", (unsigned long long)base_seed);
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_float_bounds_enclose_and_are_tight),
+        cmocka_unit_test(test_loose_float_bounds_enclose),
         cmocka_unit_test(test_bytes_are_as_documented),
         cmocka_unit_test(test_stored_boxes_enclose_their_triangles),
         cmocka_unit_test(test_generated_scenes_answer_the_same_with_boxes),

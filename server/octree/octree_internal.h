@@ -176,6 +176,25 @@ static inline float float_at_or_above(double x)
     return (double)f < x ? float_next_up(f) : f;
 }
 
+/* A float at or below y, without a branch on how y rounded: y is lowered by more than a
+ * float's half ulp (2^-23 of itself, and 2^-148 for the subnormal range, where a step is
+ * 2^-149) before rounding to nearest, which then cannot land above y (the lowering's own
+ * two roundings are 2^-53 of it). Past 2^100 the bound is 2^100 or -INFINITY. A filter's box
+ * is a float step or two looser so; float_at_or_below gives the tight one. */
+static inline float float_below_loosely(double y)
+{
+    if (!(y >= -0x1p100))
+        return -INFINITY;
+    if (y > 0x1p100)
+        return 0x1p100f;
+    return (float)(y - (fabs(y) * 0x1p-23 + 0x1p-148));
+}
+
+static inline float float_above_loosely(double y)
+{
+    return -float_below_loosely(-y);
+}
+
 /* Bounds in float of the real difference x - o, which the double subtraction may round
  * either way. The rounding error is recovered exactly (Knuth's two-sum; it needs each
  * operation rounded on its own, which -ffp-contract=off guarantees), and only a float

@@ -755,8 +755,9 @@ static box3 world_leaf_content(const octree *world, octree_node n, box3 cell)
  * bounds every rounding the descent's test allows for; the second covers the three
  * roundings here (the radius sum, the centre -+ it, and less the corner), each below
  * u (|centre| + radius + M_w), which the margin's 16u of the span and the roots' radius
- * exceeds, so only the conversion to float needs rounding outward. */
-static triangle_box shape_reach_box(const pose_frame *f, box3 sb, vec3 corner)
+ * exceeds, so only the conversion to float needs rounding outward (loosely: this box only
+ * filters). */
+static inline __attribute__((always_inline)) triangle_box shape_reach_box(const pose_frame *f, box3 sb, vec3 corner)
 {
     const double *r = f->at->r;
     double cs[3] = {0.5 * (sb.lo.x + sb.hi.x), 0.5 * (sb.lo.y + sb.hi.y), 0.5 * (sb.lo.z + sb.hi.z)};
@@ -769,8 +770,8 @@ static triangle_box shape_reach_box(const pose_frame *f, box3 sb, vec3 corner)
     for (int k = 0; k < 3; k++) {
         const double *q = f->reach[k];
         double e = q[0] * hs[0] + q[1] * hs[1] + q[2] * hs[2] + 2 * f->margin[k] + f->widen[k];
-        b.lo[k] = float_at_or_below((c[k] - e) - o[k]);
-        b.hi[k] = float_at_or_above((c[k] + e) - o[k]);
+        b.lo[k] = float_below_loosely((c[k] - e) - o[k]);
+        b.hi[k] = float_above_loosely((c[k] + e) - o[k]);
     }
     return b;
 }
