@@ -62,7 +62,7 @@ static double ulps_apart(double a, double b)
  * [0, 1] summing to at most 1. Returns the hit. */
 static int check_against_oracle(vec3 o, vec3 d, double tmin, double tmax, const vec3 tri[3], ray_tri_hit *out)
 {
-    ray_tri_hit h = {NAN, NAN, NAN};
+    ray_tri_hit h = {NAN, NAN, NAN, NAN};
     int got = ray_tri_touch(o, d, tmin, tmax, tri, &h);
     int want = oracle_ray_tri(o, d, tmin, tmax, tri);
     if (got != want)

@@ -309,13 +309,14 @@ static random_ray_case random_case(rng *r, double offset, double scale)
 
 typedef struct agreement {
     int inside, outside, out_of_range, boundary;
-    double max_t_ulps, max_uv_err;
+    int bounded; /* inside hits with a finite t_upper */
+    double max_t_ulps, max_uv_err, max_upper_ulps;
 } agreement;
 
 /* Checks one random case against the reference and tallies it. */
 static void check_random_case(ref_scratch *rs, const random_ray_case *c, agreement *tally)
 {
-    ray_tri_hit hit = {NAN, NAN, NAN};
+    ray_tri_hit hit = {NAN, NAN, NAN, NAN};
     int got = ray_tri_exact(c->o, c->d, c->tmin, c->tmax, c->tri, &hit);
     ref_answer ref;
     ref_ray_tri(rs, c->o, c->d, c->tmin, c->tmax, c->tri, &ref);
@@ -347,6 +348,16 @@ static void check_random_case(ref_scratch *rs, const random_ray_case *c, agreeme
     double ulps = ulps_between(hit.t, ref.t);
     if (ulps > tally->max_t_ulps)
         tally->max_t_ulps = ulps;
+    /* t_upper, which a closest-hit walk cuts its interval with, is at or above the exact t
+     * (rs->t: a strictly inside hit is solved once, unperturbed). */
+    if (hit.t_upper != INFINITY) {
+        if (q_cmp_d(rs->t, rs->bound, hit.t_upper) > 0)
+            fail_msg("t_upper %a below the exact t (about %a)", hit.t_upper, ref.t);
+        tally->bounded++;
+        double upper_ulps = ulps_between(hit.t_upper, ref.t);
+        if (upper_ulps > tally->max_upper_ulps)
+            tally->max_upper_ulps = upper_ulps;
+    }
     double uv_err = fmax(fabs(hit.u - ref.u), fabs(hit.v - ref.v));
     if (uv_err > tally->max_uv_err)
         tally->max_uv_err = uv_err;
@@ -372,14 +383,16 @@ static void run_random_agreement(uint64_t salt, double offset, double scale, int
     }
     ref_scratch_clear(&rs);
     printf("  offset %g scale %g: %d inside, %d outside, %d out of range, %d boundary, %d grazing; "
-           "max t error %.1f ulps, max u/v error %.2e\n",
+           "max t error %.1f ulps, max u/v error %.2e; t_upper for %d, at most %.3g ulps above\n",
            offset, scale, tally.inside, tally.outside, tally.out_of_range, tally.boundary, grazing,
-           tally.max_t_ulps, tally.max_uv_err);
+           tally.max_t_ulps, tally.max_uv_err, tally.bounded, tally.max_upper_ulps);
     assert_true(tally.inside > count / 10);
     assert_true(tally.outside > count / 10);
     assert_true(tally.out_of_range > count / 50);
     assert_true(tally.max_t_ulps <= T_ULPS_ALLOWED);
     assert_true(tally.max_uv_err <= UV_ERR_ALLOWED);
+    /* Nearly every hit gets a bound (only near-parallel rays may go without). */
+    assert_true(tally.bounded >= tally.inside * 9 / 10);
 }
 
 static void test_random_rays_match_rational_reference(void **state)
@@ -762,7 +775,7 @@ static void check_mesh_ray(ref_scratch *rs, const test_mesh *m, frame fr, const 
     int count = 0, seed_count = 0, fast_count = 0, ref_count = 0, determined = 1;
     for (int i = 0; i < m->nt; i++) {
         const vec3 *tri = placed[i];
-        ray_tri_hit hit = {NAN, NAN, NAN};
+        ray_tri_hit hit = {NAN, NAN, NAN, NAN};
         int got = ray_tri_exact(o, d, 0.0, INFINITY, tri, &hit);
         count += got;
         if (got) {
@@ -1473,7 +1486,7 @@ static void test_random_rays_at_the_ends_of_the_double_range_match_reference(voi
         double tmin = i % 3 == 0 ? -INFINITY : 0.0, tmax = i % 5 == 0 ? rng_range(&r, 1.0, 8.0) : INFINITY;
         vec3 all[5] = {tri[0], tri[1], tri[2], o, d};
         assert_true(exponent_span(all, 5) <= 633);
-        ray_tri_hit hit = {NAN, NAN, NAN};
+        ray_tri_hit hit = {NAN, NAN, NAN, NAN};
         int got = ray_tri_exact(o, d, tmin, tmax, tri, &hit);
         ref_answer ref;
         ref_ray_tri(&rs, o, d, tmin, tmax, tri, &ref);

@@ -508,6 +508,7 @@ int ray_tri_touch(vec3 o, vec3 d, double tmin, double tmax, const vec3 tri[3], r
         hit->t = t;
         hit->u = u;
         hit->v = v;
+        hit->t_upper = INFINITY;
     }
     return 1;
 }

@@ -124,6 +124,22 @@ static inline int filtered_sign_num_minus_t_den(const plane_param *pp, double ta
     return filtered_sign(q, err);
 }
 
+/* An upper bound on the exact t = num / den of a hit whose den has the sign s. With
+ * N = s num and D = s den (D > 0 exactly), the exact values are within num_err and den_err
+ * of them, so the exact t is at most (N + num_err) / (D - den_err) when that numerator is
+ * not negative and (N + num_err) / (D + den_err) when it is (rounding keeps its sign). The
+ * bound's own three roundings are within 3.01 u of it, which 4 u of it covers, and 2^-1021
+ * covers underflow. INFINITY when the denominator is not positive or a value overflowed. */
+static double plane_t_upper(const plane_param *pp, int s)
+{
+    double n = s * pp->num + pp->num_err, dd = s * pp->den;
+    double den = n >= 0.0 ? dd - pp->den_err : dd + pp->den_err;
+    if (!(den > 0.0) || !isfinite(n) || !isfinite(den))
+        return INFINITY;
+    double q = n / den;
+    return q + fabs(q) * (4 * EXPANSION_EPS) + 0x1p-1021;
+}
+
 /* ---------------------------------------------------------------- exact test: fallbacks */
 
 /* Expansion helpers below never hand on an empty expansion: an empty result becomes a
@@ -488,6 +504,7 @@ static inline __attribute__((always_inline)) int ray_tri_exact_rule(vec3 o, vec3
         if (!(t <= tmax))
             t = tmax;
         hit->t = t;
+        hit->t_upper = plane_t_upper(&pp, s);
         report_barycentrics(s, w01, w12, w20, hit);
     }
     return 1;
@@ -822,6 +839,7 @@ int ray_tri_seed(vec3 o, vec3 d, double tmin, double tmax, const vec3 tri[3], do
         /* The test's epsilon accepts t a little outside [tmin, tmax]; the hit is reported
          * at the nearest end of the closed interval the API promises (ray_tri.h). */
         hit->t = t < tmin ? tmin : t > tmax ? tmax : t;
+        hit->t_upper = INFINITY;
         hit->u = vec3_dot(vec3_cross(w, e02), n) / n2;
         hit->v = vec3_dot(vec3_cross(edges[0], w), n) / n2;
     }
@@ -860,6 +878,7 @@ int ray_tri_fast(vec3 o, vec3 d, double tmin, double tmax, const vec3 tri[3], ra
         return 0;
     if (hit) {
         hit->t = t;
+        hit->t_upper = INFINITY;
         hit->u = u;
         hit->v = v;
     }

@@ -12,6 +12,11 @@
 typedef struct ray_tri_hit {
     double t;       /* rounded, for reporting */
     double u, v;    /* barycentric weights of v1, v2 (rounded) */
+    /* At or above the exact t, so that a walk for the closest hit may drop what starts
+     * later: ray_tri_exact and ray_tri_exact_closed take it from the plane's own error
+     * bounds (a few ulps above t); INFINITY where no bound was had (the other tests, an
+     * in-plane touch, a nearly parallel ray). */
+    double t_upper;
 } ray_tri_hit;
 
 /* 1 on a hit with tmin <= t <= tmax (exact). A ray parallel to the plane never hits.

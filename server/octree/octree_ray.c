@@ -231,39 +231,11 @@ static inline void slab(const ray_setup *r, box3 b, double *tnear, double *tfar)
 }
 
 /* The smallest common t of a touch hit is within a few ulps of its reported t (ray_tri.h),
- * so this bounds it from above when exact_t_upper_bound cannot: a touch hit with den == 0
+ * so this bounds it from above where the hit has no t_upper (ray_tri.h): a touch hit with den == 0
  * (in the plane, a zero-area triangle) or one too close to parallel for the bound. */
 static double touch_t_upper_bound(double t)
 {
     return t + fabs(t) * 0x1p-40 + TINY;
-}
-
-/* An upper bound on the exact t = N / D of a hit, N = det[v0-o, v1-o, v2-o] and
- * D = ((v1-v0) x (v2-v0)) . d. Each is a sum of products of rounded differences, whose
- * error is below 8 eps times its permanent (the orient3d bound is 7 eps + 56 eps^2). */
-static double exact_t_upper_bound(const ray_setup *r, const vec3 tri[3])
-{
-    vec3 a = vec3_sub(tri[0], r->o), b = vec3_sub(tri[1], r->o), c = vec3_sub(tri[2], r->o);
-    vec3 bc = vec3_cross(b, c);
-    double n = vec3_dot(a, bc);
-    vec3 ab = vec3_abs(a), bb = vec3_abs(b), cb = vec3_abs(c);
-    double perm_n = ab.x * (bb.y * cb.z + bb.z * cb.y) + ab.y * (bb.z * cb.x + bb.x * cb.z) +
-                    ab.z * (bb.x * cb.y + bb.y * cb.x);
-    vec3 e1 = vec3_sub(tri[1], tri[0]), e2 = vec3_sub(tri[2], tri[0]);
-    vec3 nn = vec3_cross(e1, e2);
-    double den = vec3_dot(nn, r->d);
-    vec3 e1b = vec3_abs(e1), e2b = vec3_abs(e2), db = vec3_abs(r->d);
-    double perm_d = db.x * (e1b.y * e2b.z + e1b.z * e2b.y) + db.y * (e1b.z * e2b.x + e1b.x * e2b.z) +
-                    db.z * (e1b.x * e2b.y + e1b.y * e2b.x);
-    double err_n = 8 * EPS * perm_n + TINY, err_d = 8 * EPS * perm_d + TINY;
-    if (den < 0) {
-        den = -den;
-        n = -n;
-    }
-    if (!(den - err_d > 0) || !isfinite(n) || !isfinite(den))
-        return INFINITY;
-    double q = (n + err_n) / (den - err_d);
-    return q + fabs(q) * (4 * EPS) + TINY;
 }
 
 /* Forced inline: it runs once per candidate, and as a call it passes the ray by value a
@@ -559,9 +531,7 @@ static inline __attribute__((always_inline)) int walk_test_unique(ray_walk *w, c
             w->best = hit;
             w->have_best = 1;
             if (w->mode == ACCURACY_EXACT) {
-                vec3 tri[3];
-                octree_triangle_vertices(tree, id, tri);
-                double ub = exact_t_upper_bound(r, tri);
+                double ub = h.t_upper;
                 if (r->touch && ub == INFINITY)
                     ub = touch_t_upper_bound(hit.t);
                 w->bound = ub < w->bound ? ub : w->bound;
