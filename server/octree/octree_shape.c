@@ -184,15 +184,25 @@ typedef struct box_side {
     double p[AXES], r[AXES];
 } box_side;
 
-static inline void shape_side_of(const pose_frame *f, box3 sb, box_side *s)
+/* A shape box's posed centre c and its local half sides hs: the centre posed as
+ * octree_apply_pose poses a vertex (the bounds assume this order). */
+static inline __attribute__((always_inline)) void shape_box_posed(const pose_frame *f, box3 sb, double c[3],
+                                                                 double hs[3])
 {
     const double *r = f->at->r;
     double cs[3] = {0.5 * (sb.lo.x + sb.hi.x), 0.5 * (sb.lo.y + sb.hi.y), 0.5 * (sb.lo.z + sb.hi.z)};
-    double hs[3] = {0.5 * (sb.hi.x - sb.lo.x), 0.5 * (sb.hi.y - sb.lo.y), 0.5 * (sb.hi.z - sb.lo.z)};
-    /* The centre posed as octree_apply_pose poses a vertex (the bound assumes this order). */
-    double c[3] = {r[0] * cs[0] + r[1] * cs[1] + r[2] * cs[2] + f->at->t.x,
-                   r[3] * cs[0] + r[4] * cs[1] + r[5] * cs[2] + f->at->t.y,
-                   r[6] * cs[0] + r[7] * cs[1] + r[8] * cs[2] + f->at->t.z};
+    hs[0] = 0.5 * (sb.hi.x - sb.lo.x);
+    hs[1] = 0.5 * (sb.hi.y - sb.lo.y);
+    hs[2] = 0.5 * (sb.hi.z - sb.lo.z);
+    c[0] = r[0] * cs[0] + r[1] * cs[1] + r[2] * cs[2] + f->at->t.x;
+    c[1] = r[3] * cs[0] + r[4] * cs[1] + r[5] * cs[2] + f->at->t.y;
+    c[2] = r[6] * cs[0] + r[7] * cs[1] + r[8] * cs[2] + f->at->t.z;
+}
+
+static inline void shape_side_of(const pose_frame *f, box3 sb, box_side *s)
+{
+    double c[3], hs[3];
+    shape_box_posed(f, sb, c, hs);
     for (int a = 0; a < TESTED_AXES; a++) {
         const double *l = f->axis[a], *q = f->reach[a];
         s->p[a] = a < 3 ? c[a] : l[0] * c[0] + l[1] * c[1] + l[2] * c[2];
@@ -759,12 +769,8 @@ static box3 world_leaf_content(const octree *world, octree_node n, box3 cell)
  * filters). */
 static inline __attribute__((always_inline)) triangle_box shape_reach_box(const pose_frame *f, box3 sb, vec3 corner)
 {
-    const double *r = f->at->r;
-    double cs[3] = {0.5 * (sb.lo.x + sb.hi.x), 0.5 * (sb.lo.y + sb.hi.y), 0.5 * (sb.lo.z + sb.hi.z)};
-    double hs[3] = {0.5 * (sb.hi.x - sb.lo.x), 0.5 * (sb.hi.y - sb.lo.y), 0.5 * (sb.hi.z - sb.lo.z)};
-    double c[3] = {r[0] * cs[0] + r[1] * cs[1] + r[2] * cs[2] + f->at->t.x,
-                   r[3] * cs[0] + r[4] * cs[1] + r[5] * cs[2] + f->at->t.y,
-                   r[6] * cs[0] + r[7] * cs[1] + r[8] * cs[2] + f->at->t.z};
+    double c[3], hs[3];
+    shape_box_posed(f, sb, c, hs);
     double o[3] = {corner.x, corner.y, corner.z};
     triangle_box b;
     for (int k = 0; k < 3; k++) {
