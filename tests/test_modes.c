@@ -20,6 +20,7 @@
 #include "geom/tri_box.h"
 #include "geom/tri_tri.h"
 #include "octree/octree_internal.h"
+#include "octree/octree_modes.h"
 #include "support/brute_force.h"
 #include "support/meshgen.h"
 #include "support/query_shapes.h"
@@ -38,6 +39,74 @@ static octree *build_mode(const mesh_data *m, double resolution, accuracy_mode m
     if (!t)
         fail_msg("build failed: %s", err.message);
     return t;
+}
+
+/* A mesh of the one triangle v. */
+static mesh_data one_triangle(const vec3 v[3])
+{
+    mesh_data m = {0};
+    m.vertex_count = 3;
+    m.triangle_count = 1;
+    m.vertices = malloc(3 * sizeof *m.vertices);
+    m.indices = malloc(3 * sizeof *m.indices);
+    assert_non_null(m.vertices);
+    assert_non_null(m.indices);
+    for (uint32_t i = 0; i < 3; i++) {
+        m.vertices[i] = v[i];
+        m.indices[i] = i;
+    }
+    return m;
+}
+
+/* The tree's seed reach factor is the largest 2 / sin of a triangle's smallest angle,
+ * rounded up to a float, and slivers (that sine below 2^-10) are listed apart instead: on
+ * triangles whose smallest angle is known, one at a time and together. */
+static void test_seed_reach_factor_and_slivers(void **state)
+{
+    (void)state;
+    const double pi = 3.14159265358979323846;
+    /* Apex angle a between two unit sides: the smallest angle for a below 60 degrees. */
+    static const double degrees[] = {60.0, 45.0, 30.0, 10.0, 1.0, 0.1};
+    double largest = 2.0;
+    mesh_data all = {0};
+    for (size_t i = 0; i < sizeof degrees / sizeof degrees[0]; i++) {
+        double a = degrees[i] * pi / 180;
+        vec3 v[3] = {{0, 0, 0}, {1, 0, 0}, {cos(a), sin(a), 0}};
+        mesh_data m = one_triangle(v);
+        octree *t = build_mode(&m, 0, ACCURACY_SEED, 1e-9);
+        double want = 2.0 / sin(a);
+        /* At or above the real factor (sin rounds, so allow it 2^-40 below), within a float
+         * step above it. */
+        if (!(t->seed_reach_factor >= want * (1 - 0x1p-40) && t->seed_reach_factor <= want * (1 + 0x1p-22)))
+            fail_msg("%g degrees: reach factor %.17g, 2 / sin %.17g", degrees[i], t->seed_reach_factor, want);
+        assert_int_equal(t->sliver_list_count, 0);
+        assert_false(octree_is_sliver(v));
+        largest = want > largest ? want : largest;
+        assert_int_equal(mesh_data_append(&all, &m), 0);
+        octree_free(t);
+        mesh_data_free(&m);
+    }
+    /* Either side of the sliver bound, sin = 2^-10 (1 -+ 2^-20), and a zero-area triangle. */
+    double below = 0x1p-10 * (1 - 0x1p-20), above = 0x1p-10 * (1 + 0x1p-20);
+    vec3 thin[3][3] = {{{0, 0, 0}, {1, 0, 0}, {sqrt(1 - below * below), below, 0}},
+                       {{0, 0, 0}, {1, 0, 0}, {sqrt(1 - above * above), above, 0}},
+                       {{0, 0, 0}, {1, 0, 0}, {2, 0, 0}}};
+    assert_true(octree_is_sliver(thin[0]));
+    assert_false(octree_is_sliver(thin[1]));
+    assert_true(octree_is_sliver(thin[2]));
+    for (int k = 0; k < 3; k++) {
+        mesh_data m = one_triangle(thin[k]);
+        assert_int_equal(mesh_data_append(&all, &m), 0);
+        mesh_data_free(&m);
+    }
+    octree *t = build_mode(&all, 0, ACCURACY_SEED, 1e-9);
+    assert_int_equal(t->sliver_list_count, 2);
+    double want = 2.0 / above; /* the thin triangle that is not a sliver has the smallest sine */
+    assert_true(want > largest);
+    if (!(t->seed_reach_factor >= want * (1 - 0x1p-40) && t->seed_reach_factor <= want * (1 + 0x1p-22)))
+        fail_msg("together: reach factor %.17g, 2 / sin %.17g", t->seed_reach_factor, want);
+    octree_free(t);
+    mesh_data_free(&all);
 }
 
 /* The seed's heuristic leaf side of a mesh, which the resolutions below scale. */
@@ -827,6 +896,7 @@ int main(void)
     printf("test_modes base seed %llu (set TRIOCT_SEED to rerun)\n", (unsigned long long)base_seed);
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_membership_is_conservative_in_fast_and_seed_trees),
+        cmocka_unit_test(test_seed_reach_factor_and_slivers),
         cmocka_unit_test(test_seed_touch_everything_triangles_are_listed),
         cmocka_unit_test(test_fast_answers_equal_brute_force_over_the_fast_primitive),
         cmocka_unit_test(test_seed_answers_equal_brute_force_over_the_seed_primitive),

@@ -102,20 +102,29 @@ double octree_fast_ray_slack(const struct octree *tree, vec3 o, vec3 d)
  * useful bound either: both are tested against every triangle. */
 #define SEED_SLIVER 0x1p-10
 
-/* 2 / sin of the triangle's smallest angle, or INFINITY when it is below SEED_SLIVER's
- * reciprocal's reach or not a finite number (zero area, overflow). The smallest angle is
- * opposite the shortest edge, between the two longest: sin = |cross| / (l1 l2). */
-static double seed_reach_factor(const vec3 t[3])
+/* The square of the sine of the triangle's smallest angle, or -1 when the sine is below
+ * SEED_SLIVER or not a finite number (zero area, overflow). The smallest angle is opposite
+ * the shortest edge, between the two longest: sin^2 = |cross|^2 / (l1^2 l2^2). Squares, so
+ * a tree's build takes no square root per triangle (octree_modes_prepare). */
+static double seed_sine_squared(const vec3 t[3])
 {
     vec3 e0 = vec3_sub(t[1], t[0]), e1 = vec3_sub(t[2], t[1]), e2 = vec3_sub(t[0], t[2]);
-    double l0 = vec3_length(e0), l1 = vec3_length(e1), l2 = vec3_length(e2);
-    double area2 = vec3_length(vec3_cross(e2, e0));
-    double shortest = fmin(l0, fmin(l1, l2));
-    double product = l0 == shortest ? l1 * l2 : l1 == shortest ? l0 * l2 : l0 * l1;
-    double sine = area2 / product;
-    if (!(sine >= SEED_SLIVER) || !isfinite(area2) || !isfinite(product))
-        return INFINITY;
-    return 2.0 / fmin(sine, 1.0);
+    double q0 = vec3_dot(e0, e0), q1 = vec3_dot(e1, e1), q2 = vec3_dot(e2, e2);
+    vec3 c = vec3_cross(e2, e0);
+    double area2 = vec3_dot(c, c);
+    double product = q0 <= q1 && q0 <= q2 ? q1 * q2 : q1 <= q2 ? q0 * q2 : q0 * q1;
+    double sine2 = area2 / product;
+    if (!(sine2 >= SEED_SLIVER * SEED_SLIVER) || !isfinite(area2) || !isfinite(product))
+        return -1.0;
+    return sine2 < 1.0 ? sine2 : 1.0;
+}
+
+/* 2 / sin of the triangle's smallest angle, or INFINITY when the sine is below SEED_SLIVER
+ * or not a finite number. */
+static double seed_reach_factor(const vec3 t[3])
+{
+    double sine2 = seed_sine_squared(t);
+    return sine2 < 0.0 ? INFINITY : 2.0 / sqrt(sine2);
 }
 
 static double seed_epsilon_rounded(const struct octree *tree, double magnitude)
@@ -246,25 +255,31 @@ double octree_fast_triangle_slack(const struct octree *tree, const vec3 q[3])
 
 /* ---------- per tree ---------- */
 
+static inline double larger(double a, double b) { return a > b ? a : b; }
+
+static inline double max_norm(vec3 v) { return larger(fabs(v.x), larger(fabs(v.y), fabs(v.z))); }
+
 octree_status octree_modes_prepare(struct octree *tree)
 {
     size_t n = tree->triangle_count, listed = 0, capacity = 0;
-    double product_min = INFINITY, reach = 2.0, longest = 0.0;
+    /* The largest reach factor is that of the smallest sine: 2 / sqrt is monotone, so one
+     * square root at the end gives what one per triangle would. */
+    double product_min = INFINITY, sine2_min = 1.0, longest = 0.0;
     uint32_t *list = NULL;
     for (size_t i = 0; i < n; i++) {
         vec3 t[3];
         octree_triangle_vertices(tree, (uint32_t)i, t);
-        vec3 e1 = vec3_sub(t[1], t[0]), e2 = vec3_sub(t[2], t[0]);
-        double product = fmax(fabs(e1.x), fmax(fabs(e1.y), fabs(e1.z))) * fmax(fabs(e2.x), fmax(fabs(e2.y), fabs(e2.z)));
+        vec3 e1 = vec3_sub(t[1], t[0]), e2 = vec3_sub(t[2], t[0]), e3 = vec3_sub(t[2], t[1]);
+        /* Max norms by comparisons: a libm fmax call per pair cost the build more than the
+         * arithmetic (every value here is a magnitude, never NaN). */
+        double m1 = max_norm(e1), m2 = max_norm(e2), m3 = max_norm(e3);
+        double product = m1 * m2;
         if (product > 0.0 && product < product_min)
             product_min = product;
-        vec3 e3 = vec3_sub(t[2], t[1]);
-        longest = fmax(longest, fmax(fmax(fabs(e1.x), fmax(fabs(e1.y), fabs(e1.z))),
-                                     fmax(fmax(fabs(e2.x), fmax(fabs(e2.y), fabs(e2.z))),
-                                          fmax(fabs(e3.x), fmax(fabs(e3.y), fabs(e3.z))))));
-        double k = seed_reach_factor(t);
-        if (isfinite(k)) {
-            reach = fmax(reach, k);
+        longest = larger(longest, larger(m1, larger(m2, m3)));
+        double sine2 = seed_sine_squared(t);
+        if (sine2 >= 0.0) {
+            sine2_min = sine2 < sine2_min ? sine2 : sine2_min;
             continue;
         }
         if (array_reserve((void **)&list, &capacity, listed + 1, sizeof *list, 16) != 0) {
@@ -288,6 +303,7 @@ octree_status octree_modes_prepare(struct octree *tree)
         frexp(longest, &le);
     tree->fast_longest_edge_log2 = (short)le;
     /* Rounded up to a float: the factor only ever grows a slack. */
+    double reach = 2.0 / sqrt(sine2_min);
     float f = (float)reach;
     tree->seed_reach_factor = (double)f < reach ? nextafterf(f, INFINITY) : f;
     tree->sliver_list_count = (uint32_t)listed;
