@@ -10,8 +10,11 @@
  *
  * bench_shapes [ROUNDS]                  everything, on the subdivided Spider and a terrain
  * bench_shapes one WORLD PATH PART [F]   one pass for callgrind: WORLD spider or terrain,
- *                                        PATH old or new, PART mixed, free or pairs; F
- *                                        scales the shape tree's resolution (1) */
+ *                                        PATH old, new or batch, PART mixed, free or pairs; F
+ *                                        scales the shape tree's resolution (1)
+ * bench_shapes peer WORLD PART           one batch pass of the peer bench's shape
+ *                                        (bench/peers: Wuson at 2% of the world's radius) on
+ *                                        WORLD spider, wuson (x4^3) or icosphere, for callgrind */
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -326,10 +329,37 @@ static void bench_inline(const workload *w)
            1e3 * build_s, INLINE_BATCH, INLINE_BATCH / batch_s, 1.0 / one_s, 1.0 / old_s);
 }
 
-static void make_world(workload *w, const char *which)
+/* The peer bench's shape: the real Wuson, centred, scaled to 2% of the world's radius. */
+static mesh_data peer_shape(const mesh_data *world)
+{
+    mesh_data base;
+    char err[256];
+    if (real_mesh_load(REAL_WUSON, 0, &base, NULL, NULL, err, sizeof err) != 0)
+        fail(err);
+    box3 wb = mesh_data_bounds(world), sb = mesh_data_bounds(&base);
+    double scale = 0.02 * vec3_length(vec3_sub(wb.hi, wb.lo)) / vec3_length(vec3_sub(sb.hi, sb.lo));
+    vec3 c = vec3_scale(vec3_add(sb.lo, sb.hi), 0.5);
+    mesh_data m = meshgen_transformed(&base, scale, vec3_scale(c, -scale));
+    mesh_data_free(&base);
+    return m;
+}
+
+/* peer: the peer bench's worlds and shape instead of the link. */
+static void make_world_for(workload *w, const char *which, int peer)
 {
     memset(w, 0, sizeof *w);
-    if (strcmp(which, "spider") == 0) {
+    if (peer && strcmp(which, "wuson") == 0) {
+        mesh_data base;
+        int times;
+        char err[256];
+        if (real_mesh_load(REAL_WUSON, 400000, &base, &w->world_mesh, &times, err, sizeof err) != 0)
+            fail(err);
+        mesh_data_free(&base);
+        w->name = "Wuson.ply, subdivided";
+    } else if (peer && strcmp(which, "icosphere") == 0) {
+        w->world_mesh = meshgen_icosphere((vec3){0, 0, 0}, 1.0, 8);
+        w->name = "icosphere (generated)";
+    } else if (strcmp(which, "spider") == 0) {
         mesh_data base;
         int times;
         char err[256];
@@ -341,16 +371,18 @@ static void make_world(workload *w, const char *which)
         w->world_mesh = meshgen_terrain(11, (box3){{0, 0, 0}, {100, 100, 12}}, 256, 256);
         w->name = "terrain (generated)";
     } else {
-        fail("WORLD is spider or terrain");
+        fail(peer ? "WORLD is spider, wuson or icosphere" : "WORLD is spider or terrain");
     }
     w->world = build(&w->world_mesh, 0, 1);
     box3 b = mesh_data_bounds(&w->world_mesh);
     vec3 e = vec3_sub(b.hi, b.lo);
     /* A link a tenth of the world across (an arm's link over a workcell). */
-    w->shape_mesh = make_shape(0.1 * fmax(e.x, fmax(e.y, e.z)));
+    w->shape_mesh = peer ? peer_shape(&w->world_mesh) : make_shape(0.1 * fmax(e.x, fmax(e.y, e.z)));
     w->shape = build(&w->shape_mesh, 0, 0);
     make_poses(w, 2026);
 }
+
+static void make_world(workload *w, const char *which) { make_world_for(w, which, 0); }
 
 static void free_world(workload *w)
 {
@@ -360,10 +392,11 @@ static void free_world(workload *w)
     mesh_data_free(&w->shape_mesh);
 }
 
-static int run_one(const char *world, const char *path, const char *which, double shape_resolution_factor)
+static int run_one(const char *world, const char *path, const char *which, double shape_resolution_factor,
+                   int peer)
 {
     static workload w;
-    make_world(&w, world);
+    make_world_for(&w, world, peer);
     if (shape_resolution_factor != 1.0) {
         double d = w.shape->info.resolution * shape_resolution_factor;
         octree_free(w.shape);
@@ -387,7 +420,9 @@ static int run_one(const char *world, const char *path, const char *which, doubl
 int main(int argc, char **argv)
 {
     if ((argc == 5 || argc == 6) && strcmp(argv[1], "one") == 0)
-        return run_one(argv[2], argv[3], argv[4], argc == 6 ? atof(argv[5]) : 1.0);
+        return run_one(argv[2], argv[3], argv[4], argc == 6 ? atof(argv[5]) : 1.0, 0);
+    if (argc == 4 && strcmp(argv[1], "peer") == 0)
+        return run_one(argv[2], "batch", argv[3], 1.0, 1);
     int rounds = argc > 1 ? atoi(argv[1]) : DEFAULT_ROUNDS;
     if (rounds < 1 || rounds > MAX_ROUNDS)
         fail("ROUNDS is 1 to 15");
