@@ -231,8 +231,8 @@ static inline void slab(const ray_setup *r, box3 b, double *tnear, double *tfar)
 }
 
 /* The smallest common t of a touch hit is within a few ulps of its reported t (ray_tri.h),
- * so this bounds it from above where the hit has no t_upper (ray_tri.h): a touch hit with den == 0
- * (in the plane, a zero-area triangle) or one too close to parallel for the bound. */
+ * so this bounds it from above where the hit has no t_upper: a touch hit with den == 0 (in
+ * the plane, a zero-area triangle) or one too close to parallel for the bound. */
 static double touch_t_upper_bound(double t)
 {
     return t + fabs(t) * 0x1p-40 + TINY;

@@ -475,6 +475,9 @@ typedef struct pair_entry {
 typedef struct shape_scratch {
     const octree *world, *shape;
     accuracy_mode mode;
+    /* Exact mode over a world with triangle boxes: the float boxes filter pairs (posed
+     * vertices get one, leaf pairs and shape nodes under a world leaf test against them). */
+    int boxed;
     uint32_t epoch; /* the current pose's stamp */
     /* Per shape triangle (allocated on first need): posed[q] holds the current pose when
      * posed_stamp[q] == epoch, and its exact query side when prepared_stamp[q] == epoch. */
@@ -585,6 +588,7 @@ static shape_scratch *scratch_new(const octree *world, const octree *shape, accu
     s->world = world;
     s->shape = shape;
     s->mode = mode;
+    s->boxed = mode == ACCURACY_EXACT && world->triangle_boxes;
     s->hits = NULL;
     s->hit_count = s->hit_capacity = 0;
     pair_set_init(&s->tested);
@@ -654,14 +658,13 @@ static posed_triangle *posed_get(shape_scratch *s, const pose *at, uint32_t q)
     s->posed_stamp[q] = s->epoch;
     const uint32_t *corner = s->shape->corners[q];
     const posed_vertex *pv[3];
-    int boxed = s->mode == ACCURACY_EXACT && s->world->triangle_boxes;
     for (int k = 0; k < 3; k++) {
         uint32_t i = corner[k];
         posed_vertex *x = &s->posed_vertices[i];
         if (s->vertex_stamp[i] != s->epoch) {
             s->vertex_stamp[i] = s->epoch;
             x->v = octree_apply_pose(at, s->shape->vertices[i]);
-            if (boxed) {
+            if (s->boxed) {
                 x->box = triangle_box_of_point(x->v, s->world->world.lo);
             }
         }
@@ -670,7 +673,7 @@ static posed_triangle *posed_get(shape_scratch *s, const pose *at, uint32_t q)
     }
     vec3 *v = p->query.v;
     p->query.box = (box3){vec3_min(vec3_min(v[0], v[1]), v[2]), vec3_max(vec3_max(v[0], v[1]), v[2])};
-    if (boxed) {
+    if (s->boxed) {
         p->box = pv[0]->box;
         triangle_box_add(&p->box, &pv[1]->box);
         triangle_box_add(&p->box, &pv[2]->box);
@@ -684,7 +687,6 @@ typedef struct pose_query {
     shape_scratch *s;
     const pose *at;
     const pose_frame *frame; /* set by descend */
-    lane_tests lanes;
     int all_pairs;
     int any;
     octree_status status;
@@ -807,7 +809,7 @@ static int leaf_pair(pose_query *pq, octree_node wn, box3 content, uint32_t shap
         pq->status = OCTREE_ERR_NOMEM;
         return 1;
     }
-    if (!(s->mode == ACCURACY_EXACT && world->triangle_boxes)) {
+    if (!s->boxed) {
         for (uint32_t i = 0; i < sn.count; i++) {
             uint32_t q = shape_items[i];
             posed_triangle *p = posed_get(s, pq->at, q);
@@ -895,9 +897,7 @@ static void descend(pose_query *pq, const pose_frame *f)
     double g = f->content_pad;
     int form = world->traversal.present;
     lane_tests lanes = lane_tests_here();
-    int boxed = s->mode == ACCURACY_EXACT && world->triangle_boxes;
     pq->frame = f;
-    pq->lanes = lanes;
     stats->nodes_visited++;
     if (world->nodes[0].count == 0 || shape->nodes[0].count == 0)
         return;
@@ -956,8 +956,8 @@ static void descend(pose_query *pq, const pose_frame *f)
                 stack[top++] = (pair_entry){ref, e.shape_node, lane_of(&b, k), e.shape_box};
             }
         } else {
-            if (world_leaf && boxed && !world_leaf_near(pq, world_leaf_of(world, form, e.world_node), e.shape_node,
-                                                        e.shape_box))
+            if (world_leaf && s->boxed &&
+                !world_leaf_near(pq, world_leaf_of(world, form, e.world_node), e.shape_node, e.shape_box))
                 continue;
             vec3 c = octree_split_point(shape, e.shape_box);
             const octree_node *kids = &shape->nodes[sn.first];
