@@ -344,28 +344,30 @@ static mesh_data peer_shape(const mesh_data *world)
     return m;
 }
 
+/* A real mesh subdivided up to 400,000 triangles, as the peer bench loads its worlds. */
+static mesh_data subdivided(real_mesh which)
+{
+    mesh_data base, sub;
+    int times;
+    char err[256];
+    if (real_mesh_load(which, 400000, &base, &sub, &times, err, sizeof err) != 0)
+        fail(err);
+    mesh_data_free(&base);
+    return sub;
+}
+
 /* peer: the peer bench's worlds and shape instead of the link. */
 static void make_world_for(workload *w, const char *which, int peer)
 {
     memset(w, 0, sizeof *w);
     if (peer && strcmp(which, "wuson") == 0) {
-        mesh_data base;
-        int times;
-        char err[256];
-        if (real_mesh_load(REAL_WUSON, 400000, &base, &w->world_mesh, &times, err, sizeof err) != 0)
-            fail(err);
-        mesh_data_free(&base);
+        w->world_mesh = subdivided(REAL_WUSON);
         w->name = "Wuson.ply, subdivided";
     } else if (peer && strcmp(which, "icosphere") == 0) {
         w->world_mesh = meshgen_icosphere((vec3){0, 0, 0}, 1.0, 8);
         w->name = "icosphere (generated)";
     } else if (strcmp(which, "spider") == 0) {
-        mesh_data base;
-        int times;
-        char err[256];
-        if (real_mesh_load(REAL_SPIDER, 400000, &base, &w->world_mesh, &times, err, sizeof err) != 0)
-            fail(err);
-        mesh_data_free(&base);
+        w->world_mesh = subdivided(REAL_SPIDER);
         w->name = "Spider_binary.stl, subdivided";
     } else if (strcmp(which, "terrain") == 0) {
         w->world_mesh = meshgen_terrain(11, (box3){{0, 0, 0}, {100, 100, 12}}, 256, 256);
