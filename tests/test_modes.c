@@ -41,23 +41,6 @@ static octree *build_mode(const mesh_data *m, double resolution, accuracy_mode m
     return t;
 }
 
-/* A mesh of the one triangle v. */
-static mesh_data one_triangle(const vec3 v[3])
-{
-    mesh_data m = {0};
-    m.vertex_count = 3;
-    m.triangle_count = 1;
-    m.vertices = malloc(3 * sizeof *m.vertices);
-    m.indices = malloc(3 * sizeof *m.indices);
-    assert_non_null(m.vertices);
-    assert_non_null(m.indices);
-    for (uint32_t i = 0; i < 3; i++) {
-        m.vertices[i] = v[i];
-        m.indices[i] = i;
-    }
-    return m;
-}
-
 /* The tree's seed reach factor is the largest 2 / sin of a triangle's smallest angle,
  * rounded up to a float, and slivers (that sine below 2^-10) are listed apart instead: on
  * triangles whose smallest angle is known, one at a time and together. */
@@ -72,7 +55,8 @@ static void test_seed_reach_factor_and_slivers(void **state)
     for (size_t i = 0; i < sizeof degrees / sizeof degrees[0]; i++) {
         double a = degrees[i] * pi / 180;
         vec3 v[3] = {{0, 0, 0}, {1, 0, 0}, {cos(a), sin(a), 0}};
-        mesh_data m = one_triangle(v);
+        mesh_data m = meshgen_triangle(v[0], v[1], v[2]);
+        assert_non_null(m.vertices);
         octree *t = build_mode(&m, 0, ACCURACY_SEED, 1e-9);
         double want = 2.0 / sin(a);
         /* At or above the real factor (sin rounds, so allow it 2^-40 below), within a float
@@ -95,7 +79,8 @@ static void test_seed_reach_factor_and_slivers(void **state)
     assert_false(octree_is_sliver(thin[1]));
     assert_true(octree_is_sliver(thin[2]));
     for (int k = 0; k < 3; k++) {
-        mesh_data m = one_triangle(thin[k]);
+        mesh_data m = meshgen_triangle(thin[k][0], thin[k][1], thin[k][2]);
+        assert_non_null(m.vertices);
         assert_int_equal(mesh_data_append(&all, &m), 0);
         mesh_data_free(&m);
     }

@@ -138,18 +138,8 @@ static void test_depth_cap_errors_when_explicit_and_clamps_heuristic(void **stat
  * cap along the needle's length (about 0.9 million nodes, 7.6 MB, for one triangle). */
 static mesh_data needle(void)
 {
-    mesh_data m = {0};
-    m.vertex_count = 3;
-    m.triangle_count = 1;
-    m.vertices = malloc(3 * sizeof *m.vertices);
-    m.indices = malloc(3 * sizeof *m.indices);
+    mesh_data m = meshgen_triangle((vec3){0, 0, 0}, (vec3){1, 0.3, 0.2}, (vec3){0.5, 0.15 + 1e-12, 0.1});
     assert_non_null(m.vertices);
-    assert_non_null(m.indices);
-    m.vertices[0] = (vec3){0, 0, 0};
-    m.vertices[1] = (vec3){1, 0.3, 0.2};
-    m.vertices[2] = (vec3){0.5, 0.15 + 1e-12, 0.1};
-    for (uint32_t i = 0; i < 3; i++)
-        m.indices[i] = i;
     return m;
 }
 

@@ -117,6 +117,18 @@ static void write_box(mesh_data *m, size_t base, size_t tbase, box3 box)
 
 /* ---------- closed meshes ---------- */
 
+mesh_data meshgen_triangle(vec3 a, vec3 b, vec3 c)
+{
+    mesh_data m;
+    if (mesh_alloc(&m, 3, 1) != 0)
+        return m;
+    m.vertices[0] = a;
+    m.vertices[1] = b;
+    m.vertices[2] = c;
+    set_triangle(&m, 0, 0, 1, 2);
+    return m;
+}
+
 mesh_data meshgen_tetrahedron(vec3 a, vec3 b, vec3 c, vec3 d)
 {
     mesh_data m;

@@ -17,6 +17,9 @@ double rng_uniform(rng *r, double lo, double hi); /* [lo, hi) */
 vec3 rng_point_in_box(rng *r, box3 box);
 vec3 rng_unit_vector(rng *r);
 
+/* The one triangle a, b, c, in that order (vertices NULL when memory ran out). */
+mesh_data meshgen_triangle(vec3 a, vec3 b, vec3 c);
+
 /* Closed, outward-oriented meshes (every edge shared by exactly two triangles). */
 mesh_data meshgen_tetrahedron(vec3 a, vec3 b, vec3 c, vec3 d); /* oriented outward whatever the input order */
 mesh_data meshgen_box(box3 box);                               /* 12 triangles */
