@@ -148,6 +148,34 @@ static void test_loose_float_bounds_enclose(void **state)
         check_loose(ldexp(rng_uniform(&r, -1, 1), (int)(rng_next(&r) % 300) - 150));
 }
 
+/* The four-lane box test gives triangle_boxes_apart's answer: on boxes that touch, overlap,
+ * are apart along one axis, and hold infinities or NaN (which make no comparison true). */
+static void test_box_probe_is_the_scalar_test(void **state)
+{
+    (void)state;
+    static const float values[] = {0.0f, -0.0f, 1.0f, -1.0f, 0.5f, 2.0f, INFINITY, -INFINITY, NAN, 0x1p-149f};
+    const size_t n = sizeof values / sizeof values[0];
+    rng r = rng_seeded(base_seed + 42);
+    size_t apart = 0, close = 0;
+    for (int i = 0; i < 400000; i++) {
+        triangle_box a, b;
+        float *fa = a.lo, *fb = b.lo;
+        for (int k = 0; k < 6; k++) {
+            /* Mostly small integers, so bounds often coincide; now and then a special value. */
+            uint64_t pick = rng_next(&r);
+            fa[k] = pick % 8 == 0 ? values[(pick >> 3) % n] : (float)((int)(pick >> 8 & 7) - 3);
+            pick = rng_next(&r);
+            fb[k] = pick % 8 == 0 ? values[(pick >> 3) % n] : (float)((int)(pick >> 8 & 7) - 3);
+        }
+        triangle_box_probe p = triangle_box_probe_of(&b);
+        int want = triangle_boxes_apart(&a, &b);
+        assert_int_equal(triangle_box_probe_apart(&a, &p), want);
+        apart += want;
+        close += !want;
+    }
+    assert_true(apart > 1000 && close > 1000);
+}
+
 /* ---------- memory ---------- */
 
 static void test_bytes_are_as_documented(void **state)
@@ -633,6 +661,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_float_bounds_enclose_and_are_tight),
         cmocka_unit_test(test_loose_float_bounds_enclose),
+        cmocka_unit_test(test_box_probe_is_the_scalar_test),
         cmocka_unit_test(test_bytes_are_as_documented),
         cmocka_unit_test(test_stored_boxes_enclose_their_triangles),
         cmocka_unit_test(test_generated_scenes_answer_the_same_with_boxes),

@@ -792,9 +792,10 @@ static int world_leaf_near(const pose_query *pq, octree_node wn, uint32_t node, 
 {
     const octree *world = pq->s->world;
     triangle_box reach = shape_reach_box(pq->frame, shape_node_box(pq->s->shape, node, cell), world->world.lo);
+    triangle_box_probe probe = triangle_box_probe_of(&reach);
     const uint32_t *items = world->leaf_items + wn.first;
     for (uint32_t i = 0; i < wn.count; i++)
-        if (!triangle_boxes_apart(&world->triangle_boxes[items[i]], &reach))
+        if (!triangle_box_probe_apart(&world->triangle_boxes[items[i]], &probe))
             return 1;
     return 0;
 }
@@ -827,13 +828,14 @@ static int leaf_pair(pose_query *pq, octree_node wn, box3 content, uint32_t shap
      * touches nothing end here. */
     triangle_box leaf_reach = shape_reach_box(pq->frame, shape_node_box(s->shape, shape_node, shape_cell),
                                               world->world.lo);
+    triangle_box_probe leaf_probe = triangle_box_probe_of(&leaf_reach);
     uint32_t near[NEAR_CHUNK];
     for (uint32_t start = 0; start < wn.count; start += NEAR_CHUNK) {
         uint32_t end = wn.count - start < NEAR_CHUNK ? wn.count : start + NEAR_CHUNK, m = 0;
         for (uint32_t j = start; j < end; j++) {
             uint32_t w = world_items[j];
             near[m] = w;
-            m += !triangle_boxes_apart(&boxes[w], &leaf_reach);
+            m += !triangle_box_probe_apart(&boxes[w], &leaf_probe);
         }
         if (m == 0)
             continue;
@@ -842,9 +844,10 @@ static int leaf_pair(pose_query *pq, octree_node wn, box3 content, uint32_t shap
             posed_triangle *p = posed_get(s, pq->at, q);
             if (boxes_apart(p->query.box, content))
                 continue;
+            triangle_box_probe probe = triangle_box_probe_of(&p->box);
             for (uint32_t j = 0; j < m; j++) {
                 uint32_t w = near[j];
-                if (!triangle_boxes_apart(&boxes[w], &p->box) && take_pair(pq, p, q, w))
+                if (!triangle_box_probe_apart(&boxes[w], &probe) && take_pair(pq, p, q, w))
                     return 1;
             }
         }

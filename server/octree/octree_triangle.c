@@ -168,6 +168,7 @@ static octree_status triangle_search(const octree *tree, const vec3 q[3], accura
     triangle_box qbox = {{0}, {0}};
     if (boxes)
         qbox = triangle_box_around(qb.lo, qb.hi, tree->world.lo);
+    triangle_box_probe qprobe = triangle_box_probe_of(&qbox);
     /* The query's side of the exact test (its bounds, plane and projection) depends on q
      * alone: computed here once instead of once per candidate. */
     tri_tri_query prepared;
@@ -230,7 +231,7 @@ static octree_status triangle_search(const octree *tree, const vec3 q[3], accura
         stats->leaves_visited++;
         for (uint32_t i = 0; i < node.count; i++) {
             uint32_t id = tree->leaf_items[node.first + i];
-            if (boxes && triangle_boxes_apart(&boxes[id], &qbox))
+            if (boxes && triangle_box_probe_apart(&boxes[id], &qprobe))
                 continue;
             if (take_candidate(tree, q, &prepared, mode, &tested, id, stop_at_first, hits, any, &st, stats))
                 goto done;
