@@ -668,6 +668,48 @@ static void expect_exact_equals_reference(const vec3 a[3], const vec3 b[3], agre
     tally->hits += ref;
 }
 
+/* The three-point plane filter decides what the scalar filter decides, point by point:
+ * random points, points on the plane (exact zero), one ulp off it, and coordinates from
+ * 1e-300 to 1e300, where the bound's underflow pad or its product's size decides. */
+static void test_plane_signs_are_the_scalar_filter(void **state)
+{
+    (void)state;
+    rng r = rng_for_test("plane_signs", 77);
+    size_t decided = 0, undecided = 0;
+    for (int i = 0; i < 100000; i++) {
+        double scale = ldexp(1.0, (int)(rng_next(&r) % 1600) - 800);
+        vec3 t[3], d[3];
+        for (int k = 0; k < 3; k++)
+            t[k] = (vec3){rng_range(&r, -1, 1) * scale, rng_range(&r, -1, 1) * scale, rng_range(&r, -1, 1) * scale};
+        orient3d_plane p = orient3d_plane_make(t[0], t[1], t[2]);
+        for (int k = 0; k < 3; k++) {
+            uint64_t kind = rng_next(&r) % 4;
+            if (kind == 0) { /* on the plane: a vertex, or an edge's end */
+                d[k] = t[rng_next(&r) % 3];
+            } else if (kind == 1) { /* next to a vertex, one ulp along an axis */
+                d[k] = t[rng_next(&r) % 3];
+                d[k].x = nextafter(d[k].x, INFINITY);
+            } else if (kind == 2) { /* near the plane: a barycentric point, rounded */
+                double u = rng_range(&r, 0, 1), v = rng_range(&r, 0, 1 - u);
+                d[k] = vec3_add(t[0], vec3_add(vec3_scale(vec3_sub(t[1], t[0]), u), vec3_scale(vec3_sub(t[2], t[0]), v)));
+            } else {
+                d[k] = (vec3){rng_range(&r, -1, 1) * scale, rng_range(&r, -1, 1) * scale,
+                              rng_range(&r, -1, 1) * scale};
+            }
+        }
+        int s[3];
+        tri_tri_plane_signs(&p, d, s);
+        for (int k = 0; k < 3; k++) {
+            int want = orient3d_plane_filter(&p, d[k]);
+            if (s[k] != want)
+                fail_msg("point %d of case %d: %d, scalar filter %d", k, i, s[k], want);
+            decided += want != PREDICATES_UNDECIDED;
+            undecided += want == PREDICATES_UNDECIDED;
+        }
+    }
+    assert_true(decided > 10000 && undecided > 10000);
+}
+
 static void test_random_pairs_match_reference(void **state)
 {
     (void)state;
@@ -1275,6 +1317,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_hand_cases_match_expected_and_reference),
         cmocka_unit_test(test_hand_cases_invariant_under_exact_symmetries),
+        cmocka_unit_test(test_plane_signs_are_the_scalar_filter),
         cmocka_unit_test(test_random_pairs_match_reference),
         cmocka_unit_test(test_snapped_pairs_match_reference),
         cmocka_unit_test(test_ulp_nudged_pairs_match_reference),

@@ -21,6 +21,10 @@ typedef struct tri_tri_query {
 
 void tri_tri_query_prepare(tri_tri_query *q, const vec3 a[3]);
 
+/* orient3d_plane_filter(p, d[i]) in s[i] for three points at once: the same signs (the
+ * exact test's first two stages; public for its test). */
+void tri_tri_plane_signs(const orient3d_plane *p, const vec3 d[3], int s[3]);
+
 /* tri_tri_overlap_exact(q->v, b): the same answer, for the price of one prepared side. */
 int tri_tri_overlap_exact_query(const tri_tri_query *q, const vec3 b[3]);
 
