@@ -710,6 +710,56 @@ static void test_plane_signs_are_the_scalar_filter(void **state)
     assert_true(decided > 10000 && undecided > 10000);
 }
 
+/* The box side is the scalar filter's verdict on all eight corners, and sound: where it
+ * says a side, random points of the box have that exact orientation. Boxes around,
+ * beside and touching the plane (a corner on it), at scales from 1e-240 to 1e240. */
+static void test_plane_box_side_is_the_corners_verdict(void **state)
+{
+    (void)state;
+    rng r = rng_for_test("plane_box_side", 78);
+    size_t sided = 0, open = 0;
+    for (int i = 0; i < 50000; i++) {
+        double scale = ldexp(1.0, (int)(rng_next(&r) % 1600) - 800);
+        vec3 t[3];
+        for (int k = 0; k < 3; k++)
+            t[k] = (vec3){rng_range(&r, -1, 1) * scale, rng_range(&r, -1, 1) * scale, rng_range(&r, -1, 1) * scale};
+        orient3d_plane p = orient3d_plane_make(t[0], t[1], t[2]);
+        double lo[3], hi[3], half = rng_range(&r, 0, 0.5) * scale;
+        vec3 centre = rng_next(&r) % 4 == 0 ? t[rng_next(&r) % 3]
+                                            : (vec3){rng_range(&r, -1, 1) * scale, rng_range(&r, -1, 1) * scale,
+                                                     rng_range(&r, -1, 1) * scale};
+        for (int a = 0; a < 3; a++) {
+            lo[a] = vec3_get(centre, a) - half;
+            hi[a] = vec3_get(centre, a) + half;
+        }
+        if (rng_next(&r) % 4 == 0) /* a corner exactly at a vertex: on the plane */
+            for (int a = 0; a < 3; a++)
+                lo[a] = vec3_get(t[0], a), hi[a] = lo[a] + half;
+        int want = 0;
+        for (int k = 0; k < 8; k++) {
+            vec3 c = {k & 1 ? hi[0] : lo[0], k & 2 ? hi[1] : lo[1], k & 4 ? hi[2] : lo[2]};
+            int sgn = orient3d_plane_filter(&p, c);
+            if (sgn == PREDICATES_UNDECIDED || (k > 0 && sgn != want)) {
+                want = 0;
+                break;
+            }
+            want = sgn;
+        }
+        int got = tri_tri_plane_box_side(&p, lo, hi);
+        if (got != want)
+            fail_msg("case %d: %d, the corners' filter %d", i, got, want);
+        sided += got != 0;
+        open += got == 0;
+        for (int j = 0; got != 0 && j < 4; j++) {
+            vec3 x = {fmin(fmax(rng_range(&r, lo[0], hi[0]), lo[0]), hi[0]),
+                      fmin(fmax(rng_range(&r, lo[1], hi[1]), lo[1]), hi[1]),
+                      fmin(fmax(rng_range(&r, lo[2], hi[2]), lo[2]), hi[2])};
+            assert_int_equal(orient3d(t[0], t[1], t[2], x), got);
+        }
+    }
+    assert_true(sided > 5000 && open > 5000);
+}
+
 static void test_random_pairs_match_reference(void **state)
 {
     (void)state;
@@ -1318,6 +1368,7 @@ int main(void)
         cmocka_unit_test(test_hand_cases_match_expected_and_reference),
         cmocka_unit_test(test_hand_cases_invariant_under_exact_symmetries),
         cmocka_unit_test(test_plane_signs_are_the_scalar_filter),
+        cmocka_unit_test(test_plane_box_side_is_the_corners_verdict),
         cmocka_unit_test(test_random_pairs_match_reference),
         cmocka_unit_test(test_snapped_pairs_match_reference),
         cmocka_unit_test(test_ulp_nudged_pairs_match_reference),

@@ -280,6 +280,49 @@ void tri_tri_plane_signs(const orient3d_plane *p, const vec3 d[3], int s[3])
         s[i] = orient3d_plane_filter(p, d[i]);
 }
 
+#if defined(__x86_64__)
+/* Four corners in lanes: x and y from the lane, z given; the scalar filter's operations. */
+__attribute__((target("avx2"))) static int corner_signs4_avx2(const orient3d_plane *p, const double lo[3],
+                                                               const double hi[3], double z, int *negative)
+{
+    lanes4 wx = (lanes4){lo[0], hi[0], lo[0], hi[0]} - p->a.x;
+    lanes4 wy = (lanes4){lo[1], lo[1], hi[1], hi[1]} - p->a.y;
+    lanes4 wz = (lanes4){z, z, z, z} - p->a.z;
+    lanes4 det = wx * p->minor.x + wy * p->minor.y + wz * p->minor.z;
+    lanes4 permanent = p->permanent.x * ABS4(wx) + p->permanent.y * ABS4(wy) + p->permanent.z * ABS4(wz);
+    lanes4 bound = PREDICATES_ERRBOUND_ORIENT3D * permanent + PREDICATES_UNDERFLOW_ABSOLUTE;
+    mask4 decided = (det != 0.0) & (ABS4(det) > bound);
+    *negative = BITS4(decided & (det < 0.0));
+    return (int)BITS4(decided & (det > 0.0));
+}
+
+__attribute__((target("avx2"))) static int plane_box_side_avx2(const orient3d_plane *p, const double lo[3],
+                                                                const double hi[3])
+{
+    int neg0, neg1;
+    int pos = corner_signs4_avx2(p, lo, hi, lo[2], &neg0) | corner_signs4_avx2(p, lo, hi, hi[2], &neg1) << 4;
+    int neg = neg0 | neg1 << 4;
+    return pos == 0xff ? 1 : neg == 0xff ? -1 : 0;
+}
+#endif
+
+int tri_tri_plane_box_side(const orient3d_plane *p, const double lo[3], const double hi[3])
+{
+#if defined(__x86_64__)
+    if (__builtin_cpu_supports("avx2"))
+        return plane_box_side_avx2(p, lo, hi);
+#endif
+    int first = 0;
+    for (int k = 0; k < 8; k++) {
+        vec3 c = {k & 1 ? hi[0] : lo[0], k & 2 ? hi[1] : lo[1], k & 4 ? hi[2] : lo[2]};
+        int s = orient3d_plane_filter(p, c);
+        if (s == PREDICATES_UNDECIDED || s == 0 || (k > 0 && s != first))
+            return 0;
+        first = s;
+    }
+    return first;
+}
+
 static int any_undecided(const int s[3])
 {
     return s[0] == PREDICATES_UNDECIDED || s[1] == PREDICATES_UNDECIDED || s[2] == PREDICATES_UNDECIDED;

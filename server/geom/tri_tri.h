@@ -25,6 +25,11 @@ void tri_tri_query_prepare(tri_tri_query *q, const vec3 a[3]);
  * exact test's first two stages; public for its test). */
 void tri_tri_plane_signs(const orient3d_plane *p, const vec3 d[3], int s[3]);
 
+/* +1 or -1 when orient3d_plane_filter decides that sign for all eight corners of the box
+ * [lo, hi] (so every point of the box lies strictly on that side of p's plane, which is
+ * linear in the point: no triangle within the box can meet one in the plane), else 0. */
+int tri_tri_plane_box_side(const orient3d_plane *p, const double lo[3], const double hi[3]);
+
 /* tri_tri_overlap_exact(q->v, b): the same answer, for the price of one prepared side. */
 int tri_tri_overlap_exact_query(const tri_tri_query *q, const vec3 b[3]);
 

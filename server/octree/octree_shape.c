@@ -784,6 +784,12 @@ static inline __attribute__((always_inline)) triangle_box shape_reach_box(const 
     return b;
 }
 
+/* A double at or below (above) the exact value that x, a sum of two doubles, rounded: that
+ * sum is within |x| 2^-53 of x, and x less |x| 2^-51 stays below it after its own
+ * rounding. An infinity or NaN becomes NaN, which no plane filter decides. */
+static inline double double_below(double x) { return x - (fabs(x) * 0x1p-51 + 0x1p-1074); }
+static inline double double_above(double x) { return x + (fabs(x) * 0x1p-51 + 0x1p-1074); }
+
 /* Whether some triangle of world leaf wn may meet shape node `node` (cell its cell): their
  * outward boxes against the world-axis box of the node's posed box (exact mode, a world
  * with triangle boxes). A leaf's triangles' boxes hug a slanted surface far closer than
@@ -829,6 +835,12 @@ static int leaf_pair(pose_query *pq, octree_node wn, box3 content, uint32_t shap
     triangle_box leaf_reach = shape_reach_box(pq->frame, shape_node_box(s->shape, shape_node, shape_cell),
                                               world->world.lo);
     triangle_box_probe leaf_probe = triangle_box_probe_of(&leaf_reach);
+    /* The same box in doubles, each corner rounded outward: the plane test's corners. */
+    double reach_lo[3], reach_hi[3];
+    for (int k = 0; k < 3; k++) {
+        reach_lo[k] = double_below(vec3_get(world->world.lo, k) + (double)leaf_reach.lo[k]);
+        reach_hi[k] = double_above(vec3_get(world->world.lo, k) + (double)leaf_reach.hi[k]);
+    }
     uint32_t near[NEAR_CHUNK];
     for (uint32_t start = 0; start < wn.count; start += NEAR_CHUNK) {
         uint32_t end = wn.count - start < NEAR_CHUNK ? wn.count : start + NEAR_CHUNK, m = 0;
@@ -837,6 +849,20 @@ static int leaf_pair(pose_query *pq, octree_node wn, box3 content, uint32_t shap
             near[m] = w;
             m += !triangle_box_probe_apart(&boxes[w], &leaf_probe);
         }
+        /* A world triangle whose plane has that whole box strictly on one side meets none of
+         * the leaf's triangles here: a contact of this leaf pair lies in the box (which is
+         * why the box filter above may drop triangles), and in the world triangle's plane.
+         * On a collision-free pose this drops most of the triangles the boxes keep (85% on
+         * the peer bench's Spider), before any shape triangle is posed. */
+        uint32_t kept = 0;
+        for (uint32_t j = 0; j < m; j++) {
+            vec3 t[3];
+            octree_triangle_vertices(world, near[j], t);
+            orient3d_plane plane = orient3d_plane_make(t[0], t[1], t[2]);
+            near[kept] = near[j];
+            kept += tri_tri_plane_box_side(&plane, reach_lo, reach_hi) == 0;
+        }
+        m = kept;
         if (m == 0)
             continue;
         for (uint32_t i = 0; i < sn.count; i++) {
