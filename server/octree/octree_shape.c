@@ -790,6 +790,25 @@ static inline __attribute__((always_inline)) triangle_box shape_reach_box(const 
 static inline double double_below(double x) { return x - (fabs(x) * 0x1p-51 + 0x1p-1074); }
 static inline double double_above(double x) { return x + (fabs(x) * 0x1p-51 + 0x1p-1074); }
 
+/* A reach box (relative to the world's corner) in doubles, each corner's sum with the
+ * corner rounded outward. */
+static inline void reach_box_corners(const octree *world, const triangle_box *b, double lo[3], double hi[3])
+{
+    for (int k = 0; k < 3; k++) {
+        lo[k] = double_below(vec3_get(world->world.lo, k) + (double)b->lo[k]);
+        hi[k] = double_above(vec3_get(world->world.lo, k) + (double)b->hi[k]);
+    }
+}
+
+/* Whether world triangle w's plane has the box [lo, hi] strictly on one side. */
+static inline int plane_has_box_aside(const octree *world, uint32_t w, const double lo[3], const double hi[3])
+{
+    vec3 t[3];
+    octree_triangle_vertices(world, w, t);
+    orient3d_plane plane = orient3d_plane_make(t[0], t[1], t[2]);
+    return tri_tri_plane_box_side(&plane, lo, hi) != 0;
+}
+
 /* Whether some triangle of world leaf wn may meet shape node `node` (cell its cell): their
  * outward boxes against the world-axis box of the node's posed box (exact mode, a world
  * with triangle boxes). A leaf's triangles' boxes hug a slanted surface far closer than
@@ -799,9 +818,12 @@ static int world_leaf_near(const pose_query *pq, octree_node wn, uint32_t node, 
     const octree *world = pq->s->world;
     triangle_box reach = shape_reach_box(pq->frame, shape_node_box(pq->s->shape, node, cell), world->world.lo);
     triangle_box_probe probe = triangle_box_probe_of(&reach);
+    double lo[3], hi[3];
+    reach_box_corners(world, &reach, lo, hi);
     const uint32_t *items = world->leaf_items + wn.first;
     for (uint32_t i = 0; i < wn.count; i++)
-        if (!triangle_box_probe_apart(&world->triangle_boxes[items[i]], &probe))
+        if (!triangle_box_probe_apart(&world->triangle_boxes[items[i]], &probe) &&
+            !plane_has_box_aside(world, items[i], lo, hi))
             return 1;
     return 0;
 }
@@ -835,12 +857,8 @@ static int leaf_pair(pose_query *pq, octree_node wn, box3 content, uint32_t shap
     triangle_box leaf_reach = shape_reach_box(pq->frame, shape_node_box(s->shape, shape_node, shape_cell),
                                               world->world.lo);
     triangle_box_probe leaf_probe = triangle_box_probe_of(&leaf_reach);
-    /* The same box in doubles, each corner rounded outward: the plane test's corners. */
     double reach_lo[3], reach_hi[3];
-    for (int k = 0; k < 3; k++) {
-        reach_lo[k] = double_below(vec3_get(world->world.lo, k) + (double)leaf_reach.lo[k]);
-        reach_hi[k] = double_above(vec3_get(world->world.lo, k) + (double)leaf_reach.hi[k]);
-    }
+    reach_box_corners(world, &leaf_reach, reach_lo, reach_hi);
     uint32_t near[NEAR_CHUNK];
     for (uint32_t start = 0; start < wn.count; start += NEAR_CHUNK) {
         uint32_t end = wn.count - start < NEAR_CHUNK ? wn.count : start + NEAR_CHUNK, m = 0;
@@ -856,11 +874,8 @@ static int leaf_pair(pose_query *pq, octree_node wn, box3 content, uint32_t shap
          * the peer bench's Spider), before any shape triangle is posed. */
         uint32_t kept = 0;
         for (uint32_t j = 0; j < m; j++) {
-            vec3 t[3];
-            octree_triangle_vertices(world, near[j], t);
-            orient3d_plane plane = orient3d_plane_make(t[0], t[1], t[2]);
             near[kept] = near[j];
-            kept += tri_tri_plane_box_side(&plane, reach_lo, reach_hi) == 0;
+            kept += !plane_has_box_aside(world, near[j], reach_lo, reach_hi);
         }
         m = kept;
         if (m == 0)
