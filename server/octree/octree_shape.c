@@ -301,6 +301,9 @@ LANES_INLINE unsigned world_lanes_apart(const pose_frame *f, const child_boxes *
     mask4 apart = (ABS4(s->p[0] - c[0]) > s->r[0] + w[0] + f->margin[0]) |
                   (ABS4(s->p[1] - c[1]) > s->r[1] + w[1] + f->margin[1]) |
                   (ABS4(s->p[2] - c[2]) > s->r[2] + w[2] + f->margin[2]);
+    /* The world's axes alone most often settle all four: the shape's then change nothing. */
+    if (BITS4(apart) == 0xfu)
+        return 0xfu;
     for (int a = 3; a < TESTED_AXES; a++) {
         const double *l = f->axis[a], *la = f->axis_abs[a];
         lanes4 p = l[0] * c[0] + l[1] * c[1] + l[2] * c[2];
@@ -337,6 +340,8 @@ LANES_INLINE unsigned shape_lanes_apart(const pose_frame *f, const box3 *boxes, 
         lanes4 p = a < 3 ? c[a] : l[0] * c[0] + l[1] * c[1] + l[2] * c[2];
         lanes4 rs = q[0] * hs[0] + q[1] * hs[1] + q[2] * hs[2];
         apart |= ABS4(p - w->p[a]) > rs + w->r[a] + f->margin[a];
+        if (a == 2 && BITS4(apart) == 0xfu) /* as in world_lanes_apart */
+            return 0xfu;
     }
     return BITS4(apart);
 }
