@@ -668,20 +668,28 @@ static void expect_exact_equals_reference(const vec3 a[3], const vec3 b[3], agre
     tally->hits += ref;
 }
 
+/* The plane of a random triangle t at a random scale, a power of two from 2^-800 to 2^799
+ * (inputs from about 1e-240 to 1e240). */
+static orient3d_plane random_plane(rng *r, vec3 t[3], double *scale)
+{
+    *scale = ldexp(1.0, (int)(rng_next(r) % 1600) - 800);
+    for (int k = 0; k < 3; k++)
+        t[k] = random_point(r, -*scale, *scale);
+    return orient3d_plane_make(t[0], t[1], t[2]);
+}
+
 /* The three-point plane filter decides what the scalar filter decides, point by point:
  * random points, points on the plane (exact zero), one ulp off it, and coordinates from
- * 1e-300 to 1e300, where the bound's underflow pad or its product's size decides. */
+ * 1e-240 to 1e240, where the bound's underflow pad or its product's size decides. */
 static void test_plane_signs_are_the_scalar_filter(void **state)
 {
     (void)state;
     rng r = rng_for_test("plane_signs", 77);
     size_t decided = 0, undecided = 0;
     for (int i = 0; i < 100000; i++) {
-        double scale = ldexp(1.0, (int)(rng_next(&r) % 1600) - 800);
         vec3 t[3], d[3];
-        for (int k = 0; k < 3; k++)
-            t[k] = (vec3){rng_range(&r, -1, 1) * scale, rng_range(&r, -1, 1) * scale, rng_range(&r, -1, 1) * scale};
-        orient3d_plane p = orient3d_plane_make(t[0], t[1], t[2]);
+        double scale;
+        orient3d_plane p = random_plane(&r, t, &scale);
         for (int k = 0; k < 3; k++) {
             uint64_t kind = rng_next(&r) % 4;
             if (kind == 0) { /* on the plane: a vertex, or an edge's end */
@@ -693,8 +701,7 @@ static void test_plane_signs_are_the_scalar_filter(void **state)
                 double u = rng_range(&r, 0, 1), v = rng_range(&r, 0, 1 - u);
                 d[k] = vec3_add(t[0], vec3_add(vec3_scale(vec3_sub(t[1], t[0]), u), vec3_scale(vec3_sub(t[2], t[0]), v)));
             } else {
-                d[k] = (vec3){rng_range(&r, -1, 1) * scale, rng_range(&r, -1, 1) * scale,
-                              rng_range(&r, -1, 1) * scale};
+                d[k] = random_point(&r, -scale, scale);
             }
         }
         int s[3];
@@ -719,15 +726,11 @@ static void test_plane_box_side_is_the_corners_verdict(void **state)
     rng r = rng_for_test("plane_box_side", 78);
     size_t sided = 0, open = 0;
     for (int i = 0; i < 50000; i++) {
-        double scale = ldexp(1.0, (int)(rng_next(&r) % 1600) - 800);
         vec3 t[3];
-        for (int k = 0; k < 3; k++)
-            t[k] = (vec3){rng_range(&r, -1, 1) * scale, rng_range(&r, -1, 1) * scale, rng_range(&r, -1, 1) * scale};
-        orient3d_plane p = orient3d_plane_make(t[0], t[1], t[2]);
+        double scale;
+        orient3d_plane p = random_plane(&r, t, &scale);
         double lo[3], hi[3], half = rng_range(&r, 0, 0.5) * scale;
-        vec3 centre = rng_next(&r) % 4 == 0 ? t[rng_next(&r) % 3]
-                                            : (vec3){rng_range(&r, -1, 1) * scale, rng_range(&r, -1, 1) * scale,
-                                                     rng_range(&r, -1, 1) * scale};
+        vec3 centre = rng_next(&r) % 4 == 0 ? t[rng_next(&r) % 3] : random_point(&r, -scale, scale);
         for (int a = 0; a < 3; a++) {
             lo[a] = vec3_get(centre, a) - half;
             hi[a] = vec3_get(centre, a) + half;
