@@ -124,9 +124,8 @@ typedef struct build_entry {
     shared_list *parent;
 } build_entry;
 
-typedef struct triangle_bounds {
-    vec3 lo, hi;
-} triangle_bounds;
+/* A triangle's exact bounds: a box3, so the traversal form's compile can read them too. */
+typedef box3 triangle_bounds;
 _Static_assert(sizeof(triangle_bounds) == 6 * sizeof(double) && offsetof(triangle_bounds, hi) == 3 * sizeof(double),
                "bounds_reach_index reads a triangle's bounds as six doubles");
 
@@ -839,7 +838,6 @@ octree *octree_build(const mesh_view *mesh, const octree_def *def_in, octree_err
     if (st == OCTREE_OK && def.node_bounds)
         st = budget_take(&ctx, tree->node_count * sizeof *tree->node_bounds) != 0 ? OCTREE_ERR_BUDGET
                                                                                  : compute_node_bounds(tree, ctx.bounds);
-    free(ctx.bounds);
     if (st == OCTREE_OK)
         st = index_triangles(&ctx, mesh);
     /* The final array, 64-byte aligned (realloc keeps no alignment, so the build grows a
@@ -851,17 +849,20 @@ octree *octree_build(const mesh_view *mesh, const octree_def *def_in, octree_err
         st = OCTREE_ERR_BUDGET;
     if (st == OCTREE_ERR_BUDGET) {
         size_t nodes = tree->node_count;
+        free(ctx.bounds);
         octree_free(tree);
         return fail(err, st,
                     SIZE_MAX, "the build needs more than its budget of %zu bytes: it held %zu and asked for %zu more, at %zu nodes",
                     budget, ctx.held, ctx.asked, nodes);
     }
     if (st != OCTREE_OK) {
+        free(ctx.bounds);
         octree_free(tree);
         return fail(err, st, SIZE_MAX, "building the octree: %s", octree_status_text(st));
     }
     octree_node *aligned = hot_alloc(node_bytes);
     if (!aligned) {
+        free(ctx.bounds);
         octree_free(tree);
         return fail(err, OCTREE_ERR_NOMEM, SIZE_MAX, "out of memory");
     }
@@ -875,8 +876,14 @@ octree *octree_build(const mesh_view *mesh, const octree_def *def_in, octree_err
     size_t interior = 0;
     for (size_t i = 0; i < tree->node_count; i++)
         interior += tree->nodes[i].count == NODE_INTERIOR;
-    if (!def.plain_walk && budget_take(&ctx, interior * sizeof(traversal_node) + 64) == 0 &&
-        traversal_form_build(tree, &tree->traversal) < 0) {
+    /* The triangles' bounds, which the budget counted for the whole build, are kept until
+     * here: the compile takes a leaf's content bounds from them instead of reading each
+     * listed triangle's vertices again. */
+    int form_status = !def.plain_walk && budget_take(&ctx, interior * sizeof(traversal_node) + 64) == 0
+                          ? traversal_form_build(tree, ctx.bounds, &tree->traversal)
+                          : 0;
+    free(ctx.bounds);
+    if (form_status < 0) {
         octree_free(tree);
         return fail(err, OCTREE_ERR_NOMEM, SIZE_MAX, "out of memory");
     }

@@ -11,6 +11,7 @@
 
 typedef struct compile_ctx {
     const octree *tree;
+    const box3 *bounds; /* each triangle's exact box */
     traversal_node *nodes;
     size_t count, capacity;
 } compile_ctx;
@@ -38,16 +39,14 @@ static void bounds_add(float_bounds *into, const float_bounds *b)
 /* The union over a leaf's triangles of each one's box clipped to the leaf's cube, in
  * doubles (min and max are exact), then rounded outward to floats relative to the world's
  * lower corner. A listed triangle touches the cube, so each clipped box is non-empty. */
-static float_bounds leaf_bounds(const octree *tree, octree_node leaf, box3 cube)
+static float_bounds leaf_bounds(const compile_ctx *ctx, octree_node leaf, box3 cube)
 {
+    const octree *tree = ctx->tree;
     vec3 lo = {INFINITY, INFINITY, INFINITY}, hi = {-INFINITY, -INFINITY, -INFINITY};
     for (uint32_t i = 0; i < leaf.count; i++) {
-        vec3 t[3];
-        octree_triangle_vertices(tree, tree->leaf_items[leaf.first + i], t);
-        vec3 tlo = vec3_max(vec3_min(vec3_min(t[0], t[1]), t[2]), cube.lo);
-        vec3 thi = vec3_min(vec3_max(vec3_max(t[0], t[1]), t[2]), cube.hi);
-        lo = vec3_min(lo, tlo);
-        hi = vec3_max(hi, thi);
+        box3 b = ctx->bounds[tree->leaf_items[leaf.first + i]];
+        lo = vec3_min(lo, vec3_max(b.lo, cube.lo));
+        hi = vec3_max(hi, vec3_min(b.hi, cube.hi));
     }
     triangle_box b = triangle_box_around(lo, hi, tree->world.lo);
     float_bounds out;
@@ -129,7 +128,7 @@ static int compile_node(compile_ctx *ctx, uint32_t index, box3 cube, uint32_t *r
             *ref = TRAVERSAL_LEAF | index;
         else
             return 1;
-        *bounds = leaf_bounds(tree, node, cube);
+        *bounds = leaf_bounds(ctx, node, cube);
         return 0;
     }
     if (array_reserve((void **)&ctx->nodes, &ctx->capacity, ctx->count + 1, sizeof *ctx->nodes, 1024) != 0)
@@ -171,7 +170,7 @@ static int compile_node(compile_ctx *ctx, uint32_t index, box3 cube, uint32_t *r
     return 0;
 }
 
-int traversal_form_build(const octree *tree, traversal_form *form)
+int traversal_form_build(const octree *tree, const box3 *triangle_bounds, traversal_form *form)
 {
     *form = (traversal_form){.root = TRAVERSAL_EMPTY};
     /* The cube's side as its corners give it (the build fills the tree's info after). */
@@ -179,7 +178,7 @@ int traversal_form_build(const octree *tree, traversal_form *form)
                        fmax(tree->world.hi.y - tree->world.lo.y, tree->world.hi.z - tree->world.lo.z));
     if (!(side >= 0x1p-60 && side <= 0x1p60))
         return 1;
-    compile_ctx ctx = {.tree = tree};
+    compile_ctx ctx = {.tree = tree, .bounds = triangle_bounds};
     float_bounds all;
     int st = compile_node(&ctx, 0, tree->world, &form->root, &all);
     if (st != 0) {
