@@ -7,8 +7,9 @@
  * axis by g (the pose's rounding bound e, the mode's slack and the rounding of the world
  * box's bounds), may meet the image R S + t of S's local box, i.e. no separating axis
  * among the six tested (the world's and the pose's; TESTED_AXES) proves them apart by more
- * than the test's own rounding bound. So every pair of leaves that could hold a contact is reached, and a contact is reported exactly
- * when the mode's final test accepts the pair: the answers are octree_mesh's.
+ * than the test's own rounding bound. So every pair of leaves that could hold a contact is
+ * reached, and a contact is reported exactly when the mode's final test accepts the pair:
+ * the answers are octree_mesh's.
  *
  * Why such a pair of leaves is reached. A posed vertex is fl(R p + t), within e of the
  * real R p + t on each axis (e from the pose and the shape's extent, below). A point x of
@@ -257,8 +258,8 @@ static inline box3 box_grown(box3 b, double g)
  *
  * An expansion tests up to eight children against the node it keeps: world children by
  * world_box_apart, shape children by the shape side of the same test (shape_side_of's
- * projection and radius against the world node's side). Four children go to a vector (lanes4.h), every
- * operation in the order of the one-child expressions above, so each lane rounds exactly
+ * projection and radius against the world node's side). Four children go to a vector
+ * (lanes4.h), every operation in the order of the one-child expressions above, so each lane rounds exactly
  * as they do and the bounds derived for them hold lane by lane; world_box_apart's early
  * exit at the first separating axis is gone, which changes no answer. Each
  * returns the mask of the children that may meet (bit k for child k); the caller drops
@@ -795,44 +796,62 @@ static inline __attribute__((always_inline)) triangle_box shape_reach_box(const 
 static inline double double_below(double x) { return x - (fabs(x) * 0x1p-51 + 0x1p-1074); }
 static inline double double_above(double x) { return x + (fabs(x) * 0x1p-51 + 0x1p-1074); }
 
-/* A reach box (relative to the world's corner) in doubles, each corner's sum with the
- * corner rounded outward. */
-static inline void reach_box_corners(const octree *world, const triangle_box *b, double lo[3], double hi[3])
+/* What a world triangle is tested against for a shape node under a pose: the node's reach
+ * box (shape_reach_box), laid out for the box test, and its corners in doubles (each sum
+ * with the world's corner rounded outward) for the plane test. Every contact of a pair
+ * below the node lies in that box. */
+typedef struct shape_reach {
+    triangle_box_probe probe;
+    double lo[3], hi[3];
+} shape_reach;
+
+static inline shape_reach shape_reach_of(const pose_query *pq, uint32_t node, box3 cell)
 {
+    const octree *world = pq->s->world;
+    triangle_box b = shape_reach_box(pq->frame, shape_node_box(pq->s->shape, node, cell), world->world.lo);
+    shape_reach r = {.probe = triangle_box_probe_of(&b)};
     for (int k = 0; k < 3; k++) {
-        lo[k] = double_below(vec3_get(world->world.lo, k) + (double)b->lo[k]);
-        hi[k] = double_above(vec3_get(world->world.lo, k) + (double)b->hi[k]);
+        r.lo[k] = double_below(vec3_get(world->world.lo, k) + (double)b.lo[k]);
+        r.hi[k] = double_above(vec3_get(world->world.lo, k) + (double)b.hi[k]);
     }
+    return r;
 }
 
-/* Whether world triangle w's plane has the box [lo, hi] strictly on one side. */
-static inline int plane_has_box_aside(const octree *world, uint32_t w, const double lo[3], const double hi[3])
+/* Whether world triangle w may hold a contact within reach r: its outward box meets the
+ * box, and its plane does not have the whole box strictly on one side (a contact lies in
+ * the box and in the plane). A leaf's triangles' boxes and planes hug a slanted surface far
+ * closer than their union's box, the leaf's content, does: on a collision-free pose the
+ * plane drops most of the triangles the boxes keep (85% on the peer bench's Spider). */
+static inline int world_triangle_near(const octree *world, uint32_t w, const shape_reach *r)
 {
+    if (triangle_box_probe_apart(&world->triangle_boxes[w], &r->probe))
+        return 0;
     vec3 t[3];
     octree_triangle_vertices(world, w, t);
     orient3d_plane plane = orient3d_plane_make(t[0], t[1], t[2]);
-    return tri_tri_plane_box_side(&plane, lo, hi) != 0;
+    return tri_tri_plane_box_side(&plane, r->lo, r->hi) == 0;
 }
 
-/* Whether some triangle of world leaf wn may meet shape node `node` (cell its cell): their
- * outward boxes against the world-axis box of the node's posed box (exact mode, a world
- * with triangle boxes). A leaf's triangles' boxes hug a slanted surface far closer than
- * their union's box, the leaf's content, does. */
+/* Whether some triangle of world leaf wn may meet shape node `node` (cell its cell), by
+ * world_triangle_near (exact mode, a world with triangle boxes). */
 static int world_leaf_near(const pose_query *pq, octree_node wn, uint32_t node, box3 cell)
 {
     const octree *world = pq->s->world;
-    triangle_box reach = shape_reach_box(pq->frame, shape_node_box(pq->s->shape, node, cell), world->world.lo);
-    triangle_box_probe probe = triangle_box_probe_of(&reach);
-    double lo[3], hi[3];
-    reach_box_corners(world, &reach, lo, hi);
+    shape_reach r = shape_reach_of(pq, node, cell);
     const uint32_t *items = world->leaf_items + wn.first;
     for (uint32_t i = 0; i < wn.count; i++)
-        if (!triangle_box_probe_apart(&world->triangle_boxes[items[i]], &probe) &&
-            !plane_has_box_aside(world, items[i], lo, hi))
+        if (world_triangle_near(world, items[i], &r))
             return 1;
     return 0;
 }
 
+/* A world leaf against a shape leaf; 1 when the query is over. A shape triangle whose
+ * bounds miss the world leaf's content (grown by the slack) need not be tested here: a
+ * contact lies in some world leaf whose content it meets, and that leaf's pair with the
+ * shape leaf is reached too. In exact mode over a world with triangle boxes, the world
+ * triangles are first sorted by world_triangle_near against the whole shape leaf, before
+ * any of its triangles is posed (most leaf pairs of a pose that touches nothing end
+ * there), and then a pair is tested only when the two triangles' outward boxes meet. */
 static int leaf_pair(pose_query *pq, octree_node wn, box3 content, uint32_t shape_node, box3 shape_cell)
 {
     shape_scratch *s = pq->s;
@@ -856,33 +875,15 @@ static int leaf_pair(pose_query *pq, octree_node wn, box3 content, uint32_t shap
         return 0;
     }
     const triangle_box *boxes = world->triangle_boxes;
-    /* The world triangles whose boxes meet the world-axis box of the shape leaf's posed
-     * box, before any of the leaf's triangles is posed: most leaf pairs of a pose that
-     * touches nothing end here. */
-    triangle_box leaf_reach = shape_reach_box(pq->frame, shape_node_box(s->shape, shape_node, shape_cell),
-                                              world->world.lo);
-    triangle_box_probe leaf_probe = triangle_box_probe_of(&leaf_reach);
-    double reach_lo[3], reach_hi[3];
-    reach_box_corners(world, &leaf_reach, reach_lo, reach_hi);
+    shape_reach reach = shape_reach_of(pq, shape_node, shape_cell);
     uint32_t near[NEAR_CHUNK];
     for (uint32_t start = 0; start < wn.count; start += NEAR_CHUNK) {
         uint32_t end = wn.count - start < NEAR_CHUNK ? wn.count : start + NEAR_CHUNK, m = 0;
         for (uint32_t j = start; j < end; j++) {
             uint32_t w = world_items[j];
             near[m] = w;
-            m += !triangle_box_probe_apart(&boxes[w], &leaf_probe);
+            m += world_triangle_near(world, w, &reach);
         }
-        /* A world triangle whose plane has that whole box strictly on one side meets none of
-         * the leaf's triangles here: a contact of this leaf pair lies in the box (which is
-         * why the box filter above may drop triangles), and in the world triangle's plane.
-         * On a collision-free pose this drops most of the triangles the boxes keep (85% on
-         * the peer bench's Spider), before any shape triangle is posed. */
-        uint32_t kept = 0;
-        for (uint32_t j = 0; j < m; j++) {
-            near[kept] = near[j];
-            kept += !plane_has_box_aside(world, near[j], reach_lo, reach_hi);
-        }
-        m = kept;
         if (m == 0)
             continue;
         for (uint32_t i = 0; i < sn.count; i++) {
@@ -902,7 +903,6 @@ static int leaf_pair(pose_query *pq, octree_node wn, box3 content, uint32_t shap
 }
 
 static double box_width(box3 b) { return b.hi.x - b.lo.x; }
-
 
 /* The world side of a pair. With the world's compiled form (octree_traversal.h) a world
  * node is a compiled node or a leaf reference, and its box the content bounds its parent
