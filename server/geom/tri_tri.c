@@ -248,23 +248,50 @@ static int all_same_decided(const int s[3])
     return s[0] != PREDICATES_UNDECIDED && s[0] == s[1] && s[1] == s[2];
 }
 
-/* With AVX2 the three go in lanes of one
- * register (the fourth repeats the first), each lane taking the scalar filter's operations
- * in its order, so each sign is the one it decides. A pair of triangles takes two of
- * these, and the six scalar filters were most of a pair's test; built for the baseline's
- * two-lane registers the same code cost more than the scalar calls. */
 #if defined(__x86_64__)
-__attribute__((target("avx2"))) static void plane_filter3_avx2(const orient3d_plane *p, const vec3 d[3], int s[3])
+/* orient3d_plane_filter on the four points (wx, wy, wz) + p->a, one to a lane: its
+ * operations in its order, so each lane decides what the scalar filter decides. Its
+ * decided lanes, and among them the positive ones in *positive. A pair of triangles takes
+ * two plane stages, whose six scalar filters were most of a pair's test; built for the
+ * baseline's two-lane registers the same code cost more than the scalar calls, so it runs
+ * only with AVX2. */
+#define PLANE_LANES __attribute__((target("avx2"), always_inline)) static inline
+PLANE_LANES unsigned plane_filter_lanes(const orient3d_plane *p, lanes4 wx, lanes4 wy, lanes4 wz,
+                                        unsigned *positive)
 {
-    lanes4 wx = (lanes4){d[0].x, d[1].x, d[2].x, d[0].x} - p->a.x;
-    lanes4 wy = (lanes4){d[0].y, d[1].y, d[2].y, d[0].y} - p->a.y;
-    lanes4 wz = (lanes4){d[0].z, d[1].z, d[2].z, d[0].z} - p->a.z;
+    wx -= p->a.x;
+    wy -= p->a.y;
+    wz -= p->a.z;
     lanes4 det = wx * p->minor.x + wy * p->minor.y + wz * p->minor.z;
     lanes4 permanent = p->permanent.x * ABS4(wx) + p->permanent.y * ABS4(wy) + p->permanent.z * ABS4(wz);
     lanes4 bound = PREDICATES_ERRBOUND_ORIENT3D * permanent + PREDICATES_UNDERFLOW_ABSOLUTE;
-    mask4 decided = (det != 0.0) & (ABS4(det) > bound), positive = det > 0.0;
+    mask4 decided = (det != 0.0) & (ABS4(det) > bound);
+    *positive = BITS4(decided & (det > 0.0));
+    return BITS4(decided);
+}
+
+/* The three points in lanes 0-2 (lane 3 repeats the first). */
+__attribute__((target("avx2"))) static void plane_signs_avx2(const orient3d_plane *p, const vec3 d[3], int s[3])
+{
+    unsigned positive, decided = plane_filter_lanes(p, (lanes4){d[0].x, d[1].x, d[2].x, d[0].x},
+                                                    (lanes4){d[0].y, d[1].y, d[2].y, d[0].y},
+                                                    (lanes4){d[0].z, d[1].z, d[2].z, d[0].z}, &positive);
     for (int i = 0; i < 3; i++)
-        s[i] = decided[i] ? (positive[i] ? 1 : -1) : PREDICATES_UNDECIDED;
+        s[i] = decided >> i & 1 ? (positive >> i & 1 ? 1 : -1) : PREDICATES_UNDECIDED;
+}
+
+/* The eight corners, four at a time: x and y from the lane, z the same for all four. */
+__attribute__((target("avx2"))) static int plane_box_side_avx2(const orient3d_plane *p, const double lo[3],
+                                                                const double hi[3])
+{
+    lanes4 x = {lo[0], hi[0], lo[0], hi[0]}, y = {lo[1], lo[1], hi[1], hi[1]};
+    unsigned positive_lo, positive_hi;
+    unsigned decided = plane_filter_lanes(p, x, y, (lanes4){lo[2], lo[2], lo[2], lo[2]}, &positive_lo) |
+                       plane_filter_lanes(p, x, y, (lanes4){hi[2], hi[2], hi[2], hi[2]}, &positive_hi) << 4;
+    unsigned positive = positive_lo | positive_hi << 4;
+    if (decided != 0xffu)
+        return 0;
+    return positive == 0xffu ? 1 : positive == 0 ? -1 : 0;
 }
 #endif
 
@@ -272,39 +299,13 @@ void tri_tri_plane_signs(const orient3d_plane *p, const vec3 d[3], int s[3])
 {
 #if defined(__x86_64__)
     if (__builtin_cpu_supports("avx2")) {
-        plane_filter3_avx2(p, d, s);
+        plane_signs_avx2(p, d, s);
         return;
     }
 #endif
     for (int i = 0; i < 3; i++)
         s[i] = orient3d_plane_filter(p, d[i]);
 }
-
-#if defined(__x86_64__)
-/* Four corners in lanes: x and y from the lane, z given; the scalar filter's operations. */
-__attribute__((target("avx2"))) static int corner_signs4_avx2(const orient3d_plane *p, const double lo[3],
-                                                               const double hi[3], double z, int *negative)
-{
-    lanes4 wx = (lanes4){lo[0], hi[0], lo[0], hi[0]} - p->a.x;
-    lanes4 wy = (lanes4){lo[1], lo[1], hi[1], hi[1]} - p->a.y;
-    lanes4 wz = (lanes4){z, z, z, z} - p->a.z;
-    lanes4 det = wx * p->minor.x + wy * p->minor.y + wz * p->minor.z;
-    lanes4 permanent = p->permanent.x * ABS4(wx) + p->permanent.y * ABS4(wy) + p->permanent.z * ABS4(wz);
-    lanes4 bound = PREDICATES_ERRBOUND_ORIENT3D * permanent + PREDICATES_UNDERFLOW_ABSOLUTE;
-    mask4 decided = (det != 0.0) & (ABS4(det) > bound);
-    *negative = BITS4(decided & (det < 0.0));
-    return (int)BITS4(decided & (det > 0.0));
-}
-
-__attribute__((target("avx2"))) static int plane_box_side_avx2(const orient3d_plane *p, const double lo[3],
-                                                                const double hi[3])
-{
-    int neg0, neg1;
-    int pos = corner_signs4_avx2(p, lo, hi, lo[2], &neg0) | corner_signs4_avx2(p, lo, hi, hi[2], &neg1) << 4;
-    int neg = neg0 | neg1 << 4;
-    return pos == 0xff ? 1 : neg == 0xff ? -1 : 0;
-}
-#endif
 
 int tri_tri_plane_box_side(const orient3d_plane *p, const double lo[3], const double hi[3])
 {
@@ -316,7 +317,7 @@ int tri_tri_plane_box_side(const orient3d_plane *p, const double lo[3], const do
     for (int k = 0; k < 8; k++) {
         vec3 c = {k & 1 ? hi[0] : lo[0], k & 2 ? hi[1] : lo[1], k & 4 ? hi[2] : lo[2]};
         int s = orient3d_plane_filter(p, c);
-        if (s == PREDICATES_UNDECIDED || s == 0 || (k > 0 && s != first))
+        if (s == PREDICATES_UNDECIDED || (k > 0 && s != first))
             return 0;
         first = s;
     }

@@ -65,10 +65,10 @@ typedef struct traversal_form {
     size_t bytes;
 } traversal_form;
 
-/* Compiles tree's nodes into form; triangle_bounds[i] is internal triangle i's exact box. Returns 0; 1 when the world is outside the range the
- * float walk covers (a side beyond 2^-60 .. 2^60) or a leaf's node index does not fit a
- * reference (2^30 nodes), and -1 when memory ran out: form is
- * then not present and every ray takes the double-precision walk. */
+/* Compiles tree's nodes into form; triangle_bounds[i] is internal triangle i's exact box.
+ * Returns 0; 1 when the world is outside the range the float walk covers (a side beyond
+ * 2^-60 .. 2^60) or a leaf's node index does not fit a reference (2^30 nodes), and -1 when
+ * memory ran out: form is then not present and every ray takes the double-precision walk. */
 int traversal_form_build(const struct octree *tree, const box3 *triangle_bounds, traversal_form *form);
 void traversal_form_free(traversal_form *form);
 
