@@ -1693,6 +1693,8 @@ static void test_fan_filter_decides_as_each_ray_alone(void **state)
             tri[k] = vec3_add(rng_grid_vec(&r, -4, 4, 1), shift);
         if (c % 17 == 0)
             tri[2] = tri[1]; /* zero area */
+        if (c % 23 == 0)
+            tri[1] = tri[2] = tri[0]; /* one point: every edge function zero */
         if (c % 19 == 0)
             tri[2] = vec3_add(tri[0], vec3_scale(vec3_sub(tri[1], tri[0]), 0.5)); /* collinear */
         vec3 o = vec3_add(rng_grid_vec(&r, -8, 8, 1), shift);
@@ -1732,6 +1734,76 @@ static void test_fan_filter_decides_as_each_ray_alone(void **state)
     assert_true(hits * 10 > rays);
 }
 
+/* The four-triangle filter (an indexed mesh's leaf candidates) decides each candidate the
+ * same with and without AVX2, whatever the group's size, and rejects only triangles the
+ * exact test misses. Among the candidates are triangles with a repeated vertex, among
+ * them whole triangles at one point (all three edge functions zero, which leaves the edge
+ * filter undecided): the exact test never crosses them, and the filter must say so. */
+static void test_four_filter_rejects_only_misses(void **state)
+{
+    (void)state;
+    rng r = rng_for(52);
+    int avx2 = 0;
+#if defined(__x86_64__)
+    avx2 = __builtin_cpu_supports("avx2");
+#endif
+    enum { TRIS = 4 };
+    size_t candidates = 0, rejected = 0, hits = 0, repeated = 0;
+    for (int c = 0; c < 4000; c++) {
+        double offset = c % 3 == 0 ? 0.0 : c % 3 == 1 ? 1e6 : -3e9;
+        vec3 shift = {offset, -offset, offset};
+        vec3 vertices[3 * TRIS];
+        uint32_t corners[TRIS][3], ids[TRIS];
+        for (int t = 0; t < TRIS; t++) {
+            for (int k = 0; k < 3; k++) {
+                vertices[3 * t + k] = vec3_add(rng_grid_vec(&r, -4, 4, 1), shift);
+                corners[t][k] = (uint32_t)(3 * t + k);
+            }
+            unsigned kind = (unsigned)(rng_u64(&r) % 6);
+            if (kind == 0) /* one point, under three vertex numbers */
+                vertices[3 * t + 1] = vertices[3 * t + 2] = vertices[3 * t];
+            else if (kind == 1) /* two corners at one point */
+                vertices[3 * t + 2] = vertices[3 * t + 1];
+            else if (kind == 2) /* one vertex number twice */
+                corners[t][1] = corners[t][0];
+            ids[t] = (uint32_t)(TRIS - 1 - t);
+        }
+        /* Rays toward a vertex (often a repeated one), an edge's midpoint, or a grid point. */
+        vec3 o = vec3_add(rng_grid_vec(&r, -8, 8, 1), shift);
+        unsigned pick = (unsigned)(rng_u64(&r) % 3);
+        const vec3 *aim = &vertices[3 * (rng_u64(&r) % TRIS)];
+        vec3 target = pick == 0   ? aim[0]
+                      : pick == 1 ? vec3_scale(vec3_add(aim[0], aim[1]), 0.5)
+                                  : vec3_add(rng_grid_vec(&r, -4, 4, 1), shift);
+        vec3 d = vec3_sub(target, o);
+        if (d.x == 0 && d.y == 0 && d.z == 0)
+            d = (vec3){0, 1, 0};
+        unsigned count = 1 + (unsigned)(rng_u64(&r) % TRIS);
+        unsigned plain = ray_tri_exact_misses4(o, d, vertices, (const uint32_t(*)[3])corners, ids, count, 0);
+        assert_int_equal(ray_tri_exact_misses4(o, d, vertices, (const uint32_t(*)[3])corners, ids, count, avx2),
+                         plain);
+        assert_int_equal(plain >> count, 0);
+        for (unsigned i = 0; i < count; i++) {
+            const uint32_t *cn = corners[ids[i]];
+            vec3 tri[3] = {vertices[cn[0]], vertices[cn[1]], vertices[cn[2]]};
+            int hit = ray_tri_exact(o, d, 0.0, INFINITY, tri, NULL);
+            int rep = vec3_equal(tri[0], tri[1]) || vec3_equal(tri[1], tri[2]) || vec3_equal(tri[2], tri[0]);
+            if ((plain >> i) & 1)
+                assert_int_equal(hit, 0);
+            if (rep)
+                assert_true((plain >> i) & 1);
+            candidates++;
+            rejected += (plain >> i) & 1;
+            hits += hit != 0;
+            repeated += (size_t)rep;
+        }
+    }
+    printf("  four filter: %zu candidates, %zu rejected (%zu with a repeated vertex), %zu hits\n", candidates,
+           rejected, repeated, hits);
+    assert_true(repeated * 4 > candidates);
+    assert_true(hits * 20 > candidates);
+}
+
 int main(void)
 {
     const char *env = getenv("TRIOCT_SEED");
@@ -1742,6 +1814,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_random_rays_match_rational_reference),
         cmocka_unit_test(test_fan_filter_decides_as_each_ray_alone),
+        cmocka_unit_test(test_four_filter_rejects_only_misses),
         cmocka_unit_test(test_random_rays_with_huge_offsets_and_tiny_sizes),
         cmocka_unit_test(test_near_boundary_rays_match_reference),
         cmocka_unit_test(test_closed_meshes_are_crossed_with_correct_parity),

@@ -512,10 +512,20 @@ static inline __attribute__((always_inline)) int ray_tri_exact_rule(vec3 o, vec3
 
 /* ---------------------------------------------------------------- the filter, four at once */
 
+/* ray_tri_exact_rule's first test: a triangle with a repeated vertex is never crossed. Its
+ * edge functions alone do not say so when all three vertices are one point (all three are
+ * then zero), and such triangles come in hundreds where a mesh with one is subdivided. */
+static inline int has_repeated_vertex(const vec3 tri[3])
+{
+    return vec3_equal(tri[0], tri[1]) || vec3_equal(tri[1], tri[2]) || vec3_equal(tri[2], tri[0]);
+}
+
 /* The decided signs of the three edge functions of one triangle as ray_tri_exact_rule
  * computes them, and whether they already rule a hit out (two decided signs that differ). */
 static unsigned scalar_edge_miss(vec3 o, vec3 d, const vec3 tri[3])
 {
+    if (has_repeated_vertex(tri))
+        return 1;
     double e01, e12, e20;
     double w01 = edge_function(vec3_sub(tri[0], o), vec3_sub(tri[1], tri[0]), d, &e01);
     double w12 = edge_function(vec3_sub(tri[1], o), vec3_sub(tri[2], tri[1]), d, &e12);
@@ -588,7 +598,17 @@ RAY_TRI_AVX2 static unsigned misses4_avx2(vec3 o, vec3 d, const vec3 *vertices, 
     __m256d miss = _mm256_or_pd(_mm256_and_pd(pos01, neg12), _mm256_and_pd(neg01, pos12));
     miss = _mm256_or_pd(miss, _mm256_and_pd(pos20, _mm256_or_pd(neg01, neg12)));
     miss = _mm256_or_pd(miss, _mm256_and_pd(neg20, _mm256_or_pd(pos01, pos12)));
-    return (unsigned)_mm256_movemask_pd(miss) & ((1u << count) - 1);
+    unsigned lanes = (1u << count) - 1, missed = (unsigned)_mm256_movemask_pd(miss) & lanes;
+    if (missed == lanes)
+        return missed;
+    /* has_repeated_vertex, lane by lane, where some lane is left (on most meshes a
+     * candidate in a few groups, a hit or a near miss). */
+#define SAME4(a, b)                                                                                          \
+    _mm256_and_pd(_mm256_and_pd(_mm256_cmp_pd(a##x, b##x, _CMP_EQ_OQ), _mm256_cmp_pd(a##y, b##y, _CMP_EQ_OQ)),  \
+                  _mm256_cmp_pd(a##z, b##z, _CMP_EQ_OQ))
+    __m256d repeated = _mm256_or_pd(_mm256_or_pd(SAME4(v0, v1), SAME4(v1, v2)), SAME4(v2, v0));
+#undef SAME4
+    return missed | ((unsigned)_mm256_movemask_pd(repeated) & lanes);
 }
 #undef EDGE4
 #endif
@@ -702,6 +722,8 @@ RAY_TRI_AVX2 static unsigned fan_misses_avx2(const ray_fan *fan, const fan_edge 
 
 unsigned ray_fan_misses(const ray_fan *fan, const vec3 tri[3], int avx2)
 {
+    if (has_repeated_vertex(tri))
+        return (1u << fan->count) - 1;
     fan_edge g[3] = {fan_edge_of(tri[0], tri[1], fan->o), fan_edge_of(tri[1], tri[2], fan->o),
                      fan_edge_of(tri[2], tri[0], fan->o)};
 #if defined(__x86_64__)

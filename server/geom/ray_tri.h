@@ -58,11 +58,11 @@ int ray_tri_exact(vec3 o, vec3 d, double tmin, double tmax, const vec3 tri[3], r
 
 /* The candidates among triangles ids[0 .. count) (count <= 4) of an indexed mesh
  * (triangle t's vertices are vertices[corners[t][0..2]]) that ray_tri_exact surely misses
- * by its own edge filter, as a bit mask (bit i for ids[i]). The filter is computed with
- * the same operations in the same order, four triangles side by side in AVX2 when `avx2`
- * is set (the caller checked the processor), so a rejected candidate is exactly one for
- * which ray_tri_exact returns 0 without going further; the others still need
- * ray_tri_exact. */
+ * by its own first tests (a repeated vertex, then the edge filter), as a bit mask (bit i
+ * for ids[i]). The filter is computed with the same operations in the same order, four
+ * triangles side by side in AVX2 when `avx2` is set (the caller checked the processor), so
+ * a rejected candidate is exactly one for which ray_tri_exact returns 0 without going
+ * further; the others still need ray_tri_exact. */
 unsigned ray_tri_exact_misses4(vec3 o, vec3 d, const vec3 *vertices, const uint32_t (*corners)[3],
                                const uint32_t *ids, unsigned count, int avx2);
 
@@ -83,7 +83,7 @@ typedef struct ray_fan {
 void ray_fan_init(ray_fan *fan, vec3 o, const vec3 *directions, unsigned count);
 
 /* The rays of the fan (bit i for ray i) that ray_tri_exact surely misses on tri by its own
- * edge filter: the same products, sums and bounds in the same order as ray_tri_exact
+ * first tests (all of them when tri has a repeated vertex, else by its edge filter): the same products, sums and bounds in the same order as ray_tri_exact
  * computes them for each ray, so a rejected ray is exactly one for which ray_tri_exact
  * returns 0 without going further. */
 unsigned ray_fan_misses(const ray_fan *fan, const vec3 tri[3], int avx2);
