@@ -31,6 +31,9 @@
 #include <stddef.h>
 #include <stdlib.h>
 #include <string.h>
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
 
 #include "../geom/lanes4.h"
 #include "../geom/predicates.h"
@@ -933,6 +936,25 @@ static inline box3 lane_of(const child_boxes *b, int k)
     return (box3){{b->lo[0][k], b->lo[1][k], b->lo[2][k]}, {b->hi[0][k], b->hi[1][k], b->hi[2][k]}};
 }
 
+/* The lanes of a compiled node that hold a child: two compares of four references (the
+ * loop over eight cost an expansion a seventh of its instructions). */
+static inline unsigned form_live_lanes(const uint32_t child[8])
+{
+#if defined(__SSE2__)
+    __m128i none = _mm_set1_epi32(-1);
+    __m128i lo = _mm_cmpeq_epi32(_mm_loadu_si128((const __m128i *)child), none);
+    __m128i hi = _mm_cmpeq_epi32(_mm_loadu_si128((const __m128i *)(child + 4)), none);
+    unsigned empty = (unsigned)_mm_movemask_ps(_mm_castsi128_ps(lo)) |
+                     (unsigned)_mm_movemask_ps(_mm_castsi128_ps(hi)) << 4;
+    return ~empty & 0xffu;
+#else
+    unsigned live = 0;
+    for (int k = 0; k < 8; k++)
+        live |= (unsigned)(child[k] != TRAVERSAL_EMPTY) << k;
+    return live;
+#endif
+}
+
 /* The two trees together from their roots (see the top of the file). A shape node is
  * tested by its triangles' bounds within its cell (octree_def.node_bounds) where the tree
  * has them, a world leaf by its content. An expansion tests its eight children side by
@@ -953,7 +975,14 @@ static void descend(pose_query *pq, const pose_frame *f)
     uint32_t world_root = form ? world->traversal.root : 0;
     if (world_root == TRAVERSAL_EMPTY)
         return;
-    box_side side;
+    /* The side of the shape node the last world expansion tested, and of the world node the
+     * last shape expansion tested: a node's box is the same in every pair it is in (a shape
+     * node's cell or bounds, a world node's cube or the content bounds its one parent
+     * records), and the depth-first order pops a node's pairs with its children's right
+     * after its expansion, so most expansions find their side already made. */
+    box_side side, world_side;
+    uint32_t side_of_shape = 0, side_of_world = UINT32_MAX;
+    int world_side_made = 0;
     shape_side_of(f, shape_node_box(shape, 0, shape->world), &side);
     if (world_box_apart(f, world->world, &side))
         return;
@@ -977,15 +1006,17 @@ static void descend(pose_query *pq, const pose_frame *f)
         /* The larger node splits, so the two boxes stay of a size. */
         int split_world = shape_leaf || (!world_leaf && box_extent(e.world_box) >= f->scale * box_width(e.shape_box));
         if (split_world) {
-            shape_side_of(f, shape_node_box(shape, e.shape_node, e.shape_box), &side);
+            if (e.shape_node != side_of_shape) {
+                shape_side_of(f, shape_node_box(shape, e.shape_node, e.shape_box), &side);
+                side_of_shape = e.shape_node;
+            }
             unsigned live = 0, near;
             const uint32_t *refs = NULL;
             uint32_t first = 0;
             if (form) {
                 const traversal_node *n = &world->traversal.nodes[e.world_node];
                 refs = n->child;
-                for (int k = 0; k < 8; k++)
-                    live |= (unsigned)(refs[k] != TRAVERSAL_EMPTY) << k;
+                live = form_live_lanes(refs);
                 near = lanes.form(f, world, n, &side, live, &b);
             } else {
                 octree_node wn = world->nodes[e.world_node];
@@ -1010,20 +1041,29 @@ static void descend(pose_query *pq, const pose_frame *f)
                 continue;
             vec3 c = octree_split_point(shape, e.shape_box);
             const octree_node *kids = &shape->nodes[sn.first];
-            box3 wb = world_leaf ? world_leaf_box(world, form, world_leaf_of(world, form, e.world_node), e.world_box)
-                                 : e.world_box;
-            world_side_of(f, wb, &side);
-            unsigned live = 0;
-            for (int k = 0; k < 8; k++) {
-                live |= (unsigned)(kids[k].count != 0) << k;
-                cells[k] = box_child(e.shape_box, c, box_octant_upper_bits[k]);
+            if (!world_side_made || e.world_node != side_of_world) {
+                box3 wb = world_leaf ? world_leaf_box(world, form, world_leaf_of(world, form, e.world_node), e.world_box)
+                                     : e.world_box;
+                world_side_of(f, wb, &world_side);
+                side_of_world = e.world_node;
+                world_side_made = 1;
             }
-            const box3 *tested = shape->node_bounds ? shape->node_bounds + sn.first : cells;
-            unsigned near = lanes.shape(f, tested, &side, live);
+            unsigned live = 0;
+            for (int k = 0; k < 8; k++)
+                live |= (unsigned)(kids[k].count != 0) << k;
+            /* With node bounds the children's cells are needed only for the pushes. */
+            const box3 *tested = shape->node_bounds + sn.first;
+            if (!shape->node_bounds) {
+                for (int k = 0; k < 8; k++)
+                    cells[k] = box_child(e.shape_box, c, box_octant_upper_bits[k]);
+                tested = cells;
+            }
+            unsigned near = lanes.shape(f, tested, &world_side, live);
             stats->nodes_visited += bits_set8(live);
             for (unsigned m = near; m; m &= m - 1) {
                 int k = __builtin_ctz(m);
-                stack[top++] = (pair_entry){e.world_node, sn.first + (uint32_t)k, e.world_box, cells[k]};
+                box3 cell = shape->node_bounds ? box_child(e.shape_box, c, box_octant_upper_bits[k]) : cells[k];
+                stack[top++] = (pair_entry){e.world_node, sn.first + (uint32_t)k, e.world_box, cell};
             }
         }
     }
