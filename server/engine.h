@@ -128,8 +128,9 @@ typedef struct octree_info {
                                     part of bytes_total */
     size_t bytes_traversal;      /* the compiled form rays walk (96 bytes an interior node);
                                     part of bytes_total */
-    size_t bytes_node_bounds;    /* 48 per node with octree_def.node_bounds, else 0; part of
-                                    bytes_total */
+    size_t bytes_node_bounds;    /* with octree_def.node_bounds 48 per node and 392 per block
+                                    of eight children (their bounds laid out for the lane
+                                    tests), else 0; part of bytes_total */
     double build_seconds;
     accuracy_mode mode;
 } octree_info;

@@ -754,9 +754,27 @@ static void test_node_bounds_hold_each_nodes_triangles(void **state)
     octree *plain = build_tree(&m, 0, 0, 1e-9), *bounded = build_tree(&m, 0, 2, 1e-9);
     assert_null(plain->node_bounds);
     assert_int_equal(plain->info.bytes_node_bounds, 0);
-    assert_int_equal(bounded->info.bytes_node_bounds, bounded->node_count * sizeof(box3));
-    assert_int_equal(bounded->info.bytes_total, plain->info.bytes_total + bounded->node_count * sizeof(box3));
+    assert_int_equal(bounded->info.bytes_node_bounds,
+                     bounded->node_count * sizeof(box3) + bounded->node_count / 8 * sizeof(child_lanes));
+    assert_int_equal(bounded->info.bytes_total, plain->info.bytes_total + bounded->info.bytes_node_bounds);
     assert_int_equal(bounded->info.node_count, plain->info.node_count);
+    /* The blocks' lanes are their nodes' bounds and counts, as the lane tests would read them. */
+    size_t blocks_checked = 0;
+    for (size_t b = 1; b < bounded->node_count / 8; b++, blocks_checked++) {
+        const child_lanes *g = &bounded->child_lanes[b];
+        for (int k = 0; k < 8; k++) {
+            box3 nb = bounded->node_bounds[8 * b + (size_t)k];
+            const double lo[3] = {nb.lo.x, nb.lo.y, nb.lo.z}, hi[3] = {nb.hi.x, nb.hi.y, nb.hi.z};
+            assert_int_equal((g->live >> k) & 1, bounded->nodes[8 * b + (size_t)k].count != 0);
+            if (bounded->nodes[8 * b + (size_t)k].count == 0)
+                continue;
+            for (int a = 0; a < 3; a++) {
+                assert_true(g->c[a][k] == 0.5 * (lo[a] + hi[a]));
+                assert_true(g->h[a][k] == 0.5 * (hi[a] - lo[a]));
+            }
+        }
+    }
+    assert_true(blocks_checked > 10);
     box3 root;
     check_bounds(bounded, 0, bounded->world, &root);
     box3 mb = mesh_data_bounds(&m);

@@ -695,6 +695,15 @@ static octree_status compute_node_bounds(octree *tree, const triangle_bounds *bo
     for (size_t i = 0; i < tree->node_count; i++)
         tree->node_bounds[i] = (box3){{INFINITY, INFINITY, INFINITY}, {-INFINITY, -INFINITY, -INFINITY}};
     node_bounds_of(tree, bounds, 0, tree->world);
+    size_t blocks = tree->node_count / 8;
+    tree->child_lanes = malloc((blocks ? blocks : 1) * sizeof *tree->child_lanes);
+    if (!tree->child_lanes)
+        return OCTREE_ERR_NOMEM;
+    /* Block 0 holds the root alone (OCTREE_BLOCK_PADDING): no node has it as children. */
+    for (size_t b = 1; b < blocks; b++)
+        child_lanes_of(&tree->node_bounds[8 * b], &tree->nodes[8 * b], &tree->child_lanes[b]);
+    if (blocks)
+        memset(&tree->child_lanes[0], 0, sizeof tree->child_lanes[0]);
     return OCTREE_OK;
 }
 
@@ -836,8 +845,10 @@ octree *octree_build(const mesh_view *mesh, const octree_def *def_in, octree_err
     }
     st = build_nodes(&ctx, levels);
     if (st == OCTREE_OK && def.node_bounds)
-        st = budget_take(&ctx, tree->node_count * sizeof *tree->node_bounds) != 0 ? OCTREE_ERR_BUDGET
-                                                                                 : compute_node_bounds(tree, ctx.bounds);
+        st = budget_take(&ctx, tree->node_count * sizeof *tree->node_bounds +
+                                   (tree->node_count / 8 + 1) * sizeof *tree->child_lanes) != 0
+                 ? OCTREE_ERR_BUDGET
+                 : compute_node_bounds(tree, ctx.bounds);
     if (st == OCTREE_OK)
         st = index_triangles(&ctx, mesh);
     /* The final array, 64-byte aligned (realloc keeps no alignment, so the build grows a
@@ -913,7 +924,10 @@ octree *octree_build(const mesh_view *mesh, const octree_def *def_in, octree_err
                             tree->used_vertex_count * sizeof *tree->vertices;
     info->bytes_triangle_boxes = tree->triangle_boxes ? tree->triangle_count * sizeof *tree->triangle_boxes : 0;
     info->bytes_traversal = tree->traversal.bytes;
-    info->bytes_node_bounds = tree->node_bounds ? tree->node_count * sizeof *tree->node_bounds : 0;
+    info->bytes_node_bounds = tree->node_bounds ? tree->node_count * sizeof *tree->node_bounds +
+                                                      (tree->node_count / 8 ? tree->node_count / 8 : 1) *
+                                                          sizeof *tree->child_lanes
+                                                : 0;
     info->bytes_total = info->bytes_nodes + info->bytes_leaf_lists + info->bytes_triangles +
                         info->bytes_triangle_boxes + info->bytes_node_bounds + info->bytes_traversal +
                         sizeof *tree;
@@ -933,6 +947,7 @@ void octree_free(octree *tree)
     free(tree->original_id);
     free(tree->triangle_boxes);
     free(tree->node_bounds);
+    free(tree->child_lanes);
     free(tree->nodes);
     free(tree->leaf_items);
     traversal_form_free(&tree->traversal);

@@ -24,6 +24,28 @@ typedef struct octree_node {
     uint32_t count;
 } octree_node;
 
+/* A block of eight sibling nodes' bounds (octree.child_lanes): per axis the centres
+ * 0.5 (lo + hi) and half sides 0.5 (hi - lo), computed as the lane tests compute them from
+ * the boxes, so the values are the same; live has bit k set when child k holds triangles. */
+typedef struct child_lanes {
+    double c[3][8], h[3][8];
+    unsigned live;
+} child_lanes;
+
+/* The lanes of the children of b from their boxes and counts. */
+static inline void child_lanes_of(const box3 b[8], const octree_node kids[8], child_lanes *out)
+{
+    out->live = 0;
+    for (int k = 0; k < 8; k++) {
+        const double lo[3] = {b[k].lo.x, b[k].lo.y, b[k].lo.z}, hi[3] = {b[k].hi.x, b[k].hi.y, b[k].hi.z};
+        for (int a = 0; a < 3; a++) {
+            out->c[a][k] = 0.5 * (lo[a] + hi[a]);
+            out->h[a][k] = 0.5 * (hi[a] - lo[a]);
+        }
+        out->live |= (unsigned)(kids[k].count != 0) << k;
+    }
+}
+
 /* A triangle's axis-aligned box as offsets from the world's lower corner, in floats
  * rounded outward: corner + lo <= every vertex <= corner + hi holds exactly, so a box
  * strictly disjoint from a query's proves the triangle misses the query. Offsets rather
@@ -59,6 +81,10 @@ struct octree {
      * has them, so that a node pair whose posed shape bounds miss the world node is
      * dropped before its box would be (octree_shape.c). Indexed like nodes. */
     box3 *node_bounds;
+    /* With node_bounds, per block of eight children (block b holds nodes 8b .. 8b + 7):
+     * their bounds' centres and half sides side by side, as a shape expansion's lanes read
+     * them, and which of them hold anything. */
+    struct child_lanes *child_lanes;
 
     octree_node *nodes;
     size_t node_count;

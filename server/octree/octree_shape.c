@@ -317,22 +317,13 @@ LANES_INLINE unsigned world_lanes_apart(const pose_frame *f, const child_boxes *
     return BITS4(apart);
 }
 
-/* Shape boxes[h..h+3], posed, against the world node's side w: shape_side_of's projection
- * and radius of each, compared as world_box_apart compares. */
-LANES_INLINE unsigned shape_lanes_apart(const pose_frame *f, const box3 *boxes, int h, const box_side *w)
+/* Shape children h..h+3 of g (their bounds' centres and half sides), posed, against the
+ * world node's side w: shape_side_of's projection and radius of each, compared as
+ * world_box_apart compares. */
+LANES_INLINE unsigned shape_lanes_apart(const pose_frame *f, const child_lanes *g, int h, const box_side *w)
 {
-    const box3 *x = boxes + h;
-    lanes4 lo[3] = {{x[0].lo.x, x[1].lo.x, x[2].lo.x, x[3].lo.x},
-                    {x[0].lo.y, x[1].lo.y, x[2].lo.y, x[3].lo.y},
-                    {x[0].lo.z, x[1].lo.z, x[2].lo.z, x[3].lo.z}};
-    lanes4 hi[3] = {{x[0].hi.x, x[1].hi.x, x[2].hi.x, x[3].hi.x},
-                    {x[0].hi.y, x[1].hi.y, x[2].hi.y, x[3].hi.y},
-                    {x[0].hi.z, x[1].hi.z, x[2].hi.z, x[3].hi.z}};
-    lanes4 cs[3], hs[3];
-    for (int a = 0; a < 3; a++) {
-        cs[a] = 0.5 * (lo[a] + hi[a]);
-        hs[a] = 0.5 * (hi[a] - lo[a]);
-    }
+    lanes4 cs[3] = {LOAD4(&g->c[0][h]), LOAD4(&g->c[1][h]), LOAD4(&g->c[2][h])};
+    lanes4 hs[3] = {LOAD4(&g->h[0][h]), LOAD4(&g->h[1][h]), LOAD4(&g->h[2][h])};
     const double *r = f->at->r;
     /* The centre posed as octree_apply_pose poses a vertex, as in shape_side_of. */
     lanes4 c[3] = {r[0] * cs[0] + r[1] * cs[1] + r[2] * cs[2] + f->at->t.x,
@@ -381,12 +372,12 @@ LANES_INLINE unsigned world_children_near(const pose_frame *f, const box3 cells[
     return world_lanes_near(f, b, s, live);
 }
 
-LANES_INLINE unsigned shape_children_near(const pose_frame *f, const box3 boxes[8], const box_side *w, unsigned live)
+LANES_INLINE unsigned shape_children_near(const pose_frame *f, const child_lanes *g, const box_side *w, unsigned live)
 {
     unsigned near = 0;
     for (int h = 0; h < 8; h += 4)
         if (live >> h & 0xfu)
-            near |= (~shape_lanes_apart(f, boxes, h, w) & 0xfu) << h;
+            near |= (~shape_lanes_apart(f, g, h, w) & 0xfu) << h;
     return near & live;
 }
 
@@ -394,7 +385,7 @@ typedef struct lane_tests {
     unsigned (*form)(const pose_frame *, const octree *, const traversal_node *, const box_side *, unsigned,
                      child_boxes *);
     unsigned (*world)(const pose_frame *, const box3 *, const box_side *, unsigned, child_boxes *);
-    unsigned (*shape)(const pose_frame *, const box3 *, const box_side *, unsigned);
+    unsigned (*shape)(const pose_frame *, const child_lanes *, const box_side *, unsigned);
 } lane_tests;
 
 #define LANE_TESTS(suffix, attr)                                                                                  \
@@ -408,10 +399,10 @@ typedef struct lane_tests {
     {                                                                                                             \
         return world_children_near(f, cells, s, live, b);                                                         \
     }                                                                                                             \
-    attr static unsigned shape_children_##suffix(const pose_frame *f, const box3 *boxes, const box_side *w,        \
+    attr static unsigned shape_children_##suffix(const pose_frame *f, const child_lanes *g, const box_side *w,     \
                                                  unsigned live)                                                   \
     {                                                                                                             \
-        return shape_children_near(f, boxes, w, live);                                                            \
+        return shape_children_near(f, g, w, live);                                                                \
     }
 
 LANE_TESTS(portable, )
@@ -1048,16 +1039,17 @@ static void descend(pose_query *pq, const pose_frame *f)
                 side_of_world = e.world_node;
                 world_side_made = 1;
             }
-            unsigned live = 0;
-            for (int k = 0; k < 8; k++)
-                live |= (unsigned)(kids[k].count != 0) << k;
-            /* With node bounds the children's cells are needed only for the pushes. */
-            const box3 *tested = shape->node_bounds + sn.first;
+            /* With node bounds the children's lanes were laid out by the build, and their
+             * cells are needed only for the pushes. */
+            const child_lanes *tested = shape->child_lanes + sn.first / 8;
+            child_lanes of_cells;
             if (!shape->node_bounds) {
                 for (int k = 0; k < 8; k++)
                     cells[k] = box_child(e.shape_box, c, box_octant_upper_bits[k]);
-                tested = cells;
+                child_lanes_of(cells, kids, &of_cells);
+                tested = &of_cells;
             }
+            unsigned live = tested->live;
             unsigned near = lanes.shape(f, tested, &world_side, live);
             stats->nodes_visited += bits_set8(live);
             for (unsigned m = near; m; m &= m - 1) {
