@@ -472,6 +472,16 @@ typedef struct pair_entry {
     box3 world_box, shape_box;
 } pair_entry;
 
+/* A node's side, kept for the rest of a descent: a node's box is the same in every pair it
+ * is in (a shape node's cell or bounds, a world node's cube or the content bounds its one
+ * parent records), and its pairs come in runs, depth first, so the side of a node expanded
+ * against one node of the other tree is mostly wanted again for its next. */
+#define SIDE_SLOTS 64
+typedef struct side_slot {
+    uint32_t stamp, node;
+    box_side side;
+} side_slot;
+
 typedef struct shape_scratch {
     const octree *world, *shape;
     accuracy_mode mode;
@@ -489,6 +499,10 @@ typedef struct shape_scratch {
     struct posed_vertex *posed_vertices;
     uint32_t *vertex_stamp;
     pair_entry *stack;
+    /* Sides made in the current descent (stamp == side_epoch), direct-mapped by node: a
+     * shape node's for world expansions, a world node's for shape expansions. */
+    uint32_t side_epoch;
+    side_slot shape_sides[SIDE_SLOTS], world_sides[SIDE_SLOTS];
     pair_set tested;
     uint64_t *hits; /* (caller's shape id << 32 | caller's world id) */
     size_t hit_count, hit_capacity;
@@ -966,14 +980,12 @@ static void descend(pose_query *pq, const pose_frame *f)
     uint32_t world_root = form ? world->traversal.root : 0;
     if (world_root == TRAVERSAL_EMPTY)
         return;
-    /* The side of the shape node the last world expansion tested, and of the world node the
-     * last shape expansion tested: a node's box is the same in every pair it is in (a shape
-     * node's cell or bounds, a world node's cube or the content bounds its one parent
-     * records), and the depth-first order pops a node's pairs with its children's right
-     * after its expansion, so most expansions find their side already made. */
-    box_side side, world_side;
-    uint32_t side_of_shape = 0, side_of_world = UINT32_MAX;
-    int world_side_made = 0;
+    if (++s->side_epoch == 0) { /* the slots' stamps wrapped: none is current */
+        for (int k = 0; k < SIDE_SLOTS; k++)
+            s->shape_sides[k].stamp = s->world_sides[k].stamp = 0;
+        s->side_epoch = 1;
+    }
+    box_side side;
     shape_side_of(f, shape_node_box(shape, 0, shape->world), &side);
     if (world_box_apart(f, world->world, &side))
         return;
@@ -997,10 +1009,13 @@ static void descend(pose_query *pq, const pose_frame *f)
         /* The larger node splits, so the two boxes stay of a size. */
         int split_world = shape_leaf || (!world_leaf && box_extent(e.world_box) >= f->scale * box_width(e.shape_box));
         if (split_world) {
-            if (e.shape_node != side_of_shape) {
-                shape_side_of(f, shape_node_box(shape, e.shape_node, e.shape_box), &side);
-                side_of_shape = e.shape_node;
+            side_slot *ss = &s->shape_sides[e.shape_node % SIDE_SLOTS];
+            if (ss->stamp != s->side_epoch || ss->node != e.shape_node) {
+                shape_side_of(f, shape_node_box(shape, e.shape_node, e.shape_box), &ss->side);
+                ss->stamp = s->side_epoch;
+                ss->node = e.shape_node;
             }
+            const box_side *shape_side = &ss->side;
             unsigned live = 0, near;
             const uint32_t *refs = NULL;
             uint32_t first = 0;
@@ -1008,7 +1023,7 @@ static void descend(pose_query *pq, const pose_frame *f)
                 const traversal_node *n = &world->traversal.nodes[e.world_node];
                 refs = n->child;
                 live = form_live_lanes(refs);
-                near = lanes.form(f, world, n, &side, live, &b);
+                near = lanes.form(f, world, n, shape_side, live, &b);
             } else {
                 octree_node wn = world->nodes[e.world_node];
                 vec3 c = octree_split_point(world, e.world_box);
@@ -1018,7 +1033,7 @@ static void descend(pose_query *pq, const pose_frame *f)
                     live |= (unsigned)(kids[k].count != 0) << k;
                     cells[k] = box_child(e.world_box, c, box_octant_upper_bits[k]);
                 }
-                near = lanes.world(f, cells, &side, live, &b);
+                near = lanes.world(f, cells, shape_side, live, &b);
             }
             stats->nodes_visited += bits_set8(live);
             for (unsigned m = near; m; m &= m - 1) {
@@ -1032,12 +1047,13 @@ static void descend(pose_query *pq, const pose_frame *f)
                 continue;
             vec3 c = octree_split_point(shape, e.shape_box);
             const octree_node *kids = &shape->nodes[sn.first];
-            if (!world_side_made || e.world_node != side_of_world) {
+            side_slot *ws = &s->world_sides[e.world_node % SIDE_SLOTS];
+            if (ws->stamp != s->side_epoch || ws->node != e.world_node) {
                 box3 wb = world_leaf ? world_leaf_box(world, form, world_leaf_of(world, form, e.world_node), e.world_box)
                                      : e.world_box;
-                world_side_of(f, wb, &world_side);
-                side_of_world = e.world_node;
-                world_side_made = 1;
+                world_side_of(f, wb, &ws->side);
+                ws->stamp = s->side_epoch;
+                ws->node = e.world_node;
             }
             /* With node bounds the children's lanes were laid out by the build, and their
              * cells are needed only for the pushes. */
@@ -1050,7 +1066,7 @@ static void descend(pose_query *pq, const pose_frame *f)
                 tested = &of_cells;
             }
             unsigned live = tested->live;
-            unsigned near = lanes.shape(f, tested, &world_side, live);
+            unsigned near = lanes.shape(f, tested, &ws->side, live);
             stats->nodes_visited += bits_set8(live);
             for (unsigned m = near; m; m &= m - 1) {
                 int k = __builtin_ctz(m);
