@@ -116,6 +116,38 @@ static void make_rays(rng *r, trioct_vec3 *o, trioct_vec3 *d, ray_input *in, siz
     }
 }
 
+/* The rays of the current query, as sent (o, d) and as the engine takes them (in), and
+ * the in-process answers' room. */
+static struct {
+    trioct_vec3 o[BATCH], d[BATCH];
+    ray_input in[BATCH];
+    ray_output outs[BATCH];
+    ray_hit hits[BATCH];
+    octree_status statuses[BATCH];
+} bench_rays;
+
+/* One batch of new rays over the bus (q points at bench_rays), then the same rays in
+ * process on tree; adds each side's seconds. 0, or -1 when the query failed. */
+static int batch_pair(trioct_client *c, const trioct_ray_query *q, rng *r, const octree *tree, double *bus,
+                      double *local)
+{
+    make_rays(r, bench_rays.o, bench_rays.d, bench_rays.in, BATCH);
+    trioct_ray_result res;
+    double t0 = now_seconds();
+    int rc = trioct_rays(c, q, 5000, &res);
+    double t1 = now_seconds();
+    trioct_ray_result_free(&res);
+    if (rc != TRIOCT_OK)
+        return -1;
+    query_stats st = {0};
+    double t2 = now_seconds();
+    octree_ray_batch(tree, bench_rays.in, BATCH, RAY_CLOSEST, ACCURACY_EXACT, bench_rays.outs, bench_rays.statuses,
+                     &st);
+    *bus += t1 - t0;
+    *local += now_seconds() - t2;
+    return 0;
+}
+
 static int fail(const char *what)
 {
     fprintf(stderr, "daemon_bench: %s\n", what);
@@ -440,13 +472,10 @@ int main(int argc, char **argv)
         return fail(err);
 
     rng r = rng_seeded(2026);
-    static trioct_vec3 o[BATCH], d[BATCH];
-    static ray_input in[BATCH];
-    static ray_output outs[BATCH];
-    static ray_hit hits[BATCH];
-    static octree_status statuses[BATCH];
+    trioct_vec3 *o = bench_rays.o, *d = bench_rays.d;
+    ray_input *in = bench_rays.in;
     for (size_t i = 0; i < BATCH; i++)
-        outs[i] = (ray_output){.hits = &hits[i], .max_hits = 1};
+        bench_rays.outs[i] = (ray_output){.hits = &bench_rays.hits[i], .max_hits = 1};
 
     printf("daemon_bench: world of %zu triangles, daemon with 1 worker thread, udpm on loopback\n", triangles);
     printf("  one-ray closest-hit round trip vs a bare LCM ping-pong between two processes (%zu-byte ping,\n"
@@ -534,22 +563,9 @@ int main(int argc, char **argv)
             floor_time += t;
         }
         pingpong_stop(&pg, echo);
-        for (int b = 0; b < BATCHES_PER_ROUND; b++) {
-            make_rays(&r, o, d, in, BATCH);
-            trioct_ray_result res;
-            double t0 = now_seconds();
-            int rc = trioct_rays(c, &q, 5000, &res);
-            double t1 = now_seconds();
-            trioct_ray_result_free(&res);
-            if (rc != TRIOCT_OK)
+        for (int b = 0; b < BATCHES_PER_ROUND; b++)
+            if (batch_pair(c, &q, &r, w->tree, &bus_time, &local_time) != 0)
                 return fail("a batch query failed");
-            query_stats st = {0};
-            double t2 = now_seconds();
-            octree_ray_batch(w->tree, in, BATCH, RAY_CLOSEST, ACCURACY_EXACT, outs, statuses, &st);
-            double t3 = now_seconds();
-            bus_time += t1 - t0;
-            local_time += t3 - t2;
-        }
         double bus_rate = BATCHES_PER_ROUND * BATCH / bus_time;
         double local_rate = BATCHES_PER_ROUND * BATCH / local_time;
         share[round] = bus_rate / local_rate;
@@ -575,18 +591,8 @@ int main(int argc, char **argv)
         double bus_time = 0, local_time = 0, t_begin = now_seconds();
         int batches = 0;
         while (now_seconds() - t_begin < 2.5) {
-            make_rays(&r, o, d, in, BATCH);
-            trioct_ray_result res;
-            double t0 = now_seconds();
-            int rc = trioct_rays(c, &q, 5000, &res);
-            double t1 = now_seconds();
-            trioct_ray_result_free(&res);
-            if (rc != TRIOCT_OK)
+            if (batch_pair(c, &q, &r, w->tree, &bus_time, &local_time) != 0)
                 return fail("a batch query failed");
-            query_stats st = {0};
-            octree_ray_batch(w->tree, in, BATCH, RAY_CLOSEST, ACCURACY_EXACT, outs, statuses, &st);
-            bus_time += t1 - t0;
-            local_time += now_seconds() - t1;
             batches++;
         }
         trioct_daemon_status batch_status;
