@@ -116,6 +116,18 @@ static void make_rays(rng *r, trioct_vec3 *o, trioct_vec3 *d, ray_input *in, siz
     }
 }
 
+/* One query through libtrioct, timed from the call to the answer in hand (the result's
+ * release not counted). 0, or -1 when it failed. */
+static int timed_rays(trioct_client *c, const trioct_ray_query *q, int timeout_ms, double *seconds)
+{
+    trioct_ray_result res;
+    double t0 = now_seconds();
+    int rc = trioct_rays(c, q, timeout_ms, &res);
+    *seconds = now_seconds() - t0;
+    trioct_ray_result_free(&res);
+    return rc == TRIOCT_OK ? 0 : -1;
+}
+
 /* The rays of the current query, as sent (o, d) and as the engine takes them (in), and
  * the in-process answers' room. */
 static struct {
@@ -132,19 +144,15 @@ static int batch_pair(trioct_client *c, const trioct_ray_query *q, rng *r, const
                       double *local)
 {
     make_rays(r, bench_rays.o, bench_rays.d, bench_rays.in, BATCH);
-    trioct_ray_result res;
-    double t0 = now_seconds();
-    int rc = trioct_rays(c, q, 5000, &res);
-    double t1 = now_seconds();
-    trioct_ray_result_free(&res);
-    if (rc != TRIOCT_OK)
+    double seconds;
+    if (timed_rays(c, q, 5000, &seconds) != 0)
         return -1;
     query_stats st = {0};
-    double t2 = now_seconds();
+    double t0 = now_seconds();
     octree_ray_batch(tree, bench_rays.in, BATCH, RAY_CLOSEST, ACCURACY_EXACT, bench_rays.outs, bench_rays.statuses,
                      &st);
-    *bus += t1 - t0;
-    *local += now_seconds() - t2;
+    *bus += seconds;
+    *local += now_seconds() - t0;
     return 0;
 }
 
@@ -406,15 +414,11 @@ static int one_ray_round(trioct_client *c, const trioct_ray_query *q, rng *r, tr
     static double rtt[ROUND_SAMPLES];
     for (int i = 0; i < ROUND_SAMPLES + ROUND_WARMUP; i++) {
         make_rays(r, o, d, in, 1);
-        trioct_ray_result res;
-        double t0 = now_seconds();
-        int rc = trioct_rays(c, q, 2000, &res);
-        double t1 = now_seconds();
-        trioct_ray_result_free(&res);
-        if (rc != TRIOCT_OK)
+        double seconds;
+        if (timed_rays(c, q, 2000, &seconds) != 0)
             return -1;
         if (i >= ROUND_WARMUP)
-            rtt[i - ROUND_WARMUP] = t1 - t0;
+            rtt[i - ROUND_WARMUP] = seconds;
     }
     *out = percentiles_of(rtt, ROUND_SAMPLES);
     return 0;
