@@ -400,6 +400,14 @@ static void report_barycentrics(int s, double w01, double w12, double w20, ray_t
     }
 }
 
+/* The exact tests' first test: a triangle with a repeated vertex is never crossed. Its
+ * edge functions alone do not say so when all three vertices are one point (all three are
+ * then zero), and such triangles come in hundreds where a mesh with one is subdivided. */
+static inline int has_repeated_vertex(const vec3 tri[3])
+{
+    return vec3_equal(tri[0], tri[1]) || vec3_equal(tri[1], tri[2]) || vec3_equal(tri[2], tri[0]);
+}
+
 /* The exact test under either edge rule. closed = 0 is ray_tri_exact's watertight rule;
  * closed = 1 counts an exactly zero edge function as on the triangle (the closed triangle
  * of ray_tri_touch) and returns RAY_TRI_DEN_ZERO where den == 0 exactly, which that rule
@@ -413,7 +421,7 @@ static inline __attribute__((always_inline)) int ray_tri_exact_rule(vec3 o, vec3
     const vec3 v0 = tri[0], v1 = tri[1], v2 = tri[2];
     /* A triangle with a repeated vertex has den == 0 exactly and is never hit; saying so
      * here keeps its zero-length edge from sending every ray through the exact stage. */
-    if (vec3_equal(v0, v1) || vec3_equal(v1, v2) || vec3_equal(v2, v0))
+    if (has_repeated_vertex(tri))
         return closed ? RAY_TRI_DEN_ZERO : 0;
 
     double err01, err12, err20;
@@ -511,14 +519,6 @@ static inline __attribute__((always_inline)) int ray_tri_exact_rule(vec3 o, vec3
 }
 
 /* ---------------------------------------------------------------- the filter, four at once */
-
-/* ray_tri_exact_rule's first test: a triangle with a repeated vertex is never crossed. Its
- * edge functions alone do not say so when all three vertices are one point (all three are
- * then zero), and such triangles come in hundreds where a mesh with one is subdivided. */
-static inline int has_repeated_vertex(const vec3 tri[3])
-{
-    return vec3_equal(tri[0], tri[1]) || vec3_equal(tri[1], tri[2]) || vec3_equal(tri[2], tri[0]);
-}
 
 /* The decided signs of the three edge functions of one triangle as ray_tri_exact_rule
  * computes them, and whether they already rule a hit out (two decided signs that differ). */

@@ -83,9 +83,10 @@ typedef struct ray_fan {
 void ray_fan_init(ray_fan *fan, vec3 o, const vec3 *directions, unsigned count);
 
 /* The rays of the fan (bit i for ray i) that ray_tri_exact surely misses on tri by its own
- * first tests (all of them when tri has a repeated vertex, else by its edge filter): the same products, sums and bounds in the same order as ray_tri_exact
- * computes them for each ray, so a rejected ray is exactly one for which ray_tri_exact
- * returns 0 without going further. */
+ * first tests (all of them when tri has a repeated vertex, else by its edge filter): the
+ * same products, sums and bounds in the same order as ray_tri_exact computes them for each
+ * ray, so a rejected ray is exactly one for which ray_tri_exact returns 0 without going
+ * further. */
 unsigned ray_fan_misses(const ray_fan *fan, const vec3 tri[3], int avx2);
 
 /* Compare the exact t of two exact hits of the same ray: -1, 0, +1 for t_a <, =, > t_b.
