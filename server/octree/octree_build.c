@@ -685,6 +685,13 @@ static box3 node_bounds_of(octree *tree, const triangle_bounds *bounds, uint32_t
     return b;
 }
 
+/* The blocks of eight nodes octree.child_lanes holds (at least one, so the array is never
+ * empty). */
+static size_t child_lane_blocks(size_t node_count)
+{
+    return node_count / 8 ? node_count / 8 : 1;
+}
+
 /* octree_def.node_bounds: one walk over the finished tree (its depth is at most
  * OCTREE_MAX_DEPTH_CAP, so the recursion is shallow). */
 static octree_status compute_node_bounds(octree *tree, const triangle_bounds *bounds)
@@ -695,15 +702,14 @@ static octree_status compute_node_bounds(octree *tree, const triangle_bounds *bo
     for (size_t i = 0; i < tree->node_count; i++)
         tree->node_bounds[i] = (box3){{INFINITY, INFINITY, INFINITY}, {-INFINITY, -INFINITY, -INFINITY}};
     node_bounds_of(tree, bounds, 0, tree->world);
-    size_t blocks = tree->node_count / 8;
-    tree->child_lanes = malloc((blocks ? blocks : 1) * sizeof *tree->child_lanes);
+    size_t blocks = child_lane_blocks(tree->node_count);
+    tree->child_lanes = malloc(blocks * sizeof *tree->child_lanes);
     if (!tree->child_lanes)
         return OCTREE_ERR_NOMEM;
     /* Block 0 holds the root alone (OCTREE_BLOCK_PADDING): no node has it as children. */
+    memset(&tree->child_lanes[0], 0, sizeof tree->child_lanes[0]);
     for (size_t b = 1; b < blocks; b++)
         child_lanes_of(&tree->node_bounds[8 * b], &tree->nodes[8 * b], &tree->child_lanes[b]);
-    if (blocks)
-        memset(&tree->child_lanes[0], 0, sizeof tree->child_lanes[0]);
     return OCTREE_OK;
 }
 
@@ -846,7 +852,7 @@ octree *octree_build(const mesh_view *mesh, const octree_def *def_in, octree_err
     st = build_nodes(&ctx, levels);
     if (st == OCTREE_OK && def.node_bounds)
         st = budget_take(&ctx, tree->node_count * sizeof *tree->node_bounds +
-                                   (tree->node_count / 8 + 1) * sizeof *tree->child_lanes) != 0
+                                   child_lane_blocks(tree->node_count) * sizeof *tree->child_lanes) != 0
                  ? OCTREE_ERR_BUDGET
                  : compute_node_bounds(tree, ctx.bounds);
     if (st == OCTREE_OK)
@@ -925,8 +931,7 @@ octree *octree_build(const mesh_view *mesh, const octree_def *def_in, octree_err
     info->bytes_triangle_boxes = tree->triangle_boxes ? tree->triangle_count * sizeof *tree->triangle_boxes : 0;
     info->bytes_traversal = tree->traversal.bytes;
     info->bytes_node_bounds = tree->node_bounds ? tree->node_count * sizeof *tree->node_bounds +
-                                                      (tree->node_count / 8 ? tree->node_count / 8 : 1) *
-                                                          sizeof *tree->child_lanes
+                                                      child_lane_blocks(tree->node_count) * sizeof *tree->child_lanes
                                                 : 0;
     info->bytes_total = info->bytes_nodes + info->bytes_leaf_lists + info->bytes_triangles +
                         info->bytes_triangle_boxes + info->bytes_node_bounds + info->bytes_traversal +
