@@ -262,11 +262,11 @@ static inline box3 box_grown(box3 b, double g)
  * An expansion tests up to eight children against the node it keeps: world children by
  * world_box_apart, shape children by the shape side of the same test (shape_side_of's
  * projection and radius against the world node's side). Four children go to a vector
- * (lanes4.h), every operation in the order of the one-child expressions above, so each lane rounds exactly
- * as they do and the bounds derived for them hold lane by lane; world_box_apart's early
- * exit at the first separating axis is gone, which changes no answer. Each
- * returns the mask of the children that may meet (bit k for child k); the caller drops
- * empty ones. */
+ * (lanes4.h), every operation in the order of the one-child expressions above, so each
+ * lane rounds exactly as they do and the bounds derived for them hold lane by lane;
+ * world_box_apart's early exit at the first separating axis is gone, which changes no
+ * answer. Each returns the mask of the children that may meet (bit k for child k); the
+ * caller drops empty ones. */
 #define LANES_INLINE static inline __attribute__((always_inline))
 
 /* The children's boxes, coordinate by coordinate. */
@@ -1057,9 +1057,12 @@ static void descend(pose_query *pq, const pose_frame *f)
             }
             /* With node bounds the children's lanes were laid out by the build, and their
              * cells are needed only for the pushes. */
-            const child_lanes *tested = shape->child_lanes + sn.first / 8;
+            const child_lanes *tested;
             child_lanes of_cells;
-            if (!shape->node_bounds) {
+            int laid_out = shape->child_lanes != NULL;
+            if (laid_out) {
+                tested = &shape->child_lanes[sn.first / 8];
+            } else {
                 for (int k = 0; k < 8; k++)
                     cells[k] = box_child(e.shape_box, c, box_octant_upper_bits[k]);
                 child_lanes_of(cells, kids, &of_cells);
@@ -1070,7 +1073,7 @@ static void descend(pose_query *pq, const pose_frame *f)
             stats->nodes_visited += bits_set8(live);
             for (unsigned m = near; m; m &= m - 1) {
                 int k = __builtin_ctz(m);
-                box3 cell = shape->node_bounds ? box_child(e.shape_box, c, box_octant_upper_bits[k]) : cells[k];
+                box3 cell = laid_out ? box_child(e.shape_box, c, box_octant_upper_bits[k]) : cells[k];
                 stack[top++] = (pair_entry){e.world_node, sn.first + (uint32_t)k, e.world_box, cell};
             }
         }
