@@ -1672,6 +1672,16 @@ static void test_filter_decides_generic_cases(void **state)
     free(cases);
 }
 
+/* Whether the filters' AVX2 forms can run here (the tests compare them with the scalar). */
+static int have_avx2(void)
+{
+#if defined(__x86_64__)
+    return __builtin_cpu_supports("avx2");
+#else
+    return 0;
+#endif
+}
+
 /* The fan filter (one triangle against up to eight rays from one origin) decides each ray
  * exactly as the four-triangle filter decides it alone, with and without AVX2, and a ray
  * it rejects is one the exact test misses. Rays aim at grid points, so many pass exactly
@@ -1680,10 +1690,7 @@ static void test_fan_filter_decides_as_each_ray_alone(void **state)
 {
     (void)state;
     rng r = rng_for(51);
-    int avx2 = 0;
-#if defined(__x86_64__)
-    avx2 = __builtin_cpu_supports("avx2");
-#endif
+    int avx2 = have_avx2();
     size_t rays = 0, rejected = 0, hits = 0;
     for (int c = 0; c < 3000; c++) {
         double offset = c % 3 == 0 ? 0.0 : c % 3 == 1 ? 1e6 : -3e9;
@@ -1743,10 +1750,7 @@ static void test_four_filter_rejects_only_misses(void **state)
 {
     (void)state;
     rng r = rng_for(52);
-    int avx2 = 0;
-#if defined(__x86_64__)
-    avx2 = __builtin_cpu_supports("avx2");
-#endif
+    int avx2 = have_avx2();
     enum { TRIS = 4 };
     size_t candidates = 0, rejected = 0, hits = 0, repeated = 0;
     for (int c = 0; c < 4000; c++) {
