@@ -126,8 +126,8 @@ typedef struct octree_info {
     size_t bytes_nodes, bytes_leaf_lists, bytes_triangles, bytes_total;
     size_t bytes_triangle_boxes; /* 24 per triangle with octree_def.triangle_boxes, else 0;
                                     part of bytes_total */
-    size_t bytes_traversal;      /* the compiled form rays walk (96 bytes a compiled node, and
-                                    the merged leaves' lists); part of bytes_total */
+    size_t bytes_traversal;      /* the compiled form rays walk (96 bytes an interior node);
+                                    part of bytes_total */
     size_t bytes_node_bounds;    /* with octree_def.node_bounds 48 per node and 392 per block
                                     of eight children (their bounds laid out for the lane
                                     tests), else 0; part of bytes_total */

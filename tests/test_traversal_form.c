@@ -289,14 +289,12 @@ typedef struct bounds_check {
     const octree *tree;
     size_t leaves_checked;
     size_t spans, node_leaves; /* leaf references naming their list, and their node */
-    size_t merged;             /* leaves merged from the eight leaves of a node */
 } bounds_check;
 
-/* The lane's bounds hold every triangle of the list `leaf`, clipped to cube. */
-static void check_leaf_list(bounds_check *c, const traversal_node *parent, int lane, octree_node leaf, box3 cube,
-                            uint32_t index)
+static void check_leaf(bounds_check *c, const traversal_node *parent, int lane, uint32_t index, box3 cube)
 {
     const octree *t = c->tree;
+    octree_node leaf = t->nodes[index];
     for (int a = 0; a < 3; a++) {
         double lo = (double)parent->origin[a] + (double)parent->q[a][lane] * (double)parent->scale;
         double hi = (double)parent->origin[a] + (double)parent->q[3 + a][lane] * (double)parent->scale;
@@ -318,53 +316,6 @@ static void check_leaf_list(bounds_check *c, const traversal_node *parent, int l
     c->leaves_checked++;
 }
 
-static void check_leaf(bounds_check *c, const traversal_node *parent, int lane, uint32_t index, box3 cube)
-{
-    check_leaf_list(c, parent, lane, c->tree->nodes[index], cube, index);
-}
-
-static int list_has(const octree *t, octree_node list, uint32_t id)
-{
-    for (uint32_t i = 0; i < list.count; i++)
-        if (t->leaf_items[list.first + i] == id)
-            return 1;
-    return 0;
-}
-
-/* A lane naming a list where the tree has an interior node: a merged leaf. Its list is
- * the union of the node's eight leaves' lists, each triangle once, named after the tree's
- * own lists and its sliver list, and its bounds hold them within the node's cube. */
-static void check_merged(bounds_check *c, const traversal_node *parent, int lane, uint32_t ref, uint32_t index,
-                         box3 cube)
-{
-    const octree *t = c->tree;
-    octree_node node = t->nodes[index], merged = octree_leaf_of_ref(t, ref);
-    assert_true(ref & TRAVERSAL_SPAN);
-    assert_true(merged.first >= t->info.leaf_refs + t->sliver_list_count);
-    assert_true(merged.first + merged.count <= t->info.leaf_refs + t->sliver_list_count + t->merged_list_count);
-    size_t listed = 0;
-    for (int k = 0; k < 8; k++) {
-        octree_node kid = t->nodes[node.first + (uint32_t)k];
-        assert_int_not_equal(kid.count, NODE_INTERIOR);
-        for (uint32_t i = 0; i < kid.count; i++)
-            assert_true(list_has(t, merged, t->leaf_items[kid.first + i]));
-        listed += kid.count;
-    }
-    for (uint32_t i = 0; i < merged.count; i++) {
-        uint32_t id = t->leaf_items[merged.first + i];
-        int found = 0;
-        for (int k = 0; k < 8 && !found; k++)
-            found = list_has(t, t->nodes[node.first + (uint32_t)k], id);
-        assert_true(found);
-        for (uint32_t j = 0; j < i; j++)
-            assert_int_not_equal(t->leaf_items[merged.first + j], id);
-    }
-    assert_true(merged.count <= listed);
-    check_leaf_list(c, parent, lane, merged, cube, index);
-    c->merged++;
-    c->spans++;
-}
-
 static void check_node(bounds_check *c, uint32_t ref, uint32_t octree_index, box3 cube)
 {
     const octree *t = c->tree;
@@ -384,9 +335,7 @@ static void check_node(bounds_check *c, uint32_t ref, uint32_t octree_index, box
                 assert_int_equal(kid.count, 0);
             continue;
         }
-        if ((child & TRAVERSAL_LEAF) && kid.count == NODE_INTERIOR) {
-            check_merged(c, n, (int)upper, child, child_index, child_cube);
-        } else if (child & TRAVERSAL_LEAF) {
+        if (child & TRAVERSAL_LEAF) {
             /* A short leaf's reference names its list, a long one its node. */
             octree_node named = octree_leaf_of_ref(t, child);
             assert_int_equal(named.first, kid.first);
@@ -416,14 +365,12 @@ static void test_child_bounds_enclose_their_triangles(void **state)
     const double resolutions[] = {0, 0, 0.5};
     for (size_t i = 0; i < 3; i++) {
         octree *t = build(meshes[i], resolutions[i], 0);
-        bounds_check c = {t, 0, 0, 0, 0};
+        bounds_check c = {t, 0, 0, 0};
         assert_true(t->traversal.present);
         assert_false(t->traversal.root & TRAVERSAL_LEAF);
         check_node(&c, t->traversal.root, 0, t->world);
         assert_true(c.leaves_checked > (i < 2 ? 100 : 10));
         assert_true(c.spans > 0);
-        if (i < 2)
-            assert_true(c.merged > 10);
         if (i == 2)
             assert_true(c.node_leaves > 0);
         octree_free(t);

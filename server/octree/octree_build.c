@@ -662,26 +662,6 @@ static octree_status index_triangles(build_ctx *ctx, const mesh_view *mesh)
 
 /* The bounds of node's triangles within its box (bounds: each triangle's, by internal id);
  * an empty node's are inverted (lo > hi). */
-/* The compiled form's merged leaves' lists, moved to the end of leaf_items, where their
- * references name them (octree_traversal.h). 0, or -1 when memory ran out. */
-static int append_merged_lists(octree *tree)
-{
-    traversal_form *form = &tree->traversal;
-    if (form->merged_count == 0)
-        return 0;
-    size_t own = tree->info.leaf_refs + tree->sliver_list_count;
-    uint32_t *items = realloc(tree->leaf_items, (own + form->merged_count) * sizeof *items);
-    if (!items)
-        return -1;
-    memcpy(&items[own], form->merged, form->merged_count * sizeof *items);
-    tree->leaf_items = items;
-    tree->merged_list_count = form->merged_count;
-    free(form->merged);
-    form->merged = NULL;
-    form->merged_count = 0;
-    return 0;
-}
-
 static box3 node_bounds_of(octree *tree, const triangle_bounds *bounds, uint32_t node, box3 cell)
 {
     octree_node n = tree->nodes[node];
@@ -920,15 +900,14 @@ octree *octree_build(const mesh_view *mesh, const octree_def *def_in, octree_err
                           ? traversal_form_build(tree, ctx.bounds, &tree->traversal)
                           : 0;
     free(ctx.bounds);
-    if (form_status < 0 || append_merged_lists(tree) != 0) {
+    if (form_status < 0) {
         octree_free(tree);
         return fail(err, OCTREE_ERR_NOMEM, SIZE_MAX, "out of memory");
     }
     size_t padding = tree->node_count > 1 ? OCTREE_BLOCK_PADDING : 0;
     /* What queries read at random, onto huge pages where there are any (hot_memory.h). */
     hot_move((void **)&tree->vertices, tree->used_vertex_count * sizeof *tree->vertices);
-    hot_move((void **)&tree->leaf_items, (tree->info.leaf_refs + tree->sliver_list_count + tree->merged_list_count) *
-                                             sizeof *tree->leaf_items);
+    hot_move((void **)&tree->leaf_items, (tree->info.leaf_refs + tree->sliver_list_count) * sizeof *tree->leaf_items);
 
     octree_info *info = &tree->info;
     info->triangle_count = tree->triangle_count;

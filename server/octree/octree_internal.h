@@ -88,8 +88,7 @@ struct octree {
 
     octree_node *nodes;
     size_t node_count;
-    /* The leaves' lists (info.leaf_refs ids), the sliver list (sliver_list_count ids), then
-     * the compiled form's merged lists (merged_list_count ids). */
+    /* The leaves' lists (info.leaf_refs ids), then the sliver list (sliver_list_count ids). */
     uint32_t *leaf_items;
     /* What fast and seed queries need beyond exact membership (octree_modes.c): the seed
      * reach factor, the largest 2 / sin of a triangle's smallest angle (rounded up); and
@@ -112,8 +111,6 @@ struct octree {
      * sliver: every seed query and every fast sliver query tests them. Internal ids,
      * after the leaf lists in leaf_items. */
     uint32_t sliver_list_count;
-    /* After the sliver list: the compiled form's merged leaves' lists (octree_traversal.c). */
-    size_t merged_list_count;
     double seed_epsilon;
     /* The compiled form rays walk (octree_traversal.h); empty when the world is outside
      * its range, and then every ray takes the double-precision walk over nodes. */

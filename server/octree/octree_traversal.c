@@ -14,10 +14,6 @@ typedef struct compile_ctx {
     const box3 *bounds; /* each triangle's exact box */
     traversal_node *nodes;
     size_t count, capacity;
-    /* The merged leaves' lists, one after another; the first goes into leaf_items right
-     * after the tree's own lists and its sliver list (merged_base). */
-    uint32_t *merged;
-    size_t merged_count, merged_capacity, merged_base;
 } compile_ctx;
 
 /* Bounds in float relative to the world's lower corner; lo > hi when empty. */
@@ -40,16 +36,15 @@ static void bounds_add(float_bounds *into, const float_bounds *b)
     }
 }
 
-/* The union over a leaf's triangles ids[0 .. count) of each one's box clipped to the leaf's
- * cube, in doubles (min and max are exact), then rounded outward to floats relative to the
- * world's lower corner. A listed triangle touches the cube, so each clipped box is
- * non-empty. */
-static float_bounds leaf_bounds(const compile_ctx *ctx, const uint32_t *ids, uint32_t count, box3 cube)
+/* The union over a leaf's triangles of each one's box clipped to the leaf's cube, in
+ * doubles (min and max are exact), then rounded outward to floats relative to the world's
+ * lower corner. A listed triangle touches the cube, so each clipped box is non-empty. */
+static float_bounds leaf_bounds(const compile_ctx *ctx, octree_node leaf, box3 cube)
 {
     const octree *tree = ctx->tree;
     vec3 lo = {INFINITY, INFINITY, INFINITY}, hi = {-INFINITY, -INFINITY, -INFINITY};
-    for (uint32_t i = 0; i < count; i++) {
-        box3 b = ctx->bounds[ids[i]];
+    for (uint32_t i = 0; i < leaf.count; i++) {
+        box3 b = ctx->bounds[tree->leaf_items[leaf.first + i]];
         lo = vec3_min(lo, vec3_max(b.lo, cube.lo));
         hi = vec3_max(hi, vec3_min(b.hi, cube.hi));
     }
@@ -114,50 +109,6 @@ static int quantize_up(double x, double origin, double inverse_scale)
     return (double)t < q ? t + 1 : t;
 }
 
-/* A node whose eight children are all leaves becomes one leaf itself when its children's
- * lists hold at most TRAVERSAL_MERGED_MAX triangles between them (each counted once): its
- * list is their union, in child order. A ray then reads one list where it read a record
- * and two or three lists after it, one dependent read fewer on the way down and fewer
- * lists to wait for: on the bench's random rays (Wuson, the icosphere) 1.1-1.25x the rays
- * per second, with 1.3-1.6x the candidates, and 9 bytes a triangle less. The list takes
- * at most the record's 96 bytes, so the budget the build took for the form holds it.
- * Returns 1 when merged (*ref and *bounds set), 0 when not, -1 when memory ran out. */
-#define TRAVERSAL_MERGED_MAX 24
-_Static_assert(TRAVERSAL_MERGED_MAX * sizeof(uint32_t) <= sizeof(traversal_node), "a list within a record's bytes");
-_Static_assert(TRAVERSAL_MERGED_MAX <= TRAVERSAL_SPAN_COUNT_MAX, "a merged leaf's reference names its list");
-
-static int merge_leaves(compile_ctx *ctx, octree_node node, box3 cube, uint32_t *ref, float_bounds *bounds)
-{
-    const octree *tree = ctx->tree;
-    uint32_t ids[TRAVERSAL_MERGED_MAX], n = 0;
-    for (int k = 0; k < 8; k++) {
-        octree_node kid = tree->nodes[node.first + (uint32_t)k];
-        if (kid.count == NODE_INTERIOR)
-            return 0;
-        for (uint32_t i = 0; i < kid.count; i++) {
-            uint32_t id = tree->leaf_items[kid.first + i], j = 0;
-            while (j < n && ids[j] != id)
-                j++;
-            if (j < n)
-                continue;
-            if (n == TRAVERSAL_MERGED_MAX)
-                return 0;
-            ids[n++] = id;
-        }
-    }
-    size_t first = ctx->merged_base + ctx->merged_count;
-    if (n == 0 || first + n > TRAVERSAL_SPAN_FIRST_LIMIT)
-        return 0;
-    if (array_reserve((void **)&ctx->merged, &ctx->merged_capacity, ctx->merged_count + n, sizeof *ctx->merged,
-                      1024) != 0)
-        return -1;
-    memcpy(&ctx->merged[ctx->merged_count], ids, n * sizeof *ids);
-    ctx->merged_count += n;
-    *ref = TRAVERSAL_LEAF | TRAVERSAL_SPAN | (n - 1) << TRAVERSAL_SPAN_COUNT_SHIFT | (uint32_t)first;
-    *bounds = leaf_bounds(ctx, ids, n, cube);
-    return 1;
-}
-
 /* Compiles the subtree of octree node `index` with cube `cube`: *ref names what the walk
  * visits for it and *bounds what it holds. -1 when memory ran out, 1 when a leaf's
  * reference does not fit. */
@@ -177,12 +128,9 @@ static int compile_node(compile_ctx *ctx, uint32_t index, box3 cube, uint32_t *r
             *ref = TRAVERSAL_LEAF | index;
         else
             return 1;
-        *bounds = leaf_bounds(ctx, &tree->leaf_items[node.first], node.count, cube);
+        *bounds = leaf_bounds(ctx, node, cube);
         return 0;
     }
-    int merged = merge_leaves(ctx, node, cube, ref, bounds);
-    if (merged != 0)
-        return merged < 0 ? -1 : 0;
     if (array_reserve((void **)&ctx->nodes, &ctx->capacity, ctx->count + 1, sizeof *ctx->nodes, 1024) != 0)
         return -1;
     size_t at = ctx->count++;
@@ -230,13 +178,11 @@ int traversal_form_build(const octree *tree, const box3 *triangle_bounds, traver
                        fmax(tree->world.hi.y - tree->world.lo.y, tree->world.hi.z - tree->world.lo.z));
     if (!(side >= 0x1p-60 && side <= 0x1p60))
         return 1;
-    compile_ctx ctx = {.tree = tree, .bounds = triangle_bounds,
-                       .merged_base = tree->info.leaf_refs + tree->sliver_list_count};
+    compile_ctx ctx = {.tree = tree, .bounds = triangle_bounds};
     float_bounds all;
     int st = compile_node(&ctx, 0, tree->world, &form->root, &all);
     if (st != 0) {
         free(ctx.nodes);
-        free(ctx.merged);
         *form = (traversal_form){.root = TRAVERSAL_EMPTY};
         return st;
     }
@@ -254,9 +200,7 @@ int traversal_form_build(const octree *tree, const box3 *triangle_bounds, traver
     }
     free(ctx.nodes);
     form->node_count = ctx.count;
-    form->bytes = (ctx.count > 0 ? bytes : 0) + ctx.merged_count * sizeof(uint32_t);
-    form->merged = ctx.merged;
-    form->merged_count = ctx.merged_count;
+    form->bytes = ctx.count > 0 ? bytes : 0;
     form->present = 1;
 #if defined(__x86_64__) || defined(__i386__)
     form->avx2 = __builtin_cpu_supports("avx2");
@@ -267,6 +211,5 @@ int traversal_form_build(const octree *tree, const box3 *triangle_bounds, traver
 void traversal_form_free(traversal_form *form)
 {
     free(form->nodes);
-    free(form->merged);
     *form = (traversal_form){.root = TRAVERSAL_EMPTY};
 }

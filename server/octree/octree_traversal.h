@@ -3,8 +3,7 @@
  *
  * Each interior node of the octree becomes one 96-byte record holding, for each of its
  * eight children, the bounds of what the child holds: the union of its triangles' boxes,
- * each clipped to the child's cube (a node whose eight children are leaves holding few
- * triangles between them becomes one leaf instead: octree_traversal.c, merge_leaves). The bounds are floats relative to the world's lower
+ * each clipped to the child's cube. The bounds are floats relative to the world's lower
  * corner, rounded outward, and quantized to 8 bits within the node's own frame, so a ray
  * tests all eight children at once in single precision, with SIMD, and skips the empty
  * space inside a cube that the octree's cubes alone cannot.
@@ -63,12 +62,7 @@ typedef struct traversal_form {
     uint32_t root;  /* a compiled node, a leaf reference, or TRAVERSAL_EMPTY */
     int present;    /* 0: no form, every ray takes the double-precision walk */
     int avx2;       /* the processor has AVX2: the walk tests eight lanes in one register */
-    /* The merged leaves' lists (octree_traversal.c: merge_leaves), until the build moves
-     * them into the tree's leaf_items, after its own lists and its sliver list, where the
-     * merged leaves' references name them. */
-    uint32_t *merged;
-    size_t merged_count;
-    size_t bytes; /* the records, and the merged lists wherever they are */
+    size_t bytes;
 } traversal_form;
 
 /* Compiles tree's nodes into form; triangle_bounds[i] is internal triangle i's exact box.
