@@ -482,6 +482,17 @@ typedef struct side_slot {
     box_side side;
 } side_slot;
 
+/* Node's slot among slots; *fresh is 1 when it held another node or an earlier descent's
+ * side, and the slot is then claimed for node: the caller makes its side. */
+static inline side_slot *side_slot_of(side_slot slots[SIDE_SLOTS], uint32_t node, uint32_t epoch, int *fresh)
+{
+    side_slot *slot = &slots[node % SIDE_SLOTS];
+    *fresh = slot->stamp != epoch || slot->node != node;
+    slot->stamp = epoch;
+    slot->node = node;
+    return slot;
+}
+
 typedef struct shape_scratch {
     const octree *world, *shape;
     accuracy_mode mode;
@@ -1009,12 +1020,10 @@ static void descend(pose_query *pq, const pose_frame *f)
         /* The larger node splits, so the two boxes stay of a size. */
         int split_world = shape_leaf || (!world_leaf && box_extent(e.world_box) >= f->scale * box_width(e.shape_box));
         if (split_world) {
-            side_slot *ss = &s->shape_sides[e.shape_node % SIDE_SLOTS];
-            if (ss->stamp != s->side_epoch || ss->node != e.shape_node) {
+            int fresh;
+            side_slot *ss = side_slot_of(s->shape_sides, e.shape_node, s->side_epoch, &fresh);
+            if (fresh)
                 shape_side_of(f, shape_node_box(shape, e.shape_node, e.shape_box), &ss->side);
-                ss->stamp = s->side_epoch;
-                ss->node = e.shape_node;
-            }
             const box_side *shape_side = &ss->side;
             unsigned live = 0, near;
             const uint32_t *refs = NULL;
@@ -1047,13 +1056,12 @@ static void descend(pose_query *pq, const pose_frame *f)
                 continue;
             vec3 c = octree_split_point(shape, e.shape_box);
             const octree_node *kids = &shape->nodes[sn.first];
-            side_slot *ws = &s->world_sides[e.world_node % SIDE_SLOTS];
-            if (ws->stamp != s->side_epoch || ws->node != e.world_node) {
+            int fresh;
+            side_slot *ws = side_slot_of(s->world_sides, e.world_node, s->side_epoch, &fresh);
+            if (fresh) {
                 box3 wb = world_leaf ? world_leaf_box(world, form, world_leaf_of(world, form, e.world_node), e.world_box)
                                      : e.world_box;
                 world_side_of(f, wb, &ws->side);
-                ws->stamp = s->side_epoch;
-                ws->node = e.world_node;
             }
             /* With node bounds the children's lanes were laid out by the build, and their
              * cells are needed only for the pushes. */
