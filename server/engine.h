@@ -227,6 +227,38 @@ typedef struct pose {
     vec3 t;
 } pose;
 
+/* Poses of objects placed in a world (octree_ray_posed). A local vertex p is placed at
+ * fl(R p + t), each coordinate computed as ((r0 p.x + r1 p.y) + r2 p.z) + t.x with each
+ * operation rounded on its own: octree_pose_point, the one expression every posed query
+ * uses, so answers are exact on those doubles. */
+vec3 octree_pose_point(const pose *at, vec3 p);
+
+/* Largest |(R^T R - I)_ij| a pose's R may have, and the relative amount a quaternion's
+ * length may differ from 1: within these a pose is taken as the rotation it approximates
+ * (a matrix typed with six decimals passes), past them it is refused as a mistake. */
+#define OCTREE_ROTATION_TOLERANCE 1e-6
+#define OCTREE_QUATERNION_TOLERANCE 1e-3
+
+/* OCTREE_OK when R is a rotation within OCTREE_ROTATION_TOLERANCE (orthonormal, det +1)
+ * and every entry is finite; OCTREE_ERR_NONFINITE, or OCTREE_ERR_INVALID for a matrix
+ * that is not a rotation (a scale, a shear, a reflection). */
+octree_status octree_pose_check(const pose *at);
+
+/* The pose of translation t and the rotation of quaternion (qw, qx, qy, qz), normalised
+ * first; OCTREE_ERR_INVALID when its length is not 1 within OCTREE_QUATERNION_TOLERANCE,
+ * OCTREE_ERR_NONFINITE for a NaN or infinite component. */
+octree_status octree_pose_from_quaternion(vec3 t, double qw, double qx, double qy, double qz, pose *out);
+
+/* A ray in world coordinates against a tree built in its local frame and placed at `at`:
+ * the answers octree_ray would give on a tree built from the posed triangles
+ * (octree_pose_point of every vertex), the same t, barycentrics, normal and triangle
+ * ids, with no tree built for the pose. The walk runs in the local frame, widened by
+ * what the pose's rounding can move a point (octree_pose.c); the final tests run on the
+ * posed vertices and the world ray. ACCURACY_EXACT only; OCTREE_ERR_INVALID for another
+ * mode or a pose octree_pose_check refuses. */
+octree_status octree_ray_posed(const octree *tree, const pose *at, const ray_input *ray, ray_detail detail,
+                               accuracy_mode mode, ray_output *out, query_stats *stats);
+
 typedef struct mesh_pair {
     uint32_t query_triangle;
     uint32_t world_triangle;

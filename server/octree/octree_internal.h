@@ -395,6 +395,27 @@ static inline vec3 octree_apply_pose(const pose *at, vec3 p)
                   r[6] * p.x + r[7] * p.y + r[8] * p.z + at->t.z};
 }
 
+/* A world ray taken into a posed tree's local frame (octree_posed_ray_setup). */
+typedef struct posed_ray {
+    pose at;
+    ray_input world; /* the caller's ray: the final tests use it */
+    ray_input local; /* R^T (o - t) and R^T d, the same parameter range */
+    double grow;     /* the walk's widening, a max-norm distance in the local frame */
+    /* Its parts (octree_pose.c), kept for the tests that measure each: how far a posed
+     * triangle's preimage may be from the tree's, and the local ray from the world ray's
+     * preimage at parameter s, origin_reach + |s| direction_reach, for |s| <= s_bound. */
+    double vertex_reach, origin_reach, direction_reach, s_bound;
+    int misses;      /* the ray cannot reach the posed tree's world cube: no hit */
+} posed_ray;
+
+/* Fills out for the ray against tree placed at `at`: OCTREE_OK, or the pose's error
+ * (octree_pose_check), or OCTREE_ERR_NONFINITE when the local ray or the bounds overflow. */
+octree_status octree_posed_ray_setup(const octree *tree, const pose *at, const ray_input *ray, posed_ray *out);
+
+/* 0 with *tau a bound on the spectral norm of R^T R - I, or -1 when an entry of it is
+ * NaN or above 1. */
+int octree_pose_defect(const pose *at, double *tau);
+
 /* octree_mesh's argument checks: OCTREE_OK, or the status octree_mesh returns for them. */
 octree_status octree_mesh_check(const mesh_view *shape, const pose *at, accuracy_mode mode);
 

@@ -48,6 +48,9 @@ typedef struct ray_setup {
     unsigned char upper[8];
     unsigned char octant[8];
     int touch; /* RAY_TOUCH: the closed rule (set by walk_begin; exact mode only) */
+    /* A posed tree's walk (octree_ray_posed): o, d above are the local ray, which the walk
+     * takes; the triangles are tested posed, against posed->world. NULL otherwise. */
+    const posed_ray *posed;
 } ray_setup;
 
 /* One axis of setup_ray: its kind, 1/d, and its absolute slack. Inlined per axis, so the
@@ -91,14 +94,19 @@ static inline __attribute__((always_inline)) void setup_axis(ray_setup *r, const
     }
 }
 
-static void setup_ray(ray_setup *r, const octree *tree, const ray_input *in, accuracy_mode mode)
+static void setup_ray(ray_setup *r, const octree *tree, const ray_input *in, accuracy_mode mode,
+                      const posed_ray *posed)
 {
+    r->posed = posed;
+    if (posed)
+        in = &posed->local;
     r->o = in->origin;
     r->d = in->direction;
     r->tmin = in->tmin;
     r->tmax = in->tmax;
     r->grow = mode == ACCURACY_FAST   ? octree_fast_ray_slack(tree, in->origin, in->direction)
               : mode == ACCURACY_SEED ? octree_seed_ray_slack(tree, in->origin, in->direction)
+              : posed                 ? posed->grow
                                       : 0.0;
     r->slack_rel = 4 * EPS;
     const box3 w = tree->world;
@@ -245,6 +253,14 @@ static inline __attribute__((always_inline)) int test_triangle(const octree *tre
 {
     vec3 tri[3];
     octree_triangle_vertices(tree, id, tri);
+    if (r->posed) { /* exact mode only (octree_ray_posed) */
+        const posed_ray *p = r->posed;
+        for (int k = 0; k < 3; k++)
+            tri[k] = octree_apply_pose(&p->at, tri[k]);
+        if (r->touch)
+            return ray_tri_touch(p->world.origin, p->world.direction, r->tmin, r->tmax, tri, hit);
+        return ray_tri_exact(p->world.origin, p->world.direction, r->tmin, r->tmax, tri, hit);
+    }
     switch (mode) {
     case ACCURACY_SEED:
         return ray_tri_seed(r->o, r->d, r->tmin, r->tmax, tri, tree->seed_epsilon, hit);
@@ -264,14 +280,23 @@ static int hit_order(const octree *tree, const ray_setup *r, accuracy_mode mode,
 {
     int c;
     vec3 ta[3], tb[3];
+    vec3 o = r->o, d = r->d;
     if (mode == ACCURACY_EXACT) {
         octree_triangle_vertices(tree, a->triangle, ta);
         octree_triangle_vertices(tree, b->triangle, tb);
+        if (r->posed) {
+            for (int k = 0; k < 3; k++) {
+                ta[k] = octree_apply_pose(&r->posed->at, ta[k]);
+                tb[k] = octree_apply_pose(&r->posed->at, tb[k]);
+            }
+            o = r->posed->world.origin;
+            d = r->posed->world.direction;
+        }
     }
     if (mode == ACCURACY_EXACT && r->touch) {
-        c = ray_tri_touch_compare(r->o, r->d, r->tmin, r->tmax, ta, tb);
+        c = ray_tri_touch_compare(o, d, r->tmin, r->tmax, ta, tb);
     } else if (mode == ACCURACY_EXACT) {
-        c = ray_tri_compare_t(r->o, r->d, ta, tb);
+        c = ray_tri_compare_t(o, d, ta, tb);
     } else {
         c = (a->t > b->t) - (a->t < b->t);
     }
@@ -284,10 +309,13 @@ static int hit_order(const octree *tree, const ray_setup *r, accuracy_mode mode,
 
 /* A hit as reported: the caller's triangle id, and the unit normal, which only reported
  * hits pay for. */
-static ray_hit reported(const octree *tree, ray_hit hit)
+static ray_hit reported(const octree *tree, const ray_setup *r, ray_hit hit)
 {
     vec3 tri[3];
     octree_triangle_vertices(tree, hit.triangle, tri);
+    if (r->posed)
+        for (int k = 0; k < 3; k++)
+            tri[k] = octree_apply_pose(&r->posed->at, tri[k]);
     hit.normal = vec3_normalize(vec3_cross(vec3_sub(tri[1], tri[0]), vec3_sub(tri[2], tri[0])));
     hit.triangle = tree->original_id[hit.triangle];
     return hit;
@@ -421,10 +449,10 @@ static void walk_need_set(ray_walk *w)
 /* Starts the walk of a ray that passed check_query. */
 /* Starts the walk of a ray that passed check_query, short of its root: the compiled walk
  * goes on from here (compiled_begin), the double walk from walk_root. */
-static void walk_init(ray_walk *w, const octree *tree, const ray_input *ray, ray_detail detail,
-                      accuracy_mode mode, ray_output *out)
+static void walk_init_posed(ray_walk *w, const octree *tree, const ray_input *ray, const posed_ray *posed,
+                            ray_detail detail, accuracy_mode mode, ray_output *out)
 {
-    setup_ray(&w->r, tree, ray, mode);
+    setup_ray(&w->r, tree, ray, mode, posed);
     w->r.touch = ray->contact == RAY_TOUCH;
     w->detail = detail;
     w->mode = mode;
@@ -448,6 +476,12 @@ static void walk_init(ray_walk *w, const octree *tree, const ray_input *ray, ray
         for (size_t i = 0; i < tree->sliver_list_count; i++)
             if (!walk_test_candidate(w, tree, octree_sliver_list(tree)[i]))
                 return;
+}
+
+static void walk_init(ray_walk *w, const octree *tree, const ray_input *ray, ray_detail detail,
+                      accuracy_mode mode, ray_output *out)
+{
+    walk_init_posed(w, tree, ray, NULL, detail, mode, out);
 }
 
 /* The double walk's start: its visiting order, and the root when the ray meets the world. */
@@ -791,12 +825,12 @@ static octree_status walk_finish(ray_walk *w, const octree *tree, ray_output *ou
             size_t keep = w->all.count < out->max_hits ? w->all.count : out->max_hits;
             out->truncated = keep < w->all.count;
             for (size_t i = 0; i < keep; i++)
-                out->hits[i] = reported(tree, w->all.items[i]);
+                out->hits[i] = reported(tree, &w->r, w->all.items[i]);
         }
     } else if (w->have_best && st == OCTREE_OK) {
         out->hit_count = 1;
         if (out->max_hits > 0)
-            out->hits[0] = reported(tree, w->best);
+            out->hits[0] = reported(tree, &w->r, w->best);
         else
             out->truncated = 1;
     }
@@ -1077,7 +1111,7 @@ static int compiled_begin(compiled_walk *c, ray_walk *w, const octree *tree)
     /* Closest and any-hit exact crossings may test a triangle twice (a leaf's neighbours
      * share it), which costs less than a set that prevents it, and their leaves take four
      * candidates at once through the filter. */
-    c->f.filtered = w->mode == ACCURACY_EXACT && !w->r.touch && w->detail != RAY_ALL;
+    c->f.filtered = w->mode == ACCURACY_EXACT && !w->r.touch && w->detail != RAY_ALL && !w->r.posed;
     if (!c->f.filtered)
         walk_need_set(w);
     c->lo = float_at_or_below(w->r.tmin);
@@ -1429,6 +1463,33 @@ octree_status octree_ray(const octree *tree, const ray_input *ray, ray_detail de
     uint64_t fallbacks_before = predicates_fallback_count();
     ray_walk w;
     walk_init(&w, tree, ray, detail, mode, out);
+    walk_alone(&w, tree);
+    st = walk_finish(&w, tree, out);
+    query_stats_finish(stats, &w.local, fallbacks_before, predicates_fallback_count());
+    return st;
+}
+
+octree_status octree_ray_posed(const octree *tree, const pose *at, const ray_input *ray, ray_detail detail,
+                               accuracy_mode mode, ray_output *out, query_stats *stats)
+{
+    if (!tree || !at || !out)
+        return OCTREE_ERR_INVALID;
+    octree_status st = check_query(ray, detail, mode);
+    if (st != OCTREE_OK)
+        return st;
+    if (mode != ACCURACY_EXACT)
+        return OCTREE_ERR_INVALID;
+    posed_ray posed;
+    st = octree_posed_ray_setup(tree, at, ray, &posed);
+    if (st != OCTREE_OK)
+        return st;
+    out->hit_count = 0;
+    out->truncated = 0;
+    if (posed.misses)
+        return OCTREE_OK;
+    uint64_t fallbacks_before = predicates_fallback_count();
+    ray_walk w;
+    walk_init_posed(&w, tree, ray, &posed, detail, mode, out);
     walk_alone(&w, tree);
     st = walk_finish(&w, tree, out);
     query_stats_finish(stats, &w.local, fallbacks_before, predicates_fallback_count());

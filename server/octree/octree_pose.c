@@ -1,0 +1,202 @@
+/* Rigid poses: the one way a local vertex is placed in the world, the check that a pose is a
+ * rotation, and what a walk in a posed tree's local frame must be widened by so that it
+ * still reaches every triangle the world-space ray meets (octree_ray_posed).
+ *
+ * The bounds below use u = 2^-53 (a double's unit roundoff) and tau, a bound on the
+ * spectral norm of R^T R - I (how far R is from orthonormal), which octree_pose_defect
+ * computes from R itself. Each is derived where it is used, and each is taken about twice
+ * as large as the derivation needs, so that the rounding of the bound's own arithmetic
+ * cannot make it too small. */
+#include <float.h>
+#include <math.h>
+
+#include "octree_internal.h"
+
+#define U 0x1p-53
+
+vec3 octree_pose_point(const pose *at, vec3 p)
+{
+    return octree_apply_pose(at, p);
+}
+
+octree_status octree_pose_from_quaternion(vec3 t, double qw, double qx, double qy, double qz, pose *out)
+{
+    if (!isfinite(qw) || !isfinite(qx) || !isfinite(qy) || !isfinite(qz) || !vec3_is_finite(t))
+        return OCTREE_ERR_NONFINITE;
+    double n = sqrt(qw * qw + qx * qx + qy * qy + qz * qz);
+    /* A quaternion far from unit length is a caller's mistake (a degree for a radian, a
+     * missing component), not rounding: refused, so that it cannot pass as a rotation. */
+    if (!(n >= 1.0 - OCTREE_QUATERNION_TOLERANCE && n <= 1.0 + OCTREE_QUATERNION_TOLERANCE))
+        return OCTREE_ERR_INVALID;
+    double w = qw / n, x = qx / n, y = qy / n, z = qz / n;
+    /* The rotation matrix of the unit quaternion (w, x, y, z), row-major. */
+    double r[9] = {1 - 2 * (y * y + z * z), 2 * (x * y - w * z),     2 * (x * z + w * y),
+                   2 * (x * y + w * z),     1 - 2 * (x * x + z * z), 2 * (y * z - w * x),
+                   2 * (x * z - w * y),     2 * (y * z + w * x),     1 - 2 * (x * x + y * y)};
+    for (int k = 0; k < 9; k++)
+        out->r[k] = r[k];
+    out->t = t;
+    return OCTREE_OK;
+}
+
+int octree_pose_defect(const pose *at, double *tau)
+{
+    const double *r = at->r;
+    double worst = 0.0;
+    for (int i = 0; i < 3; i++)
+        for (int j = i; j < 3; j++) {
+            /* Entry (i, j) of R^T R: columns i and j of R. */
+            double g = r[i] * r[j] + r[3 + i] * r[3 + j] + r[6 + i] * r[6 + j];
+            double e = fabs(g - (i == j ? 1.0 : 0.0));
+            if (!(e <= 1.0)) /* NaN, or nowhere near a rotation */
+                return -1;
+            worst = e > worst ? e : worst;
+        }
+    /* The spectral norm of the symmetric defect is at most its Frobenius norm, at most 3
+     * times its largest entry. Each computed entry is within 4u (|columns|^2 <= 2 here)
+     * of the real one, 8u more covers that and the sum. */
+    *tau = 3.0 * (worst + 8 * U) * (1 + 4 * U);
+    return 0;
+}
+
+octree_status octree_pose_check(const pose *at)
+{
+    for (int k = 0; k < 9; k++)
+        if (!isfinite(at->r[k]))
+            return OCTREE_ERR_NONFINITE;
+    if (!vec3_is_finite(at->t))
+        return OCTREE_ERR_NONFINITE;
+    double tau;
+    if (octree_pose_defect(at, &tau) != 0 || tau > 3.0 * OCTREE_ROTATION_TOLERANCE + 64 * U)
+        return OCTREE_ERR_INVALID;
+    const double *r = at->r;
+    double det = r[0] * (r[4] * r[8] - r[5] * r[7]) - r[1] * (r[3] * r[8] - r[5] * r[6]) +
+                 r[2] * (r[3] * r[7] - r[4] * r[6]);
+    /* Orthonormal within the tolerance, the determinant is within a few of it of +1 or -1:
+     * the sign tells a rotation from a reflection. */
+    return det > 0.5 ? OCTREE_OK : OCTREE_ERR_INVALID;
+}
+
+static double max_abs3(vec3 v)
+{
+    double a = fabs(v.x), b = fabs(v.y), c = fabs(v.z);
+    double m = a > b ? a : b;
+    return m > c ? m : c;
+}
+
+/* The conservative parameter interval [*t0, *t1] over which o + t d can be in the closed
+ * box b; 0 when it is empty. Each crossing (c - o) / d rounds twice, so widening by 4u of
+ * itself and the smallest normal covers it. */
+static int ray_box_interval(vec3 o, vec3 d, box3 b, double *t0, double *t1)
+{
+    double lo = -INFINITY, hi = INFINITY;
+    const double os[3] = {o.x, o.y, o.z}, ds[3] = {d.x, d.y, d.z};
+    const double bl[3] = {b.lo.x, b.lo.y, b.lo.z}, bh[3] = {b.hi.x, b.hi.y, b.hi.z};
+    for (int a = 0; a < 3; a++) {
+        if (ds[a] == 0.0) {
+            if (os[a] < bl[a] || os[a] > bh[a])
+                return 0;
+            continue;
+        }
+        double ta = (bl[a] - os[a]) / ds[a], tb = (bh[a] - os[a]) / ds[a];
+        double n = ta < tb ? ta : tb, f = ta < tb ? tb : ta;
+        n -= fabs(n) * 4 * U + DBL_MIN;
+        f += fabs(f) * 4 * U + DBL_MIN;
+        lo = n > lo ? n : lo;
+        hi = f < hi ? f : hi;
+    }
+    *t0 = lo;
+    *t1 = hi;
+    return lo <= hi;
+}
+
+octree_status octree_posed_ray_setup(const octree *tree, const pose *at, const ray_input *ray, posed_ray *out)
+{
+    octree_status st = octree_pose_check(at);
+    if (st != OCTREE_OK)
+        return st;
+    double tau;
+    octree_pose_defect(at, &tau);
+    const double *r = at->r;
+    const vec3 o = ray->origin, d = ray->direction, t = at->t;
+    /* The local ray: R^T (o - t) and R^T d, R^T standing for R^-1. */
+    vec3 c = vec3_sub(o, t);
+    vec3 lo = {r[0] * c.x + r[3] * c.y + r[6] * c.z, r[1] * c.x + r[4] * c.y + r[7] * c.z,
+               r[2] * c.x + r[5] * c.y + r[8] * c.z};
+    vec3 ld = {r[0] * d.x + r[3] * d.y + r[6] * d.z, r[1] * d.x + r[4] * d.y + r[7] * d.z,
+               r[2] * d.x + r[5] * d.y + r[8] * d.z};
+    if (!vec3_is_finite(lo) || !vec3_is_finite(ld))
+        return OCTREE_ERR_NONFINITE;
+    if (ld.x == 0.0 && ld.y == 0.0 && ld.z == 0.0) /* a direction below 2^-1000 or so */
+        return OCTREE_ERR_INVALID;
+    out->at = *at;
+    out->world = *ray;
+    out->local = *ray;
+    out->local.origin = lo;
+    out->local.direction = ld;
+    out->misses = 0;
+
+    /* e: how far a posed vertex fl(R p + t) may be from the real R p + t, per coordinate.
+     * Each coordinate is a sum of four terms rounded in six operations, within
+     * 4.1u (sum of |terms|); a row of R has |r|_1 <= sqrt(3) |r|_2 <= 1.8 (tau <= 1/16 by
+     * the check), and |p| is within the tree's world cube, so the sum is at most
+     * 1.8 P + |t|. */
+    double P = max_abs3(tree->world.lo) > max_abs3(tree->world.hi) ? max_abs3(tree->world.lo)
+                                                                   : max_abs3(tree->world.hi);
+    double T = max_abs3(t);
+    double e = 8 * U * (2 * P + T);
+    /* The posed triangle's real preimage A^-1(T_w), A(p) = R p + t, has its vertices within
+     * |R^-1| e of the tree's own: |R^-1|_2 <= 1 / sqrt(1 - tau) <= 1.04, and a max-norm
+     * error e is at most sqrt(3) e in the 2-norm, so 2e in the max norm covers every point
+     * of it, by convexity. */
+    double delta = 2 * e;
+    /* The computed local ray against the real preimage of the world ray,
+     * R^-1 (o - t) + s R^-1 d: |R^-1 - R^T|_2 <= tau / (1 - tau) |R|_2 <= 1.1 tau, and the
+     * roundings of o - t and of the two products add 7.4u; with |o - t| <= |o| + |t| in
+     * the max norm (sqrt(3) of it in the 2-norm) that is within (16u + 4 tau)(|o| + |t|)
+     * at s = 0, and (16u + 4 tau) |d| more per unit of s. */
+    double k = 16 * U + 4 * tau;
+    double g_origin = k * (max_abs3(o) + T), g_direction = k * max_abs3(d);
+    /* Hits are where the world ray is within the posed tree's reach: its world cube
+     * posed, whose box is that of the posed corners within e, grown by e more for the
+     * posed vertices' own error. */
+    box3 wb = {{INFINITY, INFINITY, INFINITY}, {-INFINITY, -INFINITY, -INFINITY}};
+    for (int q = 0; q < 8; q++) {
+        vec3 corner = {q & 1 ? tree->world.hi.x : tree->world.lo.x, q & 2 ? tree->world.hi.y : tree->world.lo.y,
+                       q & 4 ? tree->world.hi.z : tree->world.lo.z};
+        vec3 w = octree_apply_pose(at, corner);
+        wb.lo = vec3_min(wb.lo, w);
+        wb.hi = vec3_max(wb.hi, w);
+    }
+    double reach = 2 * e * (1 + 8 * U);
+    wb.lo = vec3_sub(wb.lo, (vec3){reach, reach, reach});
+    wb.hi = vec3_add(wb.hi, (vec3){reach, reach, reach});
+    if (!vec3_is_finite(wb.lo) || !vec3_is_finite(wb.hi))
+        return OCTREE_ERR_NONFINITE;
+    double t0, t1;
+    if (!ray_box_interval(o, d, wb, &t0, &t1)) {
+        out->misses = 1;
+        out->grow = out->vertex_reach = out->origin_reach = out->direction_reach = out->s_bound = 0.0;
+        return OCTREE_OK;
+    }
+    t0 = t0 > ray->tmin ? t0 : ray->tmin;
+    t1 = t1 < ray->tmax ? t1 : ray->tmax;
+    if (t0 > t1) {
+        out->misses = 1;
+        out->grow = out->vertex_reach = out->origin_reach = out->direction_reach = out->s_bound = 0.0;
+        return OCTREE_OK;
+    }
+    double S = fabs(t0) > fabs(t1) ? fabs(t0) : fabs(t1);
+    /* Every hit at s in [t0, t1] is a point of a posed triangle whose preimage is within
+     * delta of a tree triangle, and the computed local ray at s is within
+     * g_origin + S g_direction of that preimage: the walk, widened by their sum (rounded
+     * up), visits a leaf listing the triangle. */
+    out->grow = (delta + g_origin + S * g_direction) * (1 + 16 * U) + DBL_MIN;
+    out->vertex_reach = delta;
+    out->origin_reach = g_origin;
+    out->direction_reach = g_direction;
+    out->s_bound = S;
+    if (!(out->grow < INFINITY))
+        return OCTREE_ERR_NONFINITE;
+    return OCTREE_OK;
+}
