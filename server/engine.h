@@ -10,6 +10,11 @@ typedef struct vec3 {
     double x, y, z;
 } vec3;
 
+/* A closed axis-aligned box [lo, hi]. */
+typedef struct box3 {
+    vec3 lo, hi;
+} box3;
+
 /* How a test decides. See docs/accuracy.md for each mode's contract. */
 typedef enum accuracy_mode {
     ACCURACY_EXACT = 0, /* exact arithmetic on the double inputs (filtered, exact fallback) */
@@ -248,6 +253,11 @@ octree_status octree_pose_check(const pose *at);
  * first; OCTREE_ERR_INVALID when its length is not 1 within OCTREE_QUATERNION_TOLERANCE,
  * OCTREE_ERR_NONFINITE for a NaN or infinite component. */
 octree_status octree_pose_from_quaternion(vec3 t, double qw, double qx, double qy, double qz, pose *out);
+
+/* The smallest box holding octree_pose_point(at, p) for every p in `local`: the posed
+ * corners' box (octree_pose.c says why that suffices). What a top-level structure over
+ * posed objects needs, in O(1) a move. */
+box3 octree_pose_box(const pose *at, box3 local);
 
 /* A ray in world coordinates against a tree built in its local frame and placed at `at`:
  * the answers octree_ray would give on a tree built from the posed triangles

@@ -294,6 +294,41 @@ static void test_ray_far_from_the_object_misses(void **state)
     mesh_data_free(&m);
 }
 
+/* Every posed point of a box lies in octree_pose_box's box, and its corners reach the
+ * box's faces: at quarter turns, random rotations and a huge offset, with points a few
+ * ulps of the scene inside the corners, where rounding could carry a posed point past
+ * the posed corners if it were not monotone. */
+static void test_pose_box_holds_every_posed_point(void **state)
+{
+    (void)state;
+    rng r = rng_seeded(seed++);
+    box3 local = {{-1.5, 0.25, -3}, {2, 4, 1e-3}};
+    for (int k = 0; k < 30; k++) {
+        pose at = k == 0 ? (pose){{0, 0, 1, 1, 0, 0, 0, 1, 0}, {7, 8, 9}} : random_pose(&r, k % 3 ? 10 : 3e7);
+        box3 b = octree_pose_box(&at, local);
+        box3 hull = {{INFINITY, INFINITY, INFINITY}, {-INFINITY, -INFINITY, -INFINITY}};
+        for (int i = 0; i < 2000; i++) {
+            /* Corners, edge points and interior points alike. */
+            vec3 p = rng_point_in_box(&r, local);
+            if (i < 1000) {
+                /* A corner, or a point a few ulps of the scene inside it, where rounding
+                 * alone can carry a posed point past the posed corners. */
+                int q = i % 8;
+                double in = i < 8 ? 0.0 : rng_uniform(&r, 0, 1e-9);
+                p = (vec3){q & 1 ? local.hi.x - in : local.lo.x + in, q & 2 ? local.hi.y - in : local.lo.y + in,
+                           q & 4 ? local.hi.z - in : local.lo.z + in};
+            }
+            vec3 w = octree_pose_point(&at, p);
+            assert_true(w.x >= b.lo.x && w.y >= b.lo.y && w.z >= b.lo.z);
+            assert_true(w.x <= b.hi.x && w.y <= b.hi.y && w.z <= b.hi.z);
+            hull.lo = vec3_min(hull.lo, w);
+            hull.hi = vec3_max(hull.hi, w);
+        }
+        assert_true(hull.lo.x == b.lo.x && hull.lo.y == b.lo.y && hull.lo.z == b.lo.z);
+        assert_true(hull.hi.x == b.hi.x && hull.hi.y == b.hi.y && hull.hi.z == b.hi.z);
+    }
+}
+
 /* ---------- pose checks ---------- */
 
 static void test_pose_checks(void **state)
@@ -363,6 +398,7 @@ int main(void)
         cmocka_unit_test(test_terrain_at_poses),
         cmocka_unit_test(test_widening_covers_the_pose_rounding),
         cmocka_unit_test(test_ray_far_from_the_object_misses),
+        cmocka_unit_test(test_pose_box_holds_every_posed_point),
         cmocka_unit_test(test_pose_checks),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);

@@ -46,9 +46,6 @@ static inline vec3 vec3_with(vec3 a, int axis, double value)
     return a;
 }
 
-/* A closed axis-aligned box [lo, hi]. */
-typedef struct box3 {
-    vec3 lo, hi;
-} box3;
+/* box3, the closed axis-aligned box, is engine.h's. */
 
 #endif

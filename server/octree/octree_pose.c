@@ -84,6 +84,34 @@ static double max_abs3(vec3 v)
     return m > c ? m : c;
 }
 
+/* How far a posed point fl(R p + t) may be from the real R p + t, per coordinate, for p in
+ * the box `local`. Each coordinate is a sum of four terms rounded in six operations,
+ * within 4.1u of the sum of |terms|; a row of R has |r|_1 <= sqrt(3) |r|_2 <= 1.8 (tau
+ * <= 1/16 by the check), so the sum is at most 1.8 P + |t| with P the largest |coordinate|
+ * in the box. */
+static double pose_point_error(const pose *at, box3 local)
+{
+    double P = max_abs3(local.lo) > max_abs3(local.hi) ? max_abs3(local.lo) : max_abs3(local.hi);
+    return 8 * U * (2 * P + max_abs3(at->t));
+}
+
+box3 octree_pose_box(const pose *at, box3 local)
+{
+    /* Each posed coordinate, ((r0 p.x + r1 p.y) + r2 p.z) + t.x, is a monotone function of
+     * each of p.x, p.y, p.z on its own: every operation is, with the others held, and
+     * rounding to nearest is monotone. So over a box it is largest and smallest at
+     * corners, and the box of the eight posed corners holds every posed point. */
+    box3 wb = {{INFINITY, INFINITY, INFINITY}, {-INFINITY, -INFINITY, -INFINITY}};
+    for (int q = 0; q < 8; q++) {
+        vec3 corner = {q & 1 ? local.hi.x : local.lo.x, q & 2 ? local.hi.y : local.lo.y,
+                       q & 4 ? local.hi.z : local.lo.z};
+        vec3 w = octree_apply_pose(at, corner);
+        wb.lo = vec3_min(wb.lo, w);
+        wb.hi = vec3_max(wb.hi, w);
+    }
+    return wb;
+}
+
 /* The conservative parameter interval [*t0, *t1] over which o + t d can be in the closed
  * box b; 0 when it is empty. Each crossing (c - o) / d rounds twice, so widening by 4u of
  * itself and the smallest normal covers it. */
@@ -136,15 +164,8 @@ octree_status octree_posed_ray_setup(const octree *tree, const pose *at, const r
     out->local.direction = ld;
     out->misses = 0;
 
-    /* e: how far a posed vertex fl(R p + t) may be from the real R p + t, per coordinate.
-     * Each coordinate is a sum of four terms rounded in six operations, within
-     * 4.1u (sum of |terms|); a row of R has |r|_1 <= sqrt(3) |r|_2 <= 1.8 (tau <= 1/16 by
-     * the check), and |p| is within the tree's world cube, so the sum is at most
-     * 1.8 P + |t|. */
-    double P = max_abs3(tree->world.lo) > max_abs3(tree->world.hi) ? max_abs3(tree->world.lo)
-                                                                   : max_abs3(tree->world.hi);
     double T = max_abs3(t);
-    double e = 8 * U * (2 * P + T);
+    double e = pose_point_error(at, tree->world);
     /* The posed triangle's real preimage A^-1(T_w), A(p) = R p + t, has its vertices within
      * |R^-1| e of the tree's own: |R^-1|_2 <= 1 / sqrt(1 - tau) <= 1.04, and a max-norm
      * error e is at most sqrt(3) e in the 2-norm, so 2e in the max norm covers every point
@@ -158,19 +179,8 @@ octree_status octree_posed_ray_setup(const octree *tree, const pose *at, const r
     double k = 16 * U + 4 * tau;
     double g_origin = k * (max_abs3(o) + T), g_direction = k * max_abs3(d);
     /* Hits are where the world ray is within the posed tree's reach: its world cube
-     * posed, whose box is that of the posed corners within e, grown by e more for the
-     * posed vertices' own error. */
-    box3 wb = {{INFINITY, INFINITY, INFINITY}, {-INFINITY, -INFINITY, -INFINITY}};
-    for (int q = 0; q < 8; q++) {
-        vec3 corner = {q & 1 ? tree->world.hi.x : tree->world.lo.x, q & 2 ? tree->world.hi.y : tree->world.lo.y,
-                       q & 4 ? tree->world.hi.z : tree->world.lo.z};
-        vec3 w = octree_apply_pose(at, corner);
-        wb.lo = vec3_min(wb.lo, w);
-        wb.hi = vec3_max(wb.hi, w);
-    }
-    double reach = 2 * e * (1 + 8 * U);
-    wb.lo = vec3_sub(wb.lo, (vec3){reach, reach, reach});
-    wb.hi = vec3_add(wb.hi, (vec3){reach, reach, reach});
+     * posed. */
+    box3 wb = octree_pose_box(at, tree->world);
     if (!vec3_is_finite(wb.lo) || !vec3_is_finite(wb.hi))
         return OCTREE_ERR_NONFINITE;
     double t0, t1;
