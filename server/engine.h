@@ -259,6 +259,10 @@ octree_status octree_pose_from_quaternion(vec3 t, double qw, double qx, double q
  * posed objects needs, in O(1) a move. */
 box3 octree_pose_box(const pose *at, box3 local);
 
+/* An interval [*t0, *t1] holding every t at which o + t d is in the closed box b, widened
+ * for its rounding; 0 when the ray's line misses the box (then *t0, *t1 are unset). */
+int octree_ray_box_interval(vec3 o, vec3 d, box3 b, double *t0, double *t1);
+
 /* A ray in world coordinates against a tree built in its local frame and placed at `at`:
  * the answers octree_ray would give on a tree built from the posed triangles
  * (octree_pose_point of every vertex), the same t, barycentrics, normal and triangle
@@ -268,6 +272,12 @@ box3 octree_pose_box(const pose *at, box3 local);
  * mode or a pose octree_pose_check refuses. */
 octree_status octree_ray_posed(const octree *tree, const pose *at, const ray_input *ray, ray_detail detail,
                                accuracy_mode mode, ray_output *out, query_stats *stats);
+
+/* The exact order of two hits of one ray (both triangles hit by it under its contact
+ * rule, in exact mode): -1, 0, +1 for t_a <, =, > t_b. What merges the answers of several
+ * posed trees (a world of objects) into one closest hit or one ordered list, where the
+ * rounded t of two hits may tie or mislead. */
+int octree_ray_hit_order(const ray_input *ray, const vec3 a[3], const vec3 b[3]);
 
 typedef struct mesh_pair {
     uint32_t query_triangle;

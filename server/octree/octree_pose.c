@@ -112,11 +112,10 @@ box3 octree_pose_box(const pose *at, box3 local)
     return wb;
 }
 
-/* The conservative parameter interval [*t0, *t1] over which o + t d can be in the closed
- * box b; 0 when it is empty. Each crossing (c - o) / d rounds twice, so widening by 4u of
- * itself and the smallest normal covers it. */
-static int ray_box_interval(vec3 o, vec3 d, box3 b, double *t0, double *t1)
+int octree_ray_box_interval(vec3 o, vec3 d, box3 b, double *t0, double *t1)
 {
+    /* Each crossing (c - o) / d rounds twice, so widening it by 4u of itself and the
+     * smallest normal covers it. */
     double lo = -INFINITY, hi = INFINITY;
     const double os[3] = {o.x, o.y, o.z}, ds[3] = {d.x, d.y, d.z};
     const double bl[3] = {b.lo.x, b.lo.y, b.lo.z}, bh[3] = {b.hi.x, b.hi.y, b.hi.z};
@@ -184,7 +183,7 @@ octree_status octree_posed_ray_setup(const octree *tree, const pose *at, const r
     if (!vec3_is_finite(wb.lo) || !vec3_is_finite(wb.hi))
         return OCTREE_ERR_NONFINITE;
     double t0, t1;
-    if (!ray_box_interval(o, d, wb, &t0, &t1)) {
+    if (!octree_ray_box_interval(o, d, wb, &t0, &t1)) {
         out->misses = 1;
         out->grow = out->vertex_reach = out->origin_reach = out->direction_reach = out->s_bound = 0.0;
         return OCTREE_OK;

@@ -1496,6 +1496,13 @@ octree_status octree_ray_posed(const octree *tree, const pose *at, const ray_inp
     return st;
 }
 
+int octree_ray_hit_order(const ray_input *ray, const vec3 a[3], const vec3 b[3])
+{
+    if (ray->contact == RAY_TOUCH)
+        return ray_tri_touch_compare(ray->origin, ray->direction, ray->tmin, ray->tmax, a, b);
+    return ray_tri_compare_t(ray->origin, ray->direction, a, b);
+}
+
 /* Rays from one origin (a camera image, a lidar scan) in visiting-order groups of up to
  * PACKET_RAYS walk the tree together: a node is popped, its planes derived and its
  * children's records read once for the group, and each ray's own intervals are computed

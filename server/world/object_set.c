@@ -1,0 +1,433 @@
+/* A world's objects: shared models, versioned tables of posed objects, and rays over them
+ * (object_set.h). */
+#include "object_set.h"
+
+#include <float.h>
+#include <math.h>
+#include <stdarg.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "../../common/array_reserve.h"
+#include "../geom/vec3.h"
+#include "error_text.h"
+
+/* ---------- models ---------- */
+
+object_model *object_model_create(const char *key, mesh_data *mesh, const octree_def *def, char *err,
+                                  size_t err_len)
+{
+    if (!key || strlen(key) >= TRIOCT_MAX_PATH_LEN) {
+        error_text(err, err_len, "model key missing or too long");
+        return NULL;
+    }
+    if (mesh->triangle_count == 0) {
+        error_text(err, err_len, "%s: the mesh has no triangles", key);
+        return NULL;
+    }
+    object_model *m = calloc(1, sizeof *m);
+    if (!m) {
+        error_text(err, err_len, "%s: out of memory", key);
+        return NULL;
+    }
+    mesh_view view = mesh_data_view(mesh);
+    octree_error e;
+    m->tree = octree_build(&view, def, &e);
+    if (!m->tree) {
+        error_text(err, err_len, "%s: %s", key, e.message);
+        free(m);
+        return NULL;
+    }
+    snprintf(m->key, sizeof m->key, "%s", key);
+    m->mesh = *mesh;
+    *mesh = (mesh_data){0};
+    m->bounds = mesh_data_bounds(&m->mesh);
+    octree_info info;
+    octree_get_info(m->tree, &info);
+    m->bytes = info.bytes_total + m->mesh.vertex_count * sizeof(vec3) + 3 * m->mesh.triangle_count * sizeof(uint32_t);
+    atomic_init(&m->refs, 1);
+    return m;
+}
+
+void object_model_retain(object_model *m)
+{
+    atomic_fetch_add(&m->refs, 1);
+}
+
+void object_model_release(object_model *m)
+{
+    if (!m || atomic_fetch_sub(&m->refs, 1) != 1)
+        return;
+    octree_free(m->tree);
+    mesh_data_free(&m->mesh);
+    free(m);
+}
+
+/* ---------- sets ---------- */
+
+object_set *object_set_create(void)
+{
+    object_set *s = calloc(1, sizeof *s);
+    if (s)
+        atomic_init(&s->refs, 1);
+    return s;
+}
+
+void object_set_retain(object_set *s)
+{
+    atomic_fetch_add(&s->refs, 1);
+}
+
+void object_set_release(object_set *s)
+{
+    if (!s || atomic_fetch_sub(&s->refs, 1) != 1)
+        return;
+    for (size_t i = 0; i < s->count; i++)
+        object_model_release(s->objects[i].model);
+    free(s->objects);
+    free(s);
+}
+
+/* The index of name in the sorted table, or where it would go (*found 0). */
+static size_t find_slot(const world_object *objects, size_t count, const char *name, int *found)
+{
+    size_t lo = 0, hi = count;
+    while (lo < hi) {
+        size_t mid = lo + (hi - lo) / 2;
+        int c = strcmp(objects[mid].name, name);
+        if (c == 0) {
+            *found = 1;
+            return mid;
+        }
+        if (c < 0)
+            lo = mid + 1;
+        else
+            hi = mid;
+    }
+    *found = 0;
+    return lo;
+}
+
+long object_set_find(const object_set *s, const char *name)
+{
+    int found;
+    size_t i = find_slot(s->objects, s->count, name, &found);
+    return found ? (long)i : -1;
+}
+
+static int name_ok(const char *name)
+{
+    size_t n = name ? strlen(name) : 0;
+    if (n == 0 || n > TRIOCT_MAX_NAME_LEN)
+        return 0;
+    for (size_t i = 0; i < n; i++) {
+        char c = name[i];
+        if (!((c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '_' || c == '-' ||
+              c == '.'))
+            return 0;
+    }
+    return 1;
+}
+
+static const char *edit_kind_text(object_edit_kind k)
+{
+    switch (k) {
+    case OBJECT_EDIT_ADD:
+        return "add";
+    case OBJECT_EDIT_MOVE:
+        return "move";
+    case OBJECT_EDIT_REMOVE:
+        return "remove";
+    }
+    return "edit";
+}
+
+/* A working copy's table: the edits change it in place; models are referenced only once
+ * the whole list has applied. */
+typedef struct table {
+    world_object *items;
+    size_t count, capacity;
+} table;
+
+static object_edit_status apply_one(table *t, const object_edit *e, char *err, size_t err_len, size_t index)
+{
+    const char *what = edit_kind_text(e->kind);
+    if (!name_ok(e->name)) {
+        error_text(err, err_len, "edit %zu (%s): object name '%s' is not 1-%d of [A-Za-z0-9_.-]", index, what,
+                   e->name ? e->name : "", TRIOCT_MAX_NAME_LEN);
+        return OBJECT_EDIT_BAD_NAME;
+    }
+    int found;
+    size_t slot = find_slot(t->items, t->count, e->name, &found);
+    if (e->kind == OBJECT_EDIT_ADD || e->kind == OBJECT_EDIT_MOVE) {
+        octree_status ps = octree_pose_check(&e->at);
+        if (ps != OCTREE_OK) {
+            error_text(err, err_len, "edit %zu (%s %s): the pose %s", index, what, e->name,
+                       ps == OCTREE_ERR_NONFINITE ? "has a NaN or infinite entry"
+                                                  : "is not a rotation (orthonormal with det +1 within 1e-6)");
+            return OBJECT_EDIT_BAD_POSE;
+        }
+    }
+    switch (e->kind) {
+    case OBJECT_EDIT_ADD:
+        if (!e->model) {
+            error_text(err, err_len, "edit %zu (add %s): no model", index, e->name);
+            return OBJECT_EDIT_BAD_EDIT;
+        }
+        if (found) {
+            error_text(err, err_len, "edit %zu (add %s): the world already has an object of that name", index, e->name);
+            return OBJECT_EDIT_EXISTS;
+        }
+        if (t->count >= OBJECT_SET_MAX_OBJECTS) {
+            error_text(err, err_len, "edit %zu (add %s): a world holds at most %d objects", index, e->name,
+                       OBJECT_SET_MAX_OBJECTS);
+            return OBJECT_EDIT_TOO_MANY;
+        }
+        if (array_reserve((void **)&t->items, &t->capacity, t->count + 1, sizeof *t->items, 8) != 0) {
+            error_text(err, err_len, "edit %zu (add %s): out of memory", index, e->name);
+            return OBJECT_EDIT_NOMEM;
+        }
+        memmove(&t->items[slot + 1], &t->items[slot], (t->count - slot) * sizeof *t->items);
+        t->count++;
+        world_object *o = &t->items[slot];
+        memset(o, 0, sizeof *o);
+        snprintf(o->name, sizeof o->name, "%s", e->name);
+        o->model = e->model;
+        o->at = e->at;
+        o->bounds = octree_pose_box(&e->at, e->model->bounds);
+        return OBJECT_EDIT_OK;
+    case OBJECT_EDIT_MOVE:
+        if (!found) {
+            error_text(err, err_len, "edit %zu (move %s): the world has no object of that name", index, e->name);
+            return OBJECT_EDIT_UNKNOWN;
+        }
+        t->items[slot].at = e->at;
+        t->items[slot].bounds = octree_pose_box(&e->at, t->items[slot].model->bounds);
+        return OBJECT_EDIT_OK;
+    case OBJECT_EDIT_REMOVE:
+        if (!found) {
+            error_text(err, err_len, "edit %zu (remove %s): the world has no object of that name", index, e->name);
+            return OBJECT_EDIT_UNKNOWN;
+        }
+        memmove(&t->items[slot], &t->items[slot + 1], (t->count - slot - 1) * sizeof *t->items);
+        t->count--;
+        return OBJECT_EDIT_OK;
+    }
+    error_text(err, err_len, "edit %zu: unknown kind %d", index, (int)e->kind);
+    return OBJECT_EDIT_BAD_EDIT;
+}
+
+object_edit_status object_set_apply(const object_set *from, const object_edit *edits, size_t count,
+                                    object_set **out, size_t *failed, char *err, size_t err_len)
+{
+    *out = NULL;
+    if (failed)
+        *failed = 0;
+    table t = {0};
+    if (from->count &&
+        array_reserve((void **)&t.items, &t.capacity, from->count, sizeof *t.items, 8) != 0) {
+        error_text(err, err_len, "out of memory");
+        return OBJECT_EDIT_NOMEM;
+    }
+    if (from->count)
+        memcpy(t.items, from->objects, from->count * sizeof *t.items);
+    t.count = from->count;
+    for (size_t i = 0; i < count; i++) {
+        object_edit_status st = apply_one(&t, &edits[i], err, err_len, i);
+        if (st != OBJECT_EDIT_OK) {
+            free(t.items);
+            if (failed)
+                *failed = i;
+            return st;
+        }
+    }
+    object_set *s = calloc(1, sizeof *s);
+    if (!s) {
+        free(t.items);
+        error_text(err, err_len, "out of memory");
+        return OBJECT_EDIT_NOMEM;
+    }
+    s->objects = t.items;
+    s->count = t.count;
+    s->version = from->version + 1;
+    for (size_t i = 0; i < s->count; i++) {
+        object_model_retain(s->objects[i].model);
+        s->triangles += s->objects[i].model->mesh.triangle_count;
+    }
+    atomic_init(&s->refs, 1);
+    *out = s;
+    return OBJECT_EDIT_OK;
+}
+
+/* ---------- rays ---------- */
+
+/* An object the ray may reach, with the least t at which it can. */
+typedef struct ray_candidate {
+    double t0;
+    uint32_t object;
+} ray_candidate;
+
+static int by_entry(const void *a, const void *b)
+{
+    const ray_candidate *x = a, *y = b;
+    if (x->t0 != y->t0)
+        return x->t0 < y->t0 ? -1 : 1;
+    return (x->object > y->object) - (x->object < y->object);
+}
+
+static void posed_triangle(const world_object *o, uint32_t triangle, vec3 out[3])
+{
+    for (int k = 0; k < 3; k++)
+        out[k] = octree_pose_point(&o->at, mesh_data_corner(&o->model->mesh, triangle, k));
+}
+
+/* Order of two hits of one ray: exact t, then object, then triangle. */
+static int object_hit_order(const object_set *s, const ray_input *ray, const object_hit *a, const object_hit *b)
+{
+    if (a->object != b->object || a->hit.triangle != b->hit.triangle) {
+        vec3 ta[3], tb[3];
+        posed_triangle(&s->objects[a->object], a->hit.triangle, ta);
+        posed_triangle(&s->objects[b->object], b->hit.triangle, tb);
+        int c = octree_ray_hit_order(ray, ta, tb);
+        if (c != 0)
+            return c;
+    }
+    if (a->object != b->object)
+        return a->object < b->object ? -1 : 1;
+    return (a->hit.triangle > b->hit.triangle) - (a->hit.triangle < b->hit.triangle);
+}
+
+/* A t at or above the exact t of a hit reported at t (reported within a few ulps). */
+static double t_upper(double t)
+{
+    return t + fabs(t) * 0x1p-40 + DBL_MIN;
+}
+
+static void sort_object_hits(const object_set *s, const ray_input *ray, object_hit *h, object_hit *tmp, size_t n)
+{
+    if (n < 2)
+        return;
+    size_t half = n / 2;
+    sort_object_hits(s, ray, h, tmp, half);
+    sort_object_hits(s, ray, h + half, tmp, n - half);
+    size_t i = 0, j = half, k = 0;
+    while (i < half && j < n)
+        tmp[k++] = object_hit_order(s, ray, &h[j], &h[i]) < 0 ? h[j++] : h[i++];
+    while (i < half)
+        tmp[k++] = h[i++];
+    while (j < n)
+        tmp[k++] = h[j++];
+    memcpy(h, tmp, n * sizeof *h);
+}
+
+octree_status object_set_ray(const object_set *s, const ray_input *ray, ray_detail detail,
+                             object_ray_output *out, query_stats *stats)
+{
+    if (!s || !ray || !out || (detail != RAY_ANY && detail != RAY_CLOSEST && detail != RAY_ALL))
+        return OCTREE_ERR_INVALID;
+    out->hit_count = 0;
+    out->truncated = 0;
+    if (!vec3_is_finite(ray->origin) || !vec3_is_finite(ray->direction))
+        return OCTREE_ERR_NONFINITE;
+    if (ray->direction.x == 0 && ray->direction.y == 0 && ray->direction.z == 0)
+        return OCTREE_ERR_INVALID;
+    if (!isfinite(ray->tmin) || isnan(ray->tmax) || ray->tmin > ray->tmax)
+        return OCTREE_ERR_INVALID;
+    if (s->count == 0)
+        return OCTREE_OK;
+
+    ray_candidate *cand = malloc(s->count * sizeof *cand);
+    if (!cand)
+        return OCTREE_ERR_NOMEM;
+    size_t n = 0;
+    for (size_t i = 0; i < s->count; i++) {
+        double t0, t1;
+        if (!octree_ray_box_interval(ray->origin, ray->direction, s->objects[i].bounds, &t0, &t1))
+            continue;
+        if (t1 < ray->tmin || t0 > ray->tmax)
+            continue;
+        cand[n++] = (ray_candidate){t0 > ray->tmin ? t0 : ray->tmin, (uint32_t)i};
+    }
+    qsort(cand, n, sizeof *cand, by_entry);
+
+    octree_status st = OCTREE_OK;
+    if (detail != RAY_ALL) {
+        int have = 0;
+        object_hit best = {0};
+        for (size_t k = 0; k < n; k++) {
+            /* Objects come in order of where the ray can first reach them: once that is
+             * past the best hit, no later one holds a nearer hit. */
+            if (have && cand[k].t0 > t_upper(best.hit.t))
+                break;
+            const world_object *o = &s->objects[cand[k].object];
+            ray_hit h;
+            ray_output one = {.hits = &h, .max_hits = 1};
+            st = octree_ray_posed(o->model->tree, &o->at, ray, detail, ACCURACY_EXACT, &one, stats);
+            if (st != OCTREE_OK)
+                break;
+            if (one.hit_count == 0)
+                continue;
+            object_hit found = {h, cand[k].object};
+            if (!have || object_hit_order(s, ray, &found, &best) < 0) {
+                best = found;
+                have = 1;
+            }
+            if (detail == RAY_ANY)
+                break;
+        }
+        if (st == OCTREE_OK && have) {
+            out->hit_count = 1;
+            if (out->max_hits > 0)
+                out->hits[0] = best;
+            else
+                out->truncated = 1;
+        }
+        free(cand);
+        return st;
+    }
+
+    /* Every hit: each object's own first max_hits (the first max_hits of the union are
+     * among them), merged in order. */
+    size_t cap = out->max_hits, held = 0, total = 0, room = 0;
+    object_hit *all = NULL;
+    ray_hit *buf = malloc((cap ? cap : 1) * sizeof *buf);
+    if (!buf) {
+        free(cand);
+        return OCTREE_ERR_NOMEM;
+    }
+    for (size_t k = 0; k < n && st == OCTREE_OK; k++) {
+        const world_object *o = &s->objects[cand[k].object];
+        ray_output part = {.hits = buf, .max_hits = cap};
+        st = octree_ray_posed(o->model->tree, &o->at, ray, RAY_ALL, ACCURACY_EXACT, &part, stats);
+        if (st != OCTREE_OK)
+            break;
+        total += part.hit_count;
+        size_t keep = part.hit_count < cap ? part.hit_count : cap;
+        if (keep && array_reserve((void **)&all, &room, held + keep, sizeof *all, 16) != 0) {
+            st = OCTREE_ERR_NOMEM;
+            break;
+        }
+        for (size_t i = 0; i < keep; i++)
+            all[held++] = (object_hit){buf[i], cand[k].object};
+    }
+    if (st == OCTREE_OK && held > 1) {
+        object_hit *tmp = malloc(held * sizeof *tmp);
+        if (!tmp)
+            st = OCTREE_ERR_NOMEM;
+        else
+            sort_object_hits(s, ray, all, tmp, held);
+        free(tmp);
+    }
+    if (st == OCTREE_OK) {
+        out->hit_count = total;
+        size_t keep = held < cap ? held : cap;
+        out->truncated = keep < total;
+        if (keep)
+            memcpy(out->hits, all, keep * sizeof *all);
+    }
+    free(all);
+    free(buf);
+    free(cand);
+    return st;
+}

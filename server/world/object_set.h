@@ -1,0 +1,118 @@
+/* A world as a set of named objects that move: each object a model (a mesh and its
+ * octree, built once in the model's local frame and shared by every object that uses the
+ * same mesh) placed by a rigid pose. A set is one version of the world's object table,
+ * immutable and shared by reference count: an edit list makes a new version that shares
+ * the models, so a move costs a box per object and nothing per triangle, and queries in
+ * flight finish on the version they started on.
+ *
+ * Answers are exact on the posed vertices, fl(R p + t) in the order octree_pose_point
+ * gives (engine.h): the same answers a single octree built from every object's posed
+ * triangles would give, with each triangle named by its object and its index in the
+ * object's mesh. */
+#ifndef TRIOCT_WORLD_OBJECT_SET_H
+#define TRIOCT_WORLD_OBJECT_SET_H
+
+#include <stdatomic.h>
+#include <stddef.h>
+#include <stdint.h>
+
+#include "../../common/trioct_limits.h"
+#include "../engine.h"
+#include "mesh_data.h"
+
+/* Objects a world may hold: a flat table over their boxes answers that many rays in a
+ * few microseconds; a hierarchy over the boxes is the next step if worlds need more. */
+#define OBJECT_SET_MAX_OBJECTS 1024
+
+/* A mesh and its tree in the mesh's own frame, shared by reference count. */
+typedef struct object_model {
+    char key[TRIOCT_MAX_PATH_LEN]; /* what makes two objects share it: a file path, or "inline:NAME" */
+    mesh_data mesh;                /* the vertices answers are posed from */
+    octree *tree;
+    box3 bounds;                   /* of the mesh's vertices, in its frame */
+    size_t bytes;                  /* the mesh and the tree */
+    atomic_int refs;
+} object_model;
+
+/* Takes the mesh (moved into the model; *mesh is zeroed) and builds its tree with def.
+ * NULL when the mesh is empty or the tree cannot be built, with err saying why. */
+object_model *object_model_create(const char *key, mesh_data *mesh, const octree_def *def, char *err,
+                                  size_t err_len);
+void object_model_retain(object_model *m);
+void object_model_release(object_model *m);
+
+typedef struct world_object {
+    char name[TRIOCT_MAX_NAME_LEN + 1];
+    object_model *model; /* one reference */
+    pose at;
+    box3 bounds; /* every posed vertex inside (octree_pose_box of the model's bounds) */
+} world_object;
+
+typedef struct object_set {
+    uint64_t version;        /* 1 for the first set, + 1 for every applied edit list */
+    world_object *objects;   /* sorted by name, so answers do not depend on edit order */
+    size_t count;
+    size_t triangles;
+    atomic_int refs;
+} object_set;
+
+/* A set with no objects at version 0, or NULL when out of memory. */
+object_set *object_set_create(void);
+void object_set_retain(object_set *s);
+void object_set_release(object_set *s);
+
+/* The index of the object of that name, or -1. */
+long object_set_find(const object_set *s, const char *name);
+
+typedef enum object_edit_kind {
+    OBJECT_EDIT_ADD,    /* name, model, at */
+    OBJECT_EDIT_MOVE,   /* name, at */
+    OBJECT_EDIT_REMOVE, /* name */
+} object_edit_kind;
+
+typedef struct object_edit {
+    object_edit_kind kind;
+    const char *name;
+    object_model *model; /* ADD: the set takes its own reference */
+    pose at;
+} object_edit;
+
+typedef enum object_edit_status {
+    OBJECT_EDIT_OK = 0,
+    OBJECT_EDIT_BAD_NAME,  /* empty, too long, or not [A-Za-z0-9_.-] */
+    OBJECT_EDIT_EXISTS,    /* ADD of a name the set holds */
+    OBJECT_EDIT_UNKNOWN,   /* MOVE or REMOVE of a name it does not */
+    OBJECT_EDIT_BAD_POSE,  /* not a rotation (octree_pose_check), or not finite */
+    OBJECT_EDIT_TOO_MANY,  /* past OBJECT_SET_MAX_OBJECTS */
+    OBJECT_EDIT_BAD_EDIT,  /* an unknown kind, or ADD without a model */
+    OBJECT_EDIT_NOMEM,
+} object_edit_status;
+
+/* Applies the edits in order to a copy of from, all or none: *out is the new version
+ * (from's version + 1) with one reference, or NULL with the first failing edit's status,
+ * its index in *failed and err naming the edit and the object. from is not changed. */
+object_edit_status object_set_apply(const object_set *from, const object_edit *edits, size_t count,
+                                    object_set **out, size_t *failed, char *err, size_t err_len);
+
+/* A ray hit on an object: the engine's hit (triangle: the index in the object's mesh,
+ * t, barycentrics and normal in world space) and the object's index in the set. */
+typedef struct object_hit {
+    ray_hit hit;
+    uint32_t object;
+} object_hit;
+
+typedef struct object_ray_output {
+    size_t hit_count; /* for RAY_ALL every hit found, possibly more than max_hits */
+    int truncated;
+    object_hit *hits;
+    size_t max_hits;
+} object_ray_output;
+
+/* One ray against every object it can reach: octree_ray's contract over the union of the
+ * posed triangles. Closest hits and RAY_ALL's order are by exact t, then object index,
+ * then triangle index (what a tree of the union in object order breaks ties by); RAY_ANY
+ * stops at the first hit found. Exact mode only. */
+octree_status object_set_ray(const object_set *s, const ray_input *ray, ray_detail detail,
+                             object_ray_output *out, query_stats *stats);
+
+#endif
