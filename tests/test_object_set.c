@@ -239,6 +239,12 @@ static void test_versions_and_edits(void **state)
     assert_int_equal(out.truncated, 1);
     assert_true(two[0].hit.t == 2.0 && two[1].hit.t == 3.0);
     assert_string_equal(v1->objects[two[1].object].name, "near");
+    /* One kept: each object is asked for one, and still counts all of its own. */
+    out.max_hits = 1;
+    assert_int_equal(object_set_ray(v1, &ray, RAY_ALL, &out, NULL), OCTREE_OK);
+    assert_int_equal(out.hit_count, 4);
+    assert_int_equal(out.truncated, 1);
+    assert_true(two[0].hit.t == 2.0);
 
     /* Move the near cube out of the ray's way: the new version sees the far one, the old
      * version still the near one. No model is rebuilt. */
