@@ -273,6 +273,12 @@ int octree_ray_box_interval(vec3 o, vec3 d, box3 b, double *t0, double *t1);
 octree_status octree_ray_posed(const octree *tree, const pose *at, const ray_input *ray, ray_detail detail,
                                accuracy_mode mode, ray_output *out, query_stats *stats);
 
+/* A triangle in world coordinates against a tree placed at `at`: octree_triangle's answer
+ * on a tree of the posed triangles (contacts name the tree's triangles, segments are in
+ * world space), with no tree built for the pose. ACCURACY_EXACT only. */
+octree_status octree_triangle_posed(const octree *tree, const pose *at, const vec3 tri[3], tri_detail detail,
+                                    accuracy_mode mode, tri_output *out, query_stats *stats);
+
 /* The exact order of two hits of one ray (both triangles hit by it under its contact
  * rule, in exact mode): -1, 0, +1 for t_a <, =, > t_b. What merges the answers of several
  * posed trees (a world of objects) into one closest hit or one ordered list, where the

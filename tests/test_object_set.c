@@ -1,6 +1,6 @@
-/* A world of named objects (server/world/object_set.h): rays over posed objects answer as
- * one tree of all their posed triangles would, to the bit, ties between coincident faces
- * of two objects included; edit lists apply all or nothing and make new versions while
+/* A world of named objects (server/world/object_set.h): rays and triangles over posed
+ * objects answer as one tree of all their posed triangles would, to the bit, ties between
+ * coincident faces of two objects included; edit lists apply all or nothing and make new versions while
  * old ones keep answering as they did; objects that share a mesh share one model. */
 #include <math.h>
 #include <setjmp.h>
@@ -108,6 +108,47 @@ static void check_ray(const object_set *s, const octree *u, const size_t *offset
     }
 }
 
+#define MAX_CONTACTS 256
+
+static void check_triangle(const object_set *s, const octree *u, const size_t *offsets, const vec3 q[3],
+                           size_t *touched)
+{
+    for (int detail = TRI_YESNO; detail <= TRI_SEGMENTS; detail++) {
+        object_contact oc[MAX_CONTACTS];
+        tri_contact uc[MAX_CONTACTS];
+        object_tri_output oo = {.contacts = oc, .capacity = MAX_CONTACTS};
+        tri_output uo = {.contacts = uc, .capacity = MAX_CONTACTS};
+        assert_int_equal(object_set_triangle(s, q, (tri_detail)detail, &oo, NULL), OCTREE_OK);
+        assert_int_equal(octree_triangle(u, q, (tri_detail)detail, ACCURACY_EXACT, &uo, NULL), OCTREE_OK);
+        assert_int_equal(oo.hit, uo.hit);
+        assert_int_equal(oo.count, uo.count);
+        assert_int_equal(oo.truncated, uo.truncated);
+        if (detail == TRI_YESNO)
+            *touched += uo.hit;
+        /* Three kept: the first three of the union's order, and every contact counted. */
+        object_contact oc3[3];
+        tri_contact uc3[3];
+        object_tri_output oo3 = {.contacts = oc3, .capacity = 3};
+        tri_output uo3 = {.contacts = uc3, .capacity = 3};
+        assert_int_equal(object_set_triangle(s, q, (tri_detail)detail, &oo3, NULL), OCTREE_OK);
+        assert_int_equal(octree_triangle(u, q, (tri_detail)detail, ACCURACY_EXACT, &uo3, NULL), OCTREE_OK);
+        assert_int_equal(oo3.count, uo3.count);
+        assert_int_equal(oo3.truncated, uo3.truncated);
+        for (size_t i = 0; i < 3 && i < uo3.count && detail != TRI_YESNO; i++)
+            assert_int_equal(oc3[i].contact.triangle, oc[i].contact.triangle);
+        size_t n = uo.count < MAX_CONTACTS ? uo.count : MAX_CONTACTS;
+        for (size_t i = 0; i < n; i++) {
+            uint32_t object, triangle;
+            split_id(s, offsets, uc[i].triangle, &object, &triangle);
+            const tri_contact *a = &oc[i].contact, *b = &uc[i];
+            if (oc[i].object != object || a->triangle != triangle || a->p.x != b->p.x || a->p.y != b->p.y ||
+                a->p.z != b->p.z || a->q.x != b->q.x || a->q.y != b->q.y || a->q.z != b->q.z)
+                fail_msg("detail %d contact %zu: objects give %s:%u, the union tree %s:%u", detail, i,
+                         s->objects[oc[i].object].name, a->triangle, s->objects[object].name, triangle);
+        }
+    }
+}
+
 static void check_against_union(const object_set *s, int rays, uint64_t seed)
 {
     size_t offsets[16];
@@ -136,6 +177,23 @@ static void check_against_union(const object_set *s, int rays, uint64_t seed)
         check_ray(s, u, offsets, &inside, &hits);
     }
     assert_true(hits > (size_t)rays); /* rays that all missed would check nothing */
+    /* Triangles on the objects' surfaces (two in three), sharing a vertex or coincident
+     * with one of theirs, and across the scene. */
+    size_t touched = 0;
+    for (int i = 0; i < rays / 2; i++) {
+        size_t t = rng_next(&r) % all.triangle_count;
+        vec3 q[3] = {mesh_data_corner(&all, t, 0), mesh_data_corner(&all, t, 1), mesh_data_corner(&all, t, 2)};
+        double size = vec3_length(vec3_sub(q[1], q[0]));
+        if (i % 3 == 1) {
+            q[1] = vec3_add(q[0], vec3_scale(rng_unit_vector(&r), size));
+            q[2] = vec3_add(q[0], vec3_scale(rng_unit_vector(&r), size));
+        } else if (i % 3 == 2) {
+            for (int k = 0; k < 3; k++)
+                q[k] = rng_point_in_box(&r, b);
+        }
+        check_triangle(s, u, offsets, q, &touched);
+    }
+    assert_true(touched >= (size_t)rays / 2 * 2 / 3);
     octree_free(u);
     mesh_data_free(&all);
 }

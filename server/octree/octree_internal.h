@@ -412,6 +412,12 @@ typedef struct posed_ray {
  * (octree_pose_check), or OCTREE_ERR_NONFINITE when the local ray or the bounds overflow. */
 octree_status octree_posed_ray_setup(const octree *tree, const pose *at, const ray_input *ray, posed_ray *out);
 
+/* A world triangle taken into a posed tree's frame (R^T (q_k - t)) and the widening its
+ * descent needs so that every posed tree triangle touching it is found: OCTREE_OK, or the
+ * pose's error, or OCTREE_ERR_NONFINITE when the local triangle or the bound overflows. */
+octree_status octree_posed_triangle_setup(const octree *tree, const pose *at, const vec3 tri[3], vec3 local[3],
+                                          double *grow);
+
 /* 0 with *tau a bound on the spectral norm of R^T R - I, or -1 when an entry of it is
  * NaN or above 1. */
 int octree_pose_defect(const pose *at, double *tau);

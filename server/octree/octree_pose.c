@@ -209,3 +209,34 @@ octree_status octree_posed_ray_setup(const octree *tree, const pose *at, const r
         return OCTREE_ERR_NONFINITE;
     return OCTREE_OK;
 }
+
+/* The local triangle's vertices against the real preimages of the world triangle's: each
+ * as the local ray's origin (16u + 4 tau)(|q_k| + |t|); by convexity every point of the
+ * real preimage of q is within the largest of them of the local triangle. A posed tree
+ * triangle's real preimage is within 2e of the tree's (octree_posed_ray_setup), so a
+ * posed triangle touching q has its tree triangle within the sum of the local q: the
+ * descent, widened by it, reaches a leaf listing it. */
+octree_status octree_posed_triangle_setup(const octree *tree, const pose *at, const vec3 tri[3], vec3 local[3],
+                                          double *grow)
+{
+    octree_status st = octree_pose_check(at);
+    if (st != OCTREE_OK)
+        return st;
+    double tau;
+    octree_pose_defect(at, &tau);
+    const double *r = at->r;
+    double T = max_abs3(at->t), worst = 0.0;
+    for (int k = 0; k < 3; k++) {
+        vec3 c = vec3_sub(tri[k], at->t);
+        local[k] = (vec3){r[0] * c.x + r[3] * c.y + r[6] * c.z, r[1] * c.x + r[4] * c.y + r[7] * c.z,
+                          r[2] * c.x + r[5] * c.y + r[8] * c.z};
+        if (!vec3_is_finite(local[k]))
+            return OCTREE_ERR_NONFINITE;
+        double m = max_abs3(tri[k]);
+        worst = m > worst ? m : worst;
+    }
+    double g = (16 * U + 4 * tau) * (worst + T);
+    double delta = 2 * pose_point_error(at, tree->world);
+    *grow = (delta + g) * (1 + 16 * U) + DBL_MIN;
+    return *grow < INFINITY ? OCTREE_OK : OCTREE_ERR_NONFINITE;
+}

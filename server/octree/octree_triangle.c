@@ -128,7 +128,8 @@ static inline __attribute__((always_inline)) int take_candidate(const octree *tr
                                                               const tri_tri_query *prepared,
                                                               accuracy_mode mode, id_set *tested, uint32_t id,
                                                               int stop_at_first, id_list *hits, int *any,
-                                                              octree_status *st, query_stats *stats)
+                                                              octree_status *st, query_stats *stats,
+                                                              const pose *placed)
 {
     int fresh = id_set_insert(tested, id);
     if (fresh == 0)
@@ -140,6 +141,9 @@ static inline __attribute__((always_inline)) int take_candidate(const octree *tr
     stats->candidates_tested++;
     vec3 w[3];
     octree_triangle_vertices(tree, id, w);
+    if (placed)
+        for (int k = 0; k < 3; k++)
+            w[k] = octree_apply_pose(placed, w[k]);
     if (!triangles_touch(tree, q, prepared, w, mode))
         return 0;
     *any = 1;
@@ -152,29 +156,44 @@ static inline __attribute__((always_inline)) int take_candidate(const octree *tr
     return 0;
 }
 
+/* A query against a tree placed by a pose (octree_triangle_posed): the descent takes the
+ * query taken into the tree's frame, widened by `grow`; the final tests take the world
+ * query and the posed triangles. */
+typedef struct posed_query {
+    const pose *at;
+    vec3 world[3];
+    double grow;
+} posed_query;
+
 static octree_status triangle_search(const octree *tree, const vec3 q[3], accuracy_mode mode, int stop_at_first,
-                                     id_list *hits, int *any, query_stats *stats)
+                                     id_list *hits, int *any, query_stats *stats, const posed_query *posed)
 {
     /* Fast and seed mode descend into nodes within their slack of q (octree_modes.c), and
      * an infinite slack, or a seed query with no bounded reach (zero area, a sliver: it
-     * may touch anything), tests every triangle. */
-    double grow = mode == ACCURACY_FAST   ? octree_fast_triangle_slack(tree, q)
+     * may touch anything), tests every triangle. A posed query (exact mode) descends
+     * within its own widening of the local q. */
+    double grow = posed                   ? posed->grow
+                  : mode == ACCURACY_FAST ? octree_fast_triangle_slack(tree, q)
                   : mode == ACCURACY_SEED ? octree_seed_triangle_slack(tree, q)
                                           : 0.0;
+    /* The exact descent's shortcuts hold for q itself, not for a widened q. */
+    const int exact_descent = mode == ACCURACY_EXACT && grow == 0.0;
+    const vec3 *tested_q = posed ? posed->world : q;
+    const pose *placed = posed ? posed->at : NULL;
     box3 qb = {vec3_min(vec3_min(q[0], q[1]), q[2]), vec3_max(vec3_max(q[0], q[1]), q[2])};
     /* The descent's bounds: q's, grown by the slack. */
     box3 reach_box = {vec3_sub(qb.lo, (vec3){grow, grow, grow}), vec3_add(qb.hi, (vec3){grow, grow, grow})};
     const triangle_box *boxes = mode == ACCURACY_EXACT ? tree->triangle_boxes : NULL;
     triangle_box qbox = {{0}, {0}};
     if (boxes)
-        qbox = triangle_box_around(qb.lo, qb.hi, tree->world.lo);
+        qbox = triangle_box_around(reach_box.lo, reach_box.hi, tree->world.lo);
     triangle_box_probe qprobe = triangle_box_probe_of(&qbox);
     /* The query's side of the exact test (its bounds, plane and projection) depends on q
      * alone: computed here once instead of once per candidate. */
     tri_tri_query prepared;
     tri_box_triangle prepared_box;
     if (mode == ACCURACY_EXACT)
-        tri_tri_query_prepare(&prepared, q);
+        tri_tri_query_prepare(&prepared, tested_q);
     tri_box_prepare(&prepared_box, q);
     id_set tested;
     id_set_init(&tested);
@@ -189,7 +208,8 @@ static octree_status triangle_search(const octree *tree, const vec3 q[3], accura
         extra = grow < INFINITY ? tree->sliver_list_count : tree->triangle_count;
     for (size_t i = 0; i < extra; i++) {
         uint32_t id = grow < INFINITY ? octree_sliver_list(tree)[i] : (uint32_t)i;
-        if (take_candidate(tree, q, &prepared, mode, &tested, id, stop_at_first, hits, any, &st, stats))
+        if (take_candidate(tree, tested_q, &prepared, mode, &tested, id, stop_at_first, hits, any, &st, stats,
+                           placed))
             goto done;
     }
     if (!(grow < INFINITY))
@@ -200,7 +220,7 @@ static octree_status triangle_search(const octree *tree, const vec3 q[3], accura
     stats->nodes_visited++;
     if (node_touched(&prepared_box, tree->world, grow)) {
         tri_entry start = {0, tree->world};
-        if (mode == ACCURACY_EXACT)
+        if (exact_descent)
             start = single_child_descent(tree, qb, start, stats);
         if (start.node != NO_NODE)
             stack[top++] = start;
@@ -215,8 +235,8 @@ static octree_status triangle_search(const octree *tree, const vec3 q[3], accura
             /* Children known touched without the full test: in exact mode as the build
              * decides them; with a slack, those holding a vertex of q (the others' rule
              * needs q to touch the node itself, not its grown box). */
-            unsigned known = mode == ACCURACY_EXACT ? tri_box_children_proven(q, b, c, reach)
-                                                    : reach & box_octants_holding(q, b, c);
+            unsigned known = exact_descent ? tri_box_children_proven(q, b, c, reach)
+                                           : reach & box_octants_holding(q, b, c);
             const octree_node *kids = &tree->nodes[node.first];
             for (int k = 0; k < 8; k++) {
                 if (!((reach >> k) & 1) || kids[k].count == 0)
@@ -233,7 +253,8 @@ static octree_status triangle_search(const octree *tree, const vec3 q[3], accura
             uint32_t id = tree->leaf_items[node.first + i];
             if (boxes && triangle_box_probe_apart(&boxes[id], &qprobe))
                 continue;
-            if (take_candidate(tree, q, &prepared, mode, &tested, id, stop_at_first, hits, any, &st, stats))
+            if (take_candidate(tree, tested_q, &prepared, mode, &tested, id, stop_at_first, hits, any, &st, stats,
+                               placed))
                 goto done;
         }
     }
@@ -247,19 +268,16 @@ static int valid_mode(accuracy_mode mode)
     return mode == ACCURACY_EXACT || mode == ACCURACY_SEED || mode == ACCURACY_FAST;
 }
 
-octree_status octree_triangle(const octree *tree, const vec3 tri[3], tri_detail detail, accuracy_mode mode,
-                              tri_output *out, query_stats *stats)
+/* A triangle query's answer: the search, then the contacts sorted by the caller's ids,
+ * their segments between the world query and the (posed) world triangles. */
+static octree_status triangle_answer(const octree *tree, const vec3 tri[3], tri_detail detail, accuracy_mode mode,
+                                     tri_output *out, query_stats *stats, const posed_query *posed)
 {
-    for (int k = 0; k < 3; k++)
-        if (!vec3_is_finite(tri[k]))
-            return OCTREE_ERR_NONFINITE;
-    if (!valid_mode(mode) || (detail != TRI_YESNO && detail != TRI_IDS && detail != TRI_SEGMENTS))
-        return OCTREE_ERR_INVALID;
     uint64_t fallbacks_before = predicates_fallback_count();
     query_stats local = {0};
     id_list hits = {0};
     int any = 0;
-    octree_status st = triangle_search(tree, tri, mode, detail == TRI_YESNO, &hits, &any, &local);
+    octree_status st = triangle_search(tree, tri, mode, detail == TRI_YESNO, &hits, &any, &local, posed);
     out->hit = any;
     out->count = 0;
     out->truncated = 0;
@@ -267,6 +285,7 @@ octree_status octree_triangle(const octree *tree, const vec3 tri[3], tri_detail 
     if (st == OCTREE_OK && detail != TRI_YESNO && !(sorted = sort_by_original(tree, hits.items, hits.count)))
         st = OCTREE_ERR_NOMEM;
     if (sorted) {
+        const vec3 *q = posed ? posed->world : tri;
         out->count = hits.count;
         size_t keep = hits.count < out->capacity ? hits.count : out->capacity;
         out->truncated = keep < hits.count;
@@ -277,7 +296,10 @@ octree_status octree_triangle(const octree *tree, const vec3 tri[3], tri_detail 
             if (detail == TRI_SEGMENTS) {
                 vec3 w[3];
                 octree_triangle_vertices(tree, (uint32_t)sorted[i], w);
-                tri_tri_contact_segment(tri, w, &c->p, &c->q);
+                if (posed)
+                    for (int k = 0; k < 3; k++)
+                        w[k] = octree_apply_pose(posed->at, w[k]);
+                tri_tri_contact_segment(q, w, &c->p, &c->q);
             }
         }
         free(sorted);
@@ -285,6 +307,36 @@ octree_status octree_triangle(const octree *tree, const vec3 tri[3], tri_detail 
     free(hits.items);
     query_stats_finish(stats, &local, fallbacks_before, predicates_fallback_count());
     return st;
+}
+
+octree_status octree_triangle(const octree *tree, const vec3 tri[3], tri_detail detail, accuracy_mode mode,
+                              tri_output *out, query_stats *stats)
+{
+    for (int k = 0; k < 3; k++)
+        if (!vec3_is_finite(tri[k]))
+            return OCTREE_ERR_NONFINITE;
+    if (!valid_mode(mode) || (detail != TRI_YESNO && detail != TRI_IDS && detail != TRI_SEGMENTS))
+        return OCTREE_ERR_INVALID;
+    return triangle_answer(tree, tri, detail, mode, out, stats, NULL);
+}
+
+octree_status octree_triangle_posed(const octree *tree, const pose *at, const vec3 tri[3], tri_detail detail,
+                                    accuracy_mode mode, tri_output *out, query_stats *stats)
+{
+    if (!tree || !at || !out)
+        return OCTREE_ERR_INVALID;
+    for (int k = 0; k < 3; k++)
+        if (!vec3_is_finite(tri[k]))
+            return OCTREE_ERR_NONFINITE;
+    if (mode != ACCURACY_EXACT || (detail != TRI_YESNO && detail != TRI_IDS && detail != TRI_SEGMENTS))
+        return OCTREE_ERR_INVALID;
+    vec3 local_tri[3];
+    double grow;
+    octree_status st = octree_posed_triangle_setup(tree, at, tri, local_tri, &grow);
+    if (st != OCTREE_OK)
+        return st;
+    posed_query posed = {at, {tri[0], tri[1], tri[2]}, grow};
+    return triangle_answer(tree, local_tri, detail, mode, out, stats, &posed);
 }
 
 octree_status octree_mesh_check(const mesh_view *shape, const pose *at, accuracy_mode mode)
@@ -329,7 +381,7 @@ octree_status octree_mesh_per_triangle(const octree *tree, const void *shape, si
         }
         int any = 0;
         hits.count = 0;
-        st = triangle_search(tree, q, mode, !all_pairs, &hits, &any, &local);
+        st = triangle_search(tree, q, mode, !all_pairs, &hits, &any, &local, NULL);
         if (!any)
             continue;
         out->hit = 1;

@@ -431,3 +431,61 @@ octree_status object_set_ray(const object_set *s, const ray_input *ray, ray_deta
     free(cand);
     return st;
 }
+
+/* ---------- triangles ---------- */
+
+static int boxes_apart(box3 a, box3 b)
+{
+    return a.lo.x > b.hi.x || a.lo.y > b.hi.y || a.lo.z > b.hi.z || a.hi.x < b.lo.x || a.hi.y < b.lo.y ||
+           a.hi.z < b.lo.z;
+}
+
+octree_status object_set_triangle(const object_set *s, const vec3 tri[3], tri_detail detail,
+                                  object_tri_output *out, query_stats *stats)
+{
+    if (!s || !tri || !out || (detail != TRI_YESNO && detail != TRI_IDS && detail != TRI_SEGMENTS))
+        return OCTREE_ERR_INVALID;
+    out->hit = 0;
+    out->count = 0;
+    out->truncated = 0;
+    for (int k = 0; k < 3; k++)
+        if (!vec3_is_finite(tri[k]))
+            return OCTREE_ERR_NONFINITE;
+    box3 qb = {vec3_min(vec3_min(tri[0], tri[1]), tri[2]), vec3_max(vec3_max(tri[0], tri[1]), tri[2])};
+    size_t stored = 0;
+    tri_contact *buf = NULL;
+    size_t buf_cap = 0;
+    octree_status st = OCTREE_OK;
+    /* In object order, each object's contacts sorted by triangle: the union's order. */
+    for (size_t i = 0; i < s->count; i++) {
+        const world_object *o = &s->objects[i];
+        if (boxes_apart(qb, o->bounds)) /* closed boxes apart: no common point */
+            continue;
+        size_t room = detail == TRI_YESNO ? 0 : (out->capacity > stored ? out->capacity - stored : 0);
+        if (room > buf_cap) {
+            free(buf);
+            buf = malloc(room * sizeof *buf);
+            buf_cap = buf ? room : 0;
+            if (!buf) {
+                st = OCTREE_ERR_NOMEM;
+                break;
+            }
+        }
+        tri_output part = {.contacts = buf, .capacity = room};
+        st = octree_triangle_posed(o->model->tree, &o->at, tri, detail, ACCURACY_EXACT, &part, stats);
+        if (st != OCTREE_OK)
+            break;
+        if (!part.hit)
+            continue;
+        out->hit = 1;
+        if (detail == TRI_YESNO)
+            break;
+        size_t keep = part.count < room ? part.count : room;
+        for (size_t j = 0; j < keep; j++)
+            out->contacts[stored++] = (object_contact){buf[j], (uint32_t)i};
+        out->count += part.count;
+    }
+    out->truncated = out->count > stored;
+    free(buf);
+    return st;
+}

@@ -115,4 +115,24 @@ typedef struct object_ray_output {
 octree_status object_set_ray(const object_set *s, const ray_input *ray, ray_detail detail,
                              object_ray_output *out, query_stats *stats);
 
+/* A triangle contact on an object: the engine's (triangle: the index in the object's
+ * mesh, segment in world space) and the object's index in the set. */
+typedef struct object_contact {
+    tri_contact contact;
+    uint32_t object;
+} object_contact;
+
+typedef struct object_tri_output {
+    int hit;
+    size_t count; /* every contact found, possibly more than capacity */
+    int truncated;
+    object_contact *contacts; /* sorted by object index, then triangle */
+    size_t capacity;
+} object_tri_output;
+
+/* One triangle against every object whose posed box it reaches: octree_triangle's
+ * contract over the union of the posed triangles. Exact mode only. */
+octree_status object_set_triangle(const object_set *s, const vec3 tri[3], tri_detail detail,
+                                  object_tri_output *out, query_stats *stats);
+
 #endif

@@ -1,7 +1,9 @@
-/* Rays against a tree placed in the world by a pose (octree_ray_posed), and the pose
- * contract it rests on: a posed tree answers exactly as a tree built from the posed
- * vertices (octree_pose_point of each) would, to the bit, for closest hits, every hit and
- * yes/no, crossing and touch rules, on closed meshes (shared edges and vertices), on
+/* Rays and triangles against a tree placed in the world by a pose (octree_ray_posed,
+ * octree_triangle_posed), and the pose contract they rest on: a posed tree answers
+ * exactly as a tree built from the posed vertices (octree_pose_point of each) would, to
+ * the bit: rays for closest hits, every hit and yes/no under the crossing and touch rules;
+ * triangles for yes/no, ids and contact segments, coincident and coplanar with the posed
+ * triangles or sharing their vertices; on closed meshes (shared edges and vertices), on
  * blocks whose faces lie on node faces, at huge offsets and at exact quarter turns. The
  * walk's widening is checked against the errors it covers, measured in extended
  * precision, and the pose checks against the matrices they must refuse. */
@@ -81,6 +83,81 @@ static void check_ray(const octree *local, const pose *at, const octree *world, 
     }
 }
 
+#define MAX_CONTACTS 256
+
+static int same_contact(const tri_contact *a, const tri_contact *b)
+{
+    return a->triangle == b->triangle && a->p.x == b->p.x && a->p.y == b->p.y && a->p.z == b->p.z &&
+           a->q.x == b->q.x && a->q.y == b->q.y && a->q.z == b->q.z;
+}
+
+/* One triangle, every detail, against the posed tree and the tree of the posed mesh. */
+static void check_triangle(const octree *local, const pose *at, const octree *world, const vec3 q[3],
+                           size_t *hits_seen)
+{
+    for (int detail = TRI_YESNO; detail <= TRI_SEGMENTS; detail++) {
+        tri_contact cp[MAX_CONTACTS], cw[MAX_CONTACTS];
+        tri_output op = {.contacts = cp, .capacity = MAX_CONTACTS}, ow = {.contacts = cw, .capacity = MAX_CONTACTS};
+        assert_int_equal(octree_triangle_posed(local, at, q, (tri_detail)detail, ACCURACY_EXACT, &op, NULL),
+                         OCTREE_OK);
+        assert_int_equal(octree_triangle(world, q, (tri_detail)detail, ACCURACY_EXACT, &ow, NULL), OCTREE_OK);
+        assert_int_equal(op.hit, ow.hit);
+        assert_int_equal(op.count, ow.count);
+        assert_int_equal(op.truncated, ow.truncated);
+        if (detail == TRI_YESNO)
+            *hits_seen += ow.hit;
+        size_t n = ow.count < MAX_CONTACTS ? ow.count : MAX_CONTACTS;
+        for (size_t i = 0; i < n; i++)
+            if (!same_contact(&cp[i], &cw[i]))
+                fail_msg("detail %d contact %zu of %zu differs: posed id %u, built id %u", detail, i, n,
+                         cp[i].triangle, cw[i].triangle);
+    }
+}
+
+/* Query triangles at the posed mesh: small ones around surface points, ones sharing a
+ * posed vertex, the posed triangle itself (coincident), one coplanar with it inside it,
+ * and large ones across the mesh. */
+static size_t check_triangles_at_pose(const mesh_data *w, const octree *local, const pose *at, const octree *world,
+                                      int count, rng *r)
+{
+    box3 b = mesh_data_bounds(w);
+    size_t hits = 0;
+    for (int i = 0; i < count; i++) {
+        size_t t = rng_next(r) % w->triangle_count;
+        vec3 a = mesh_data_corner(w, t, 0), c1 = mesh_data_corner(w, t, 1), c2 = mesh_data_corner(w, t, 2);
+        vec3 centre = vec3_scale(vec3_add(vec3_add(a, c1), c2), 1.0 / 3);
+        double size = vec3_length(vec3_sub(c1, a)) * rng_uniform(r, 0.2, 2);
+        vec3 q[3];
+        switch (i % 5) {
+        case 0:
+            for (int k = 0; k < 3; k++)
+                q[k] = vec3_add(centre, vec3_scale(rng_unit_vector(r), size));
+            break;
+        case 1:
+            q[0] = a;
+            q[1] = vec3_add(a, vec3_scale(rng_unit_vector(r), size));
+            q[2] = vec3_add(a, vec3_scale(rng_unit_vector(r), size));
+            break;
+        case 2:
+            q[0] = a;
+            q[1] = c1;
+            q[2] = c2;
+            break;
+        case 3:
+            q[0] = a;
+            q[1] = c1;
+            q[2] = centre; /* coplanar up to the rounding of the centre */
+            break;
+        default:
+            for (int k = 0; k < 3; k++)
+                q[k] = rng_point_in_box(r, b);
+            break;
+        }
+        check_triangle(local, at, world, q, &hits);
+    }
+    return hits;
+}
+
 /* Rays toward the posed mesh's triangles from around it: at random interior points, at
  * vertices (shared by several triangles) and at edge midpoints, half of them with the
  * touch rule; then random rays from inside its box. */
@@ -120,6 +197,9 @@ static size_t check_mesh_at_pose(const mesh_data *m, const pose *at, int rays)
         ray_input inside = {rng_point_in_box(&r, b), rng_unit_vector(&r), 0, INFINITY, RAY_CROSSING};
         check_ray(local, at, world, &inside, &hits);
     }
+    /* Three query triangles in five are on the mesh by construction. */
+    size_t touched = check_triangles_at_pose(&w, local, at, world, rays / 2, &r);
+    assert_true(touched >= (size_t)rays / 2 * 3 / 5);
     octree_free(local);
     octree_free(world);
     mesh_data_free(&w);
