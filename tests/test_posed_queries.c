@@ -266,6 +266,122 @@ static void test_terrain_at_poses(void **state)
     mesh_data_free(&m);
 }
 
+/* ---------- a shape tree against a placed world tree ---------- */
+
+/* A small closed shape at poses about the posed mesh's surface, half of them touching it:
+ * every pair octree_mesh_tree_posed finds against the placed tree is one octree_mesh finds
+ * against the tree of the posed mesh, and no other; yes/no alike. */
+static void check_shapes_at_pose(const mesh_data *m, const pose *at, int poses)
+{
+    mesh_data w = posed_mesh(m, at);
+    octree *local = build(m), *world = build(&w);
+    box3 b = mesh_data_bounds(&w);
+    double side = vec3_length(vec3_sub(b.hi, b.lo));
+    mesh_data shape_mesh = meshgen_torus((vec3){0, 0, 0}, 0.06 * side, 0.02 * side, 16, 8);
+    mesh_view sv = mesh_data_view(&shape_mesh);
+    octree *shape = octree_shape_tree_for(&sv, 1000);
+    assert_non_null(shape);
+    rng r = rng_seeded(seed++);
+    size_t touched = 0;
+    for (int i = 0; i < poses; i++) {
+        size_t t = rng_next(&r) % w.triangle_count;
+        vec3 c = vec3_scale(vec3_add(vec3_add(mesh_data_corner(&w, t, 0), mesh_data_corner(&w, t, 1)),
+                                     mesh_data_corner(&w, t, 2)),
+                            1.0 / 3);
+        pose sp = random_pose(&r, 0);
+        sp.t = vec3_add(c, vec3_scale(rng_unit_vector(&r), rng_uniform(&r, 0, 0.1 * side)));
+        for (int all = 0; all <= 1; all++) {
+            mesh_pair pp[512], pw[512];
+            mesh_output op = {.pairs = pp, .capacity = 512}, ow = {.pairs = pw, .capacity = 512};
+            assert_int_equal(octree_mesh_tree_posed(local, at, shape, &sp, all, ACCURACY_EXACT, &op, NULL), OCTREE_OK);
+            assert_int_equal(octree_mesh(world, &sv, &sp, all, ACCURACY_EXACT, &ow, NULL), OCTREE_OK);
+            assert_int_equal(op.hit, ow.hit);
+            assert_int_equal(op.count, ow.count);
+            assert_int_equal(op.truncated, ow.truncated);
+            touched += all == 0 && ow.hit;
+            size_t n = ow.count < 512 ? ow.count : 512;
+            for (size_t k = 0; k < n; k++)
+                if (pp[k].query_triangle != pw[k].query_triangle || pp[k].world_triangle != pw[k].world_triangle)
+                    fail_msg("pose %d pair %zu: placed (%u, %u), built (%u, %u)", i, k, pp[k].query_triangle,
+                             pp[k].world_triangle, pw[k].query_triangle, pw[k].world_triangle);
+        }
+    }
+    /* Poses within a tenth of the scene of the surface: some touch, some do not. */
+    assert_true(touched > 0 && touched < (size_t)poses);
+    octree_free(shape);
+    mesh_data_free(&shape_mesh);
+    octree_free(local);
+    octree_free(world);
+    mesh_data_free(&w);
+}
+
+/* A shape touching a placed world at exactly one point: its local origin, posed at the
+ * world's posed corner (fl(R 0 + t) is t), pointing away from the world. The world's
+ * matrix is typed with six decimals, so at the relative pose the shape stands about 1e-3
+ * off the corner: only the widened descent, testing the triangles where they stand,
+ * finds the contact. */
+static void test_shape_touching_a_placed_corner(void **state)
+{
+    (void)state;
+    mesh_data wm = meshgen_box((box3){{-2, -2, -2}, {2, 2, 2}});
+    mesh_data sm = meshgen_tetrahedron((vec3){0, 0, 0}, (vec3){1, 0.5, 0.5}, (vec3){0.5, 1, 0.5},
+                                       (vec3){0.5, 0.5, 1});
+    octree_def def = octree_default_def();
+    def.node_bounds = 1;
+    /* With triangle boxes, as a world serving meshes has them: their filters hold for the
+     * posed triangles only, which a placed world must not trust at the relative pose. */
+    def.triangle_boxes = 1;
+    octree_error e;
+    mesh_view sv = mesh_data_view(&sm), wv = mesh_data_view(&wm);
+    octree *shape = octree_build(&sv, &def, &e), *world = octree_build(&wv, &def, &e);
+    assert_non_null(shape);
+    assert_non_null(world);
+    pose wp = {{0.707107, -0.707107, 0, 0.707107, 0.707107, 0, 0, 0, 1}, {1e3 + 0.5, -3, 2}};
+    pose sp = wp;
+    sp.t = octree_pose_point(&wp, (vec3){2, 2, 2});
+    mesh_pair pairs[64];
+    for (int all = 0; all <= 1; all++) {
+        mesh_output out = {.pairs = pairs, .capacity = 64};
+        assert_int_equal(octree_mesh_tree_posed(world, &wp, shape, &sp, all, ACCURACY_EXACT, &out, NULL), OCTREE_OK);
+        assert_true(out.hit);
+        /* The reference: the world's posed mesh, the shape posed as octree_mesh poses it. */
+        mesh_data posed = posed_mesh(&wm, &wp);
+        octree *built = build(&posed);
+        mesh_pair ref[64];
+        mesh_output ro = {.pairs = ref, .capacity = 64};
+        assert_int_equal(octree_mesh(built, &sv, &sp, all, ACCURACY_EXACT, &ro, NULL), OCTREE_OK);
+        assert_true(ro.hit);
+        assert_int_equal(out.count, ro.count);
+        for (size_t k = 0; k < ro.count && k < 64; k++)
+            assert_true(pairs[k].query_triangle == ref[k].query_triangle && pairs[k].world_triangle == ref[k].world_triangle);
+        octree_free(built);
+        mesh_data_free(&posed);
+    }
+    octree_free(shape);
+    octree_free(world);
+    mesh_data_free(&wm);
+    mesh_data_free(&sm);
+}
+
+static void test_shapes_against_placed_trees(void **state)
+{
+    (void)state;
+    rng r = rng_seeded(seed++);
+    mesh_data meshes[2] = {meshgen_icosphere((vec3){0.25, -0.5, 1}, 1.0, 3),
+                           meshgen_terrain(3, (box3){{0, 0, 0}, {20, 20, 3}}, 24, 24)};
+    for (int k = 0; k < 2; k++) {
+        pose poses[3] = {
+            {{0, -1, 0, 1, 0, 0, 0, 0, 1}, {0.1, -3.25, 7}},
+            random_pose(&r, 10),
+            random_pose(&r, 0),
+        };
+        poses[2].t = (vec3){5e6 + 0.3, -2.5e7 - 0.7, 4e5 + 0.1};
+        for (int p = 0; p < 3; p++)
+            check_shapes_at_pose(&meshes[k], &poses[p], 60);
+        mesh_data_free(&meshes[k]);
+    }
+}
+
 /* ---------- the widening against the errors it covers ---------- */
 
 typedef long double ld;
@@ -348,6 +464,41 @@ static void test_widening_covers_the_pose_rounding(void **state)
     print_message("largest measured error / widening: %.3Lg\n", worst_ratio);
     octree_free(local);
     mesh_data_free(&m);
+}
+
+/* A shape placed against a placed world: the shape's vertices at the relative pose
+ * against the real preimages of its vertices at its own pose, measured in extended
+ * precision, within the descent's widening, with the world's matrix typed with six
+ * decimals (far from exactly orthonormal) or a rotation from a quaternion. */
+static void test_pair_widening_covers_the_relative_pose(void **state)
+{
+    (void)state;
+    mesh_data wm = meshgen_box((box3){{-2, -2, -2}, {2, 2, 2}});
+    mesh_data sm = meshgen_icosphere((vec3){0.5, 0.25, 0}, 0.5, 2);
+    octree *world = build(&wm), *shape = build(&sm);
+    rng r = rng_seeded(seed++);
+    pose typed = {{0.707107, -0.707107, 0, 0.707107, 0.707107, 0, 0, 0, 1}, {1e3 + 0.5, -3, 2}};
+    for (int k = 0; k < 20; k++) {
+        pose wp = k % 2 ? typed : random_pose(&r, k % 4 ? 5 : 1e6);
+        pose sp = random_pose(&r, 3);
+        sp.t = vec3_add(sp.t, wp.t);
+        pose rel;
+        double grow;
+        assert_int_equal(octree_posed_pair_setup(world, &wp, shape, &sp, &rel, &grow), OCTREE_OK);
+        ld inv[9];
+        inverse_ld(wp.r, inv);
+        for (size_t i = 0; i < sm.vertex_count; i++) {
+            vec3 v = sm.vertices[i], placed = octree_pose_point(&sp, v), relative = octree_pose_point(&rel, v);
+            ld x[3] = {placed.x, placed.y, placed.z}, y[3] = {relative.x, relative.y, relative.z};
+            ld e = preimage_distance(inv, &wp, x, y);
+            if (!(e <= (ld)grow))
+                fail_msg("pose %d vertex %zu: %Lg from the preimage, above the widening %g", k, i, e, grow);
+        }
+    }
+    octree_free(world);
+    octree_free(shape);
+    mesh_data_free(&wm);
+    mesh_data_free(&sm);
 }
 
 /* A ray that cannot reach the posed tree is answered with no hit before any walk. */
@@ -476,7 +627,10 @@ int main(void)
         cmocka_unit_test(test_icosphere_at_poses),
         cmocka_unit_test(test_blocks_at_poses),
         cmocka_unit_test(test_terrain_at_poses),
+        cmocka_unit_test(test_shapes_against_placed_trees),
+        cmocka_unit_test(test_shape_touching_a_placed_corner),
         cmocka_unit_test(test_widening_covers_the_pose_rounding),
+        cmocka_unit_test(test_pair_widening_covers_the_relative_pose),
         cmocka_unit_test(test_ray_far_from_the_object_misses),
         cmocka_unit_test(test_pose_box_holds_every_posed_point),
         cmocka_unit_test(test_pose_checks),

@@ -418,6 +418,12 @@ octree_status octree_posed_ray_setup(const octree *tree, const pose *at, const r
 octree_status octree_posed_triangle_setup(const octree *tree, const pose *at, const vec3 tri[3], vec3 local[3],
                                           double *grow);
 
+/* A shape tree placed at shape_at against a world tree placed at world_at: the shape's
+ * pose in the world tree's frame, and what the descent in that frame must widen the
+ * world's boxes by so that every contact of the two posed meshes is reached. */
+octree_status octree_posed_pair_setup(const octree *world, const pose *world_at, const octree *shape,
+                                      const pose *shape_at, pose *relative, double *grow);
+
 /* 0 with *tau a bound on the spectral norm of R^T R - I, or -1 when an entry of it is
  * NaN or above 1. */
 int octree_pose_defect(const pose *at, double *tau);

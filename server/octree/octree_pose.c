@@ -240,3 +240,46 @@ octree_status octree_posed_triangle_setup(const octree *tree, const pose *at, co
     *grow = (delta + g) * (1 + 16 * U) + DBL_MIN;
     return *grow < INFINITY ? OCTREE_OK : OCTREE_ERR_NONFINITE;
 }
+
+/* The shape's pose relative to the world tree's frame, R_rel = R_w^T R_s and
+ * t_rel = R_w^T (t_s - t_w), with what the descent must widen the world's boxes by: a
+ * contact x of a shape triangle posed at shape_at and a world triangle posed at world_at
+ * has its real preimage A_w^-1(x) within 2 e_w of a tree triangle (as for rays) and
+ * within G_s of the shape triangle posed at the relative pose, where G_s bounds, per
+ * shape vertex v, |fl(P_rel v) - A_w^-1(fl(P_s v))|: 2 e_s (the shape vertex's own
+ * rounding, taken back by |R_w^-1| <= 1.04 and sqrt(3)), e_rel (posing at P_rel), the
+ * computed R_rel against R_w^-1 R_s ((32u + 8 tau_w) in each entry, three entries a row)
+ * and t_rel against R_w^-1 (t_s - t_w) ((16u + 4 tau_w)(|t_s| + |t_w|), as the local ray's
+ * origin). So a point of the relatively posed shape triangle comes within 2 e_w + G_s of
+ * a point of the tree triangle, and the descent, widened by that, reaches their leaves. */
+octree_status octree_posed_pair_setup(const octree *world, const pose *world_at, const octree *shape,
+                                      const pose *shape_at, pose *relative, double *grow)
+{
+    octree_status st = octree_pose_check(world_at);
+    if (st == OCTREE_OK)
+        st = octree_pose_check(shape_at);
+    if (st != OCTREE_OK)
+        return st;
+    double tau;
+    octree_pose_defect(world_at, &tau);
+    const double *a = world_at->r, *b = shape_at->r;
+    for (int i = 0; i < 3; i++)
+        for (int j = 0; j < 3; j++)
+            relative->r[3 * i + j] = a[i] * b[j] + a[3 + i] * b[3 + j] + a[6 + i] * b[6 + j];
+    vec3 c = vec3_sub(shape_at->t, world_at->t);
+    relative->t = (vec3){a[0] * c.x + a[3] * c.y + a[6] * c.z, a[1] * c.x + a[4] * c.y + a[7] * c.z,
+                         a[2] * c.x + a[5] * c.y + a[8] * c.z};
+    for (int k = 0; k < 9; k++)
+        if (!isfinite(relative->r[k]))
+            return OCTREE_ERR_NONFINITE;
+    if (!vec3_is_finite(relative->t))
+        return OCTREE_ERR_NONFINITE;
+    double ps = max_abs3(shape->world.lo) > max_abs3(shape->world.hi) ? max_abs3(shape->world.lo)
+                                                                     : max_abs3(shape->world.hi);
+    double ts = max_abs3(shape_at->t), tw = max_abs3(world_at->t);
+    double e_s = pose_point_error(shape_at, shape->world), e_rel = pose_point_error(relative, shape->world);
+    double g_s = 2 * e_s + e_rel + 3 * (32 * U + 8 * tau) * ps + (16 * U + 4 * tau) * (ts + tw);
+    double delta = 2 * pose_point_error(world_at, world->world);
+    *grow = (delta + g_s) * (1 + 16 * U) + DBL_MIN;
+    return *grow < INFINITY ? OCTREE_OK : OCTREE_ERR_NONFINITE;
+}

@@ -517,6 +517,13 @@ typedef struct shape_scratch {
     pair_set tested;
     uint64_t *hits; /* (caller's shape id << 32 | caller's world id) */
     size_t hit_count, hit_capacity;
+    /* A world tree placed by a pose (octree_mesh_tree_posed), else NULL: the descent runs
+     * in the world tree's frame with the shape at its relative pose, and each pair is
+     * tested in the world, the shape triangle posed at shape_at (kept in world_posed[q]
+     * when world_stamp[q] == epoch) and the world triangle at world_at. */
+    const pose *world_at, *shape_at;
+    tri_tri_query *world_posed;
+    uint32_t *world_stamp;
 } shape_scratch;
 
 static void pair_set_clear(pair_set *s)
@@ -614,6 +621,9 @@ static shape_scratch *scratch_new(const octree *world, const octree *shape, accu
     s->shape = shape;
     s->mode = mode;
     s->boxed = mode == ACCURACY_EXACT && world->triangle_boxes;
+    s->world_at = s->shape_at = NULL;
+    s->world_posed = NULL;
+    s->world_stamp = NULL;
     s->hits = NULL;
     s->hit_count = s->hit_capacity = 0;
     pair_set_init(&s->tested);
@@ -633,6 +643,8 @@ static void scratch_free(shape_scratch *s)
     free(s->posed);
     free(s->posed_stamp);
     free(s->posed_vertices);
+    free(s->world_posed);
+    free(s->world_stamp);
     free(s->stack);
     free(s->hits);
     free(s);
@@ -648,11 +660,19 @@ static int scratch_arrays(shape_scratch *s)
     s->posed = malloc(n * sizeof *s->posed);
     s->posed_vertices = malloc(verts * sizeof *s->posed_vertices);
     s->posed_stamp = calloc(2 * n + verts, sizeof *s->posed_stamp);
-    if (s->posed && s->posed_vertices && s->posed_stamp) {
+    if (s->world_at) {
+        s->world_posed = malloc(n * sizeof *s->world_posed);
+        s->world_stamp = calloc(n, sizeof *s->world_stamp);
+    }
+    if (s->posed && s->posed_vertices && s->posed_stamp && (!s->world_at || (s->world_posed && s->world_stamp))) {
         s->prepared_stamp = s->posed_stamp + n;
         s->vertex_stamp = s->prepared_stamp + n;
         return 0;
     }
+    free(s->world_posed);
+    free(s->world_stamp);
+    s->world_posed = NULL;
+    s->world_stamp = NULL;
     free(s->posed);
     free(s->posed_vertices);
     free(s->posed_stamp);
@@ -668,6 +688,8 @@ static void scratch_next_pose(shape_scratch *s)
             memset(s->posed_stamp, 0,
                    (2 * s->shape->triangle_count + s->shape->used_vertex_count) *
                        sizeof *s->posed_stamp);
+        if (s->world_stamp)
+            memset(s->world_stamp, 0, s->shape->triangle_count * sizeof *s->world_stamp);
         s->epoch = 1;
     }
     pair_set_clear(&s->tested);
@@ -737,6 +759,21 @@ static inline __attribute__((always_inline)) int take_pair(pose_query *pq, posed
     return test_fresh_pair(pq, p, q, w);
 }
 
+/* Shape triangle q posed at shape_at, prepared for the exact test (placed worlds only). */
+static const tri_tri_query *world_posed_get(shape_scratch *s, uint32_t q)
+{
+    tri_tri_query *x = &s->world_posed[q];
+    if (s->world_stamp[q] != s->epoch) {
+        s->world_stamp[q] = s->epoch;
+        vec3 v[3];
+        octree_triangle_vertices(s->shape, q, v);
+        for (int k = 0; k < 3; k++)
+            v[k] = octree_apply_pose(s->shape_at, v[k]);
+        tri_tri_query_prepare(x, v);
+    }
+    return x;
+}
+
 static int test_fresh_pair(pose_query *pq, posed_triangle *p, uint32_t q, uint32_t w)
 {
     shape_scratch *s = pq->s;
@@ -744,7 +781,11 @@ static int test_fresh_pair(pose_query *pq, posed_triangle *p, uint32_t q, uint32
     vec3 wt[3];
     octree_triangle_vertices(s->world, w, wt);
     int touch;
-    if (s->mode == ACCURACY_EXACT) {
+    if (s->world_at) { /* exact mode, both triangles where they stand in the world */
+        for (int k = 0; k < 3; k++)
+            wt[k] = octree_apply_pose(s->world_at, wt[k]);
+        touch = tri_tri_overlap_exact_query(world_posed_get(s, q), wt);
+    } else if (s->mode == ACCURACY_EXACT) {
         if (s->prepared_stamp[q] != s->epoch) {
             vec3 v[3] = {p->query.v[0], p->query.v[1], p->query.v[2]};
             tri_tri_query_prepare(&p->query, v);
@@ -1209,6 +1250,101 @@ static octree_status mesh_tree_pose(shape_scratch *s, const pose *at, int all_pa
     }
     query_stats_finish(stats, &local, fallbacks_before, predicates_fallback_count());
     return pq.status;
+}
+
+/* The per-triangle path for a placed world, in the caller's order: each shape triangle
+ * posed at shape_at, against the world tree placed at world_at (octree_triangle_posed).
+ * For poses outside the frame's range. */
+static octree_status placed_fallback(const octree *world, const pose *world_at, const octree *shape,
+                                     const pose *shape_at, int all_pairs, mesh_output *out, query_stats *stats)
+{
+    size_t n = shape->triangle_count;
+    uint32_t *internal = malloc((n ? n : 1) * sizeof *internal);
+    size_t cap = 16;
+    tri_contact *contacts = malloc(cap * sizeof *contacts);
+    octree_status st = internal && contacts ? OCTREE_OK : OCTREE_ERR_NOMEM;
+    out->hit = 0;
+    out->count = 0;
+    for (size_t i = 0; st == OCTREE_OK && i < n; i++)
+        internal[shape->original_id[i]] = (uint32_t)i;
+    for (size_t i = 0; st == OCTREE_OK && i < n; i++) {
+        vec3 q[3];
+        octree_triangle_vertices(shape, internal[i], q);
+        for (int k = 0; k < 3; k++)
+            q[k] = octree_apply_pose(shape_at, q[k]);
+        tri_output t = {.contacts = contacts, .capacity = cap};
+        st = octree_triangle_posed(world, world_at, q, all_pairs ? TRI_IDS : TRI_YESNO, ACCURACY_EXACT, &t, stats);
+        if (st == OCTREE_OK && t.truncated) {
+            tri_contact *more = realloc(contacts, t.count * sizeof *contacts);
+            if (!more) {
+                st = OCTREE_ERR_NOMEM;
+                break;
+            }
+            contacts = more;
+            cap = t.count;
+            t = (tri_output){.contacts = contacts, .capacity = cap};
+            st = octree_triangle_posed(world, world_at, q, TRI_IDS, ACCURACY_EXACT, &t, stats);
+        }
+        if (st != OCTREE_OK || !t.hit)
+            continue;
+        out->hit = 1;
+        if (!all_pairs)
+            break;
+        for (size_t j = 0; j < t.count; j++) {
+            if (out->count < out->capacity)
+                out->pairs[out->count] = (mesh_pair){(uint32_t)i, contacts[j].triangle};
+            out->count++;
+        }
+    }
+    out->truncated = out->count > out->capacity;
+    free(internal);
+    free(contacts);
+    return st;
+}
+
+octree_status octree_mesh_tree_posed(const octree *world, const pose *world_at, const octree *shape,
+                                     const pose *shape_at, int all_pairs, accuracy_mode mode, mesh_output *out,
+                                     query_stats *stats)
+{
+    if (!world || !shape || !world_at || !shape_at || !out || mode != ACCURACY_EXACT)
+        return OCTREE_ERR_INVALID;
+    pose relative;
+    double grow;
+    octree_status st = octree_posed_pair_setup(world, world_at, shape, shape_at, &relative, &grow);
+    if (st != OCTREE_OK)
+        return st;
+    pose_frame f;
+    if (!pose_frame_make(&f, world, shape, &relative, grow))
+        return placed_fallback(world, world_at, shape, shape_at, all_pairs, out, stats);
+    shape_scratch *s = scratch_new(world, shape, mode);
+    if (!s)
+        return OCTREE_ERR_NOMEM;
+    /* The float boxes filter pairs as if the shape stood at the relative pose exactly,
+     * which it does not: a placed world tests with the widened descent alone. */
+    s->boxed = 0;
+    s->world_at = world_at;
+    s->shape_at = shape_at;
+    uint64_t fallbacks_before = predicates_fallback_count();
+    query_stats local = {0};
+    scratch_next_pose(s);
+    pose_query pq = {.s = s, .at = &relative, .all_pairs = all_pairs, .status = OCTREE_OK, .stats = &local};
+    descend(&pq, &f);
+    out->hit = pq.any;
+    out->count = 0;
+    out->truncated = 0;
+    if (pq.status == OCTREE_OK && all_pairs) {
+        if (s->hit_count > 1)
+            qsort(s->hits, s->hit_count, sizeof *s->hits, compare_u64);
+        size_t keep = s->hit_count < out->capacity ? s->hit_count : out->capacity;
+        for (size_t i = 0; i < keep; i++)
+            out->pairs[i] = (mesh_pair){(uint32_t)(s->hits[i] >> 32), (uint32_t)s->hits[i]};
+        out->count = s->hit_count;
+        out->truncated = s->hit_count > out->capacity;
+    }
+    st = pq.status;
+    scratch_free(s);
+    query_stats_finish(stats, &local, fallbacks_before, predicates_fallback_count());
+    return st;
 }
 
 /* Every pose of one call with one scratch. OCTREE_OK unless memory ran out for the
