@@ -321,8 +321,9 @@ octree_status octree_mesh_tree(const octree *world, const octree *shape, const p
 /* A shape tree placed at shape_at against a world tree placed at world_at (each in its
  * own frame: a robot link against an object): octree_mesh_tree's answer for the two
  * posed meshes, every vertex posed by octree_pose_point, with no tree built for either
- * pose. Pairs name the shape's and the world's triangles by their meshes' indices.
- * ACCURACY_EXACT only; OCTREE_ERR_INVALID for another mode or a pose octree_pose_check
+ * pose. Pairs name the shape's and the world's triangles by their meshes' indices; for
+ * yes/no, a hit also gives the first pair the descent met (count 1, in pairs[0] when
+ * capacity allows), so a state check can say what collided. ACCURACY_EXACT only; OCTREE_ERR_INVALID for another mode or a pose octree_pose_check
  * refuses. */
 octree_status octree_mesh_tree_posed(const octree *world, const pose *world_at, const octree *shape,
                                      const pose *shape_at, int all_pairs, accuracy_mode mode, mesh_output *out,

@@ -290,21 +290,29 @@ static void check_shapes_at_pose(const mesh_data *m, const pose *at, int poses)
                             1.0 / 3);
         pose sp = random_pose(&r, 0);
         sp.t = vec3_add(c, vec3_scale(rng_unit_vector(&r), rng_uniform(&r, 0, 0.1 * side)));
-        for (int all = 0; all <= 1; all++) {
-            mesh_pair pp[512], pw[512];
-            mesh_output op = {.pairs = pp, .capacity = 512}, ow = {.pairs = pw, .capacity = 512};
-            assert_int_equal(octree_mesh_tree_posed(local, at, shape, &sp, all, ACCURACY_EXACT, &op, NULL), OCTREE_OK);
-            assert_int_equal(octree_mesh(world, &sv, &sp, all, ACCURACY_EXACT, &ow, NULL), OCTREE_OK);
-            assert_int_equal(op.hit, ow.hit);
-            assert_int_equal(op.count, ow.count);
-            assert_int_equal(op.truncated, ow.truncated);
-            touched += all == 0 && ow.hit;
-            size_t n = ow.count < 512 ? ow.count : 512;
-            for (size_t k = 0; k < n; k++)
-                if (pp[k].query_triangle != pw[k].query_triangle || pp[k].world_triangle != pw[k].world_triangle)
-                    fail_msg("pose %d pair %zu: placed (%u, %u), built (%u, %u)", i, k, pp[k].query_triangle,
-                             pp[k].world_triangle, pw[k].query_triangle, pw[k].world_triangle);
-        }
+        mesh_pair pp[512], pw[512];
+        mesh_output op = {.pairs = pp, .capacity = 512}, ow = {.pairs = pw, .capacity = 512};
+        assert_int_equal(octree_mesh_tree_posed(local, at, shape, &sp, 1, ACCURACY_EXACT, &op, NULL), OCTREE_OK);
+        assert_int_equal(octree_mesh(world, &sv, &sp, 1, ACCURACY_EXACT, &ow, NULL), OCTREE_OK);
+        assert_int_equal(op.hit, ow.hit);
+        assert_int_equal(op.count, ow.count);
+        assert_int_equal(op.truncated, ow.truncated);
+        size_t n = ow.count < 512 ? ow.count : 512;
+        for (size_t k = 0; k < n; k++)
+            if (pp[k].query_triangle != pw[k].query_triangle || pp[k].world_triangle != pw[k].world_triangle)
+                fail_msg("pose %d pair %zu: placed (%u, %u), built (%u, %u)", i, k, pp[k].query_triangle,
+                         pp[k].world_triangle, pw[k].query_triangle, pw[k].world_triangle);
+        /* Yes/no: the same answer, and the pair it names is one of them. */
+        mesh_pair first;
+        mesh_output yes = {.pairs = &first, .capacity = 1};
+        assert_int_equal(octree_mesh_tree_posed(local, at, shape, &sp, 0, ACCURACY_EXACT, &yes, NULL), OCTREE_OK);
+        assert_int_equal(yes.hit, ow.hit);
+        assert_int_equal(yes.count, ow.hit ? 1 : 0);
+        int named = 0;
+        for (size_t k = 0; yes.hit && k < n; k++)
+            named |= first.query_triangle == pw[k].query_triangle && first.world_triangle == pw[k].world_triangle;
+        assert_true(named == yes.hit);
+        touched += ow.hit;
     }
     /* Poses within a tenth of the scene of the surface: some touch, some do not. */
     assert_true(touched > 0 && touched < (size_t)poses);
@@ -351,8 +359,8 @@ static void test_shape_touching_a_placed_corner(void **state)
         mesh_output ro = {.pairs = ref, .capacity = 64};
         assert_int_equal(octree_mesh(built, &sv, &sp, all, ACCURACY_EXACT, &ro, NULL), OCTREE_OK);
         assert_true(ro.hit);
-        assert_int_equal(out.count, ro.count);
-        for (size_t k = 0; k < ro.count && k < 64; k++)
+        assert_int_equal(out.count, all ? ro.count : 1); /* yes/no names its first pair */
+        for (size_t k = 0; all && k < ro.count && k < 64; k++)
             assert_true(pairs[k].query_triangle == ref[k].query_triangle && pairs[k].world_triangle == ref[k].world_triangle);
         octree_free(built);
         mesh_data_free(&posed);

@@ -736,6 +736,7 @@ typedef struct pose_query {
     const pose_frame *frame; /* set by descend */
     int all_pairs;
     int any;
+    uint64_t first; /* the first contact found (caller's shape id << 32 | world id) */
     octree_status status;
     query_stats *stats;
 } pose_query;
@@ -798,6 +799,8 @@ static int test_fresh_pair(pose_query *pq, posed_triangle *p, uint32_t q, uint32
     }
     if (!touch)
         return 0;
+    if (!pq->any)
+        pq->first = (uint64_t)s->shape->original_id[q] << 32 | s->world->original_id[w];
     pq->any = 1;
     if (!pq->all_pairs)
         return 1;
@@ -1273,7 +1276,7 @@ static octree_status placed_fallback(const octree *world, const pose *world_at, 
         for (int k = 0; k < 3; k++)
             q[k] = octree_apply_pose(shape_at, q[k]);
         tri_output t = {.contacts = contacts, .capacity = cap};
-        st = octree_triangle_posed(world, world_at, q, all_pairs ? TRI_IDS : TRI_YESNO, ACCURACY_EXACT, &t, stats);
+        st = octree_triangle_posed(world, world_at, q, TRI_IDS, ACCURACY_EXACT, &t, stats);
         if (st == OCTREE_OK && t.truncated) {
             tri_contact *more = realloc(contacts, t.count * sizeof *contacts);
             if (!more) {
@@ -1288,8 +1291,12 @@ static octree_status placed_fallback(const octree *world, const pose *world_at, 
         if (st != OCTREE_OK || !t.hit)
             continue;
         out->hit = 1;
-        if (!all_pairs)
+        if (!all_pairs) { /* the first contact: this triangle's first */
+            if (out->capacity > 0)
+                out->pairs[0] = (mesh_pair){(uint32_t)i, contacts[0].triangle};
+            out->count = 1;
             break;
+        }
         for (size_t j = 0; j < t.count; j++) {
             if (out->count < out->capacity)
                 out->pairs[out->count] = (mesh_pair){(uint32_t)i, contacts[j].triangle};
@@ -1332,6 +1339,11 @@ octree_status octree_mesh_tree_posed(const octree *world, const pose *world_at, 
     out->hit = pq.any;
     out->count = 0;
     out->truncated = 0;
+    if (pq.status == OCTREE_OK && !all_pairs && pq.any) {
+        if (out->capacity > 0)
+            out->pairs[0] = (mesh_pair){(uint32_t)(pq.first >> 32), (uint32_t)pq.first};
+        out->count = 1;
+    }
     if (pq.status == OCTREE_OK && all_pairs) {
         if (s->hit_count > 1)
             qsort(s->hits, s->hit_count, sizeof *s->hits, compare_u64);

@@ -1,0 +1,129 @@
+/* Robot state checks over a world's objects (object_state.h). */
+#include "object_state.h"
+
+#include <stdlib.h>
+#include <string.h>
+
+#include "../../common/array_reserve.h"
+
+static int names_pair(const state_allowed *p, const char *x, const char *y)
+{
+    return (strcmp(p->a, x) == 0 && strcmp(p->b, y) == 0) || (strcmp(p->a, y) == 0 && strcmp(p->b, x) == 0);
+}
+
+static int allowed_pair(const state_allowed *allowed, size_t count, const char *x, const char *y)
+{
+    for (size_t i = 0; i < count; i++)
+        if (names_pair(&allowed[i], x, y))
+            return 1;
+    return 0;
+}
+
+static int boxes_apart(box3 a, box3 b)
+{
+    return a.lo.x > b.hi.x || a.lo.y > b.hi.y || a.lo.z > b.hi.z || a.hi.x < b.lo.x || a.hi.y < b.lo.y ||
+           a.hi.z < b.lo.z;
+}
+
+/* The pairs one tree pair found, appended in their order (by link triangle, then the
+ * other's); 1 when the check is over (first contact, or out of memory in *st). */
+typedef struct state_run {
+    state_output *out;
+    int all;
+    mesh_pair *pairs;
+    size_t pairs_cap;
+    octree_status st;
+    query_stats *stats;
+} state_run;
+
+static int test_pair(state_run *run, const octree *other, const pose *other_at, const state_link *link,
+                     uint32_t link_index, int with_link, uint32_t other_index)
+{
+    mesh_pair first[1];
+    mesh_output m = run->all ? (mesh_output){.pairs = run->pairs, .capacity = run->pairs_cap}
+                             : (mesh_output){.pairs = first, .capacity = 1};
+    /* The link is the shape side: pairs come as (link triangle, other triangle). */
+    run->st = octree_mesh_tree_posed(other, other_at, link->tree, &link->at, run->all, ACCURACY_EXACT, &m, run->stats);
+    if (run->st == OCTREE_OK && run->all && m.truncated) {
+        mesh_pair *more = realloc(run->pairs, m.count * sizeof *more);
+        if (!more) {
+            run->st = OCTREE_ERR_NOMEM;
+            return 1;
+        }
+        run->pairs = more;
+        run->pairs_cap = m.count;
+        m = (mesh_output){.pairs = run->pairs, .capacity = run->pairs_cap};
+        run->st = octree_mesh_tree_posed(other, other_at, link->tree, &link->at, 1, ACCURACY_EXACT, &m, run->stats);
+    }
+    if (run->st != OCTREE_OK)
+        return 1;
+    if (!m.hit)
+        return 0;
+    state_output *out = run->out;
+    out->valid = 0;
+    if (!run->all) { /* yes/no gave the first pair the descent met */
+        if (out->capacity > 0 && m.count > 0)
+            out->contacts[0] = (state_contact){link_index, with_link, other_index, first[0].query_triangle,
+                                               first[0].world_triangle};
+        out->count = 1;
+        out->truncated = out->capacity == 0;
+        return 1;
+    }
+    for (size_t k = 0; k < m.count; k++) {
+        if (out->count < out->capacity)
+            out->contacts[out->count] = (state_contact){link_index, with_link, other_index, run->pairs[k].query_triangle,
+                                                        run->pairs[k].world_triangle};
+        out->count++;
+    }
+    return 0;
+}
+
+octree_status object_set_state(const object_set *s, const state_link *links, size_t link_count,
+                               const state_allowed *allowed, size_t allowed_count, int self_collision,
+                               int all_contacts, state_output *out, query_stats *stats)
+{
+    if (!s || !out || (link_count && !links) || (allowed_count && !allowed) || link_count > STATE_MAX_LINKS ||
+        allowed_count > STATE_MAX_ALLOWED)
+        return OCTREE_ERR_INVALID;
+    out->valid = 1;
+    out->count = 0;
+    out->truncated = 0;
+    box3 link_boxes[STATE_MAX_LINKS];
+    for (size_t i = 0; i < link_count; i++) {
+        if (!links[i].tree || !links[i].name)
+            return OCTREE_ERR_INVALID;
+        octree_status ps = octree_pose_check(&links[i].at);
+        if (ps != OCTREE_OK)
+            return ps;
+        link_boxes[i] = octree_pose_box(&links[i].at, links[i].bounds);
+    }
+    for (size_t i = 0; i < allowed_count; i++)
+        if (!allowed[i].a || !allowed[i].b)
+            return OCTREE_ERR_INVALID;
+    state_run run = {out, all_contacts, NULL, 0, OCTREE_OK, stats};
+    if (all_contacts) {
+        run.pairs_cap = 64;
+        run.pairs = malloc(run.pairs_cap * sizeof *run.pairs);
+        if (!run.pairs)
+            return OCTREE_ERR_NOMEM;
+    }
+    int over = 0;
+    for (size_t i = 0; i < link_count && !over; i++) {
+        const state_link *l = &links[i];
+        for (size_t j = 0; j < s->count && !over; j++) {
+            const world_object *o = &s->objects[j];
+            if (boxes_apart(link_boxes[i], o->bounds) || allowed_pair(allowed, allowed_count, l->name, o->name))
+                continue;
+            over = test_pair(&run, o->model->tree, &o->at, l, (uint32_t)i, 0, (uint32_t)j);
+        }
+        for (size_t j = i + 1; self_collision && j < link_count && !over; j++) {
+            if (boxes_apart(link_boxes[i], link_boxes[j]) || allowed_pair(allowed, allowed_count, l->name, links[j].name))
+                continue;
+            over = test_pair(&run, links[j].tree, &links[j].at, l, (uint32_t)i, 1, (uint32_t)j);
+        }
+    }
+    if (all_contacts)
+        out->truncated = out->count > out->capacity;
+    free(run.pairs);
+    return run.st;
+}

@@ -1,0 +1,58 @@
+/* Robot state checks: a set of link shapes, each at its pose, against a world's objects
+ * and, when asked, against each other, with allowed pairs left out (MoveIt's
+ * allowed-collision matrix). Each link is a shape tree built once in the link's frame; a
+ * link and an object are tested only when their posed boxes meet, and then by the two
+ * trees descended together (octree_mesh_tree_posed), so a state costs what the parts of
+ * the links near something cost. Answers are exact on the posed vertices of both sides. */
+#ifndef TRIOCT_WORLD_OBJECT_STATE_H
+#define TRIOCT_WORLD_OBJECT_STATE_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "object_set.h"
+
+/* Links one state may hold, and allowed pairs one check may name. */
+#define STATE_MAX_LINKS 64
+#define STATE_MAX_ALLOWED 1024
+
+typedef struct state_link {
+    const char *name;
+    const octree *tree; /* the link's shape tree, in its frame */
+    box3 bounds;        /* its mesh's bounds, in its frame */
+    pose at;
+} state_link;
+
+/* A pair that may touch: a link's name and an object's or another link's name, either way
+ * round. */
+typedef struct state_allowed {
+    const char *a, *b;
+} state_allowed;
+
+typedef struct state_contact {
+    uint32_t link;          /* index into the links */
+    int with_link;          /* 0: other is an object index in the set; 1: a link index */
+    uint32_t other;
+    uint32_t link_triangle; /* index in the link's mesh */
+    uint32_t other_triangle;
+} state_contact;
+
+typedef struct state_output {
+    int valid;    /* 1: no contact outside the allowed pairs */
+    size_t count; /* contacts found (first contact only unless every contact was asked) */
+    int truncated;
+    state_contact *contacts; /* by link, objects before links, other, then triangles */
+    size_t capacity;
+} state_output;
+
+/* Checks one state: every link against every object whose posed box its own meets, and
+ * with self_collision every pair of links, pairs named in allowed left out. With
+ * all_contacts 0 the check stops at its first contact (which it reports), else it reports
+ * every colliding triangle pair. OCTREE_ERR_INVALID for more than STATE_MAX_LINKS links
+ * or STATE_MAX_ALLOWED pairs, a link without a tree or name, or a pose
+ * octree_pose_check refuses. */
+octree_status object_set_state(const object_set *s, const state_link *links, size_t link_count,
+                               const state_allowed *allowed, size_t allowed_count, int self_collision,
+                               int all_contacts, state_output *out, query_stats *stats);
+
+#endif
