@@ -329,6 +329,18 @@ octree_status octree_mesh_tree_posed(const octree *world, const pose *world_at, 
                                      const pose *shape_at, int all_pairs, accuracy_mode mode, mesh_output *out,
                                      query_stats *stats);
 
+/* What octree_mesh_tree_posed allocates for one shape (its stack, the posed triangles'
+ * caches, the tested pairs), kept for many queries: a state check asks each link against
+ * several objects, state after state, and allocating and clearing it per query cost more
+ * than the queries. One scratch serves one thread at a time. */
+typedef struct octree_shape_scratch octree_shape_scratch;
+octree_shape_scratch *octree_shape_scratch_new(const octree *shape);
+void octree_shape_scratch_free(octree_shape_scratch *scratch);
+/* octree_mesh_tree_posed (exact mode) for the scratch's shape. */
+octree_status octree_mesh_tree_posed_with(octree_shape_scratch *scratch, const octree *world, const pose *world_at,
+                                          const pose *shape_at, int all_pairs, mesh_output *out,
+                                          query_stats *stats);
+
 /* ---------- batches ---------- */
 /* Each item gets its own status in statuses[i] and its own output; the batch returns
  * OCTREE_OK when every item was answered (an item's own error is not a batch error) and

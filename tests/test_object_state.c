@@ -129,7 +129,8 @@ static int same_contact(const state_contact *a, const state_contact *b)
 }
 
 static void check_state(const object_set *s, const test_link *links, const pose *poses, size_t n,
-                        const state_allowed *allowed, size_t allowed_count, int self, size_t *invalid)
+                        const state_allowed *allowed, size_t allowed_count, int self, state_scratch *scratch,
+                        size_t *invalid)
 {
     state_link sl[8];
     for (size_t i = 0; i < n; i++)
@@ -137,7 +138,7 @@ static void check_state(const object_set *s, const test_link *links, const pose 
     static state_contact got[MAX_CONTACTS], want[MAX_CONTACTS];
     size_t expected = reference_contacts(s, links, poses, n, allowed, allowed_count, self, want);
     state_output all = {.contacts = got, .capacity = MAX_CONTACTS};
-    assert_int_equal(object_set_state(s, sl, n, allowed, allowed_count, self, 1, &all, NULL), OCTREE_OK);
+    assert_int_equal(object_set_state(s, sl, n, allowed, allowed_count, self, 1, &all, scratch, NULL), OCTREE_OK);
     assert_int_equal(all.valid, expected == 0);
     assert_int_equal(all.count, expected);
     assert_false(all.truncated);
@@ -149,7 +150,7 @@ static void check_state(const object_set *s, const test_link *links, const pose 
                      want[k].other_triangle);
     state_contact one;
     state_output first = {.contacts = &one, .capacity = 1};
-    assert_int_equal(object_set_state(s, sl, n, allowed, allowed_count, self, 0, &first, NULL), OCTREE_OK);
+    assert_int_equal(object_set_state(s, sl, n, allowed, allowed_count, self, 0, &first, scratch, NULL), OCTREE_OK);
     assert_int_equal(first.valid, expected == 0);
     if (expected) {
         /* Yes/no names one real contact, whichever the descent met first. */
@@ -194,12 +195,19 @@ static void test_states_equal_the_posed_meshes(void **state)
     box3 over_table = {{-0.8, -0.8, 0.0}, {0.8, 0.8, 0.6}};
     size_t invalid = 0;
     state_allowed allowed[] = {{"upper", "table"}, {"fore", "hand"}};
+    /* One scratch for every state, as a worker keeps one: what it keeps from a state
+     * (each link's caches, against objects and links alike) must not leak into the next;
+     * every eighth state makes its own instead. */
+    state_scratch *scratch = state_scratch_new();
+    assert_non_null(scratch);
     for (int k = 0; k < 80; k++) {
         pose poses[3] = {random_pose(&r, over_table), random_pose(&r, over_table), random_pose(&r, over_table)};
         int self = k % 2;
-        check_state(s, links, poses, 3, NULL, 0, self, &invalid);
-        check_state(s, links, poses, 3, allowed, 2, self, &invalid);
+        state_scratch *use = k % 8 == 7 ? NULL : scratch;
+        check_state(s, links, poses, 3, NULL, 0, self, use, &invalid);
+        check_state(s, links, poses, 3, allowed, 2, self, use, &invalid);
     }
+    state_scratch_free(scratch);
     /* Both valid and colliding states were checked. */
     assert_true(invalid > 10 && invalid < 150);
 
@@ -207,11 +215,11 @@ static void test_states_equal_the_posed_meshes(void **state)
     pose lying = quat(0.7, -0.3, 0.05, 0.7071067811865476, 0.7071067811865476, 0, 0);
     state_link one = {"upper", links[0].tree, mesh_data_bounds(&links[0].mesh), lying};
     state_output out = {.contacts = NULL, .capacity = 0};
-    assert_int_equal(object_set_state(s, &one, 1, NULL, 0, 0, 0, &out, NULL), OCTREE_OK);
+    assert_int_equal(object_set_state(s, &one, 1, NULL, 0, 0, 0, &out, NULL, NULL), OCTREE_OK);
     assert_int_equal(out.valid, 0);
     assert_int_equal(out.truncated, 1); /* a contact with nowhere to put it */
     state_allowed table_ok = {"table", "upper"}; /* either way round */
-    assert_int_equal(object_set_state(s, &one, 1, &table_ok, 1, 0, 0, &out, NULL), OCTREE_OK);
+    assert_int_equal(object_set_state(s, &one, 1, &table_ok, 1, 0, 0, &out, NULL, NULL), OCTREE_OK);
     assert_int_equal(out.valid, 1);
 
     /* Two links through each other, away from every object: valid unless self-collision
@@ -222,23 +230,23 @@ static void test_states_equal_the_posed_meshes(void **state)
     };
     state_contact c;
     out = (state_output){.contacts = &c, .capacity = 1};
-    assert_int_equal(object_set_state(s, pair, 2, NULL, 0, 0, 0, &out, NULL), OCTREE_OK);
+    assert_int_equal(object_set_state(s, pair, 2, NULL, 0, 0, 0, &out, NULL, NULL), OCTREE_OK);
     assert_int_equal(out.valid, 1);
-    assert_int_equal(object_set_state(s, pair, 2, NULL, 0, 1, 0, &out, NULL), OCTREE_OK);
+    assert_int_equal(object_set_state(s, pair, 2, NULL, 0, 1, 0, &out, NULL, NULL), OCTREE_OK);
     assert_int_equal(out.valid, 0);
     assert_int_equal(c.with_link, 1);
     assert_int_equal(c.link, 0);
     assert_int_equal(c.other, 1);
-    assert_int_equal(object_set_state(s, pair, 2, &allowed[1], 1, 1, 0, &out, NULL), OCTREE_OK);
+    assert_int_equal(object_set_state(s, pair, 2, &allowed[1], 1, 1, 0, &out, NULL, NULL), OCTREE_OK);
     assert_int_equal(out.valid, 1);
 
     /* Refused: a pose that is not a rotation, a link without a tree. */
     state_link scaled = one;
     scaled.at.r[0] = 2;
-    assert_int_equal(object_set_state(s, &scaled, 1, NULL, 0, 0, 0, &out, NULL), OCTREE_ERR_INVALID);
+    assert_int_equal(object_set_state(s, &scaled, 1, NULL, 0, 0, 0, &out, NULL, NULL), OCTREE_ERR_INVALID);
     state_link treeless = one;
     treeless.tree = NULL;
-    assert_int_equal(object_set_state(s, &treeless, 1, NULL, 0, 0, 0, &out, NULL), OCTREE_ERR_INVALID);
+    assert_int_equal(object_set_state(s, &treeless, 1, NULL, 0, 0, 0, &out, NULL, NULL), OCTREE_ERR_INVALID);
 
     for (int i = 0; i < 3; i++) {
         octree_free(links[i].tree);

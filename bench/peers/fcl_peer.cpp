@@ -2,6 +2,7 @@
 #include "fcl_peer.h"
 
 #include <fcl/fcl.h>
+#include <fcl/broadphase/broadphase_dynamic_AABB_tree.h>
 
 #include <cstdio>
 #include <exception>
@@ -72,4 +73,76 @@ extern "C" size_t fcl_peer_collide(fcl_peer_model *shape, const double r[9], con
         for (size_t i = 0; i < n && i < id_cap; i++)
             world_ids[i] = (uint32_t)result.getContact(i).b2;
     return n;
+}
+
+struct fcl_peer_scene {
+    std::vector<std::unique_ptr<fcl::CollisionObjectd>> objects;
+    fcl::DynamicAABBTreeCollisionManagerd manager;
+};
+
+namespace {
+struct scene_query {
+    const fcl::CollisionObjectd *skip;
+    bool hit;
+};
+
+// The broadphase's narrow-phase callback, as MoveIt's: one fcl::collide per candidate
+// pair, a single contact asked for, and true (stop) once one is found.
+bool narrow_phase(fcl::CollisionObjectd *o1, fcl::CollisionObjectd *o2, void *data)
+{
+    auto *q = static_cast<scene_query *>(data);
+    if (q->hit)
+        return true;
+    if (o1 == q->skip || o2 == q->skip)
+        return false;
+    fcl::CollisionRequestd request(1, false);
+    fcl::CollisionResultd result;
+    fcl::collide(o1, o2, request, result);
+    q->hit = result.isCollision();
+    return q->hit;
+}
+
+fcl::Transform3d transform_of(const double r[9], const double t[3])
+{
+    fcl::Transform3d tf = fcl::Transform3d::Identity();
+    fcl::Matrix3d rot;
+    rot << r[0], r[1], r[2], r[3], r[4], r[5], r[6], r[7], r[8];
+    tf.linear() = rot;
+    tf.translation() = fcl::Vector3d(t[0], t[1], t[2]);
+    return tf;
+}
+} // namespace
+
+extern "C" fcl_peer_scene *fcl_peer_scene_new(void)
+{
+    return new fcl_peer_scene();
+}
+
+extern "C" void fcl_peer_scene_add(fcl_peer_scene *scene, const fcl_peer_model *model, const double r[9],
+                                   const double t[3])
+{
+    auto object = std::make_unique<fcl::CollisionObjectd>(model->bvh, transform_of(r, t));
+    object->computeAABB();
+    scene->manager.registerObject(object.get());
+    scene->objects.push_back(std::move(object));
+}
+
+extern "C" void fcl_peer_scene_setup(fcl_peer_scene *scene)
+{
+    scene->manager.setup();
+}
+
+extern "C" int fcl_peer_scene_collide(fcl_peer_scene *scene, fcl_peer_model *link, const double r[9],
+                                      const double t[3], long skip)
+{
+    link->object.setTransform(transform_of(r, t));
+    link->object.computeAABB();
+    scene_query q = {skip >= 0 ? scene->objects[(size_t)skip].get() : nullptr, false};
+    scene->manager.collide(&link->object, &q, narrow_phase);
+    return q.hit ? 1 : 0;
+}
+
+extern "C" void fcl_peer_scene_free(fcl_peer_scene *scene)
+{
+    delete scene;
 }

@@ -29,6 +29,24 @@ void fcl_peer_model_free(fcl_peer_model *model);
 size_t fcl_peer_collide(fcl_peer_model *shape, const double r[9], const double t[3], const fcl_peer_model *world,
                         size_t max_contacts, uint32_t *world_ids, size_t id_cap);
 
+/* A world of objects as a MoveIt planning scene hands them to FCL: each object a
+ * CollisionObject sharing its model's BVH, placed by its transform, all in one
+ * DynamicAABBTreeCollisionManager (the broadphase). */
+typedef struct fcl_peer_scene fcl_peer_scene;
+
+fcl_peer_scene *fcl_peer_scene_new(void);
+/* Places one object of `model` (which must outlive the scene) at p' = R p + t. */
+void fcl_peer_scene_add(fcl_peer_scene *scene, const fcl_peer_model *model, const double r[9], const double t[3]);
+/* Builds the broadphase over the objects added. */
+void fcl_peer_scene_setup(fcl_peer_scene *scene);
+/* Moves `link` to p' = R p + t (transform and AABB, as a planning scene updates a link)
+ * and asks the broadphase for the objects whose boxes meet it, each pair by fcl::collide
+ * with one contact, stopping at the first contact. skip: the index (in the order added)
+ * of an object the link may touch, or -1. 1 when the link touches an object. */
+int fcl_peer_scene_collide(fcl_peer_scene *scene, fcl_peer_model *link, const double r[9], const double t[3],
+                           long skip);
+void fcl_peer_scene_free(fcl_peer_scene *scene);
+
 #ifdef __cplusplus
 }
 #endif

@@ -524,6 +524,7 @@ typedef struct shape_scratch {
     const pose *world_at, *shape_at;
     tri_tri_query *world_posed;
     uint32_t *world_stamp;
+    size_t stack_cap; /* entries the stack holds */
 } shape_scratch;
 
 static void pair_set_clear(pair_set *s)
@@ -627,7 +628,8 @@ static shape_scratch *scratch_new(const octree *world, const octree *shape, accu
     s->hits = NULL;
     s->hit_count = s->hit_capacity = 0;
     pair_set_init(&s->tested);
-    s->stack = malloc(stack_capacity(world, shape) * sizeof *s->stack);
+    s->stack_cap = stack_capacity(world, shape);
+    s->stack = malloc(s->stack_cap * sizeof *s->stack);
     if (!s->stack) {
         free(s);
         return NULL;
@@ -1309,12 +1311,58 @@ static octree_status placed_fallback(const octree *world, const pose *world_at, 
     return st;
 }
 
-octree_status octree_mesh_tree_posed(const octree *world, const pose *world_at, const octree *shape,
-                                     const pose *shape_at, int all_pairs, accuracy_mode mode, mesh_output *out,
-                                     query_stats *stats)
+struct octree_shape_scratch {
+    shape_scratch *s;
+};
+
+octree_shape_scratch *octree_shape_scratch_new(const octree *shape)
 {
-    if (!world || !shape || !world_at || !shape_at || !out || mode != ACCURACY_EXACT)
+    if (!shape)
+        return NULL;
+    octree_shape_scratch *x = malloc(sizeof *x);
+    if (!x)
+        return NULL;
+    /* Made for the shape against itself; each query points it at its world. */
+    x->s = scratch_new(shape, shape, ACCURACY_EXACT);
+    if (!x->s) {
+        free(x);
+        return NULL;
+    }
+    return x;
+}
+
+void octree_shape_scratch_free(octree_shape_scratch *x)
+{
+    if (!x)
+        return;
+    scratch_free(x->s);
+    free(x);
+}
+
+/* Points the scratch at world: a stack deep enough for the two trees. Stamps, sides and
+ * the pair set are per pose and per descent already, so nothing else is cleared. */
+static int scratch_retarget(shape_scratch *s, const octree *world)
+{
+    size_t need = stack_capacity(world, s->shape);
+    if (need > s->stack_cap) {
+        pair_entry *more = realloc(s->stack, need * sizeof *more);
+        if (!more)
+            return -1;
+        s->stack = more;
+        s->stack_cap = need;
+    }
+    s->world = world;
+    s->boxed = 0; /* a placed world goes without the float boxes' filters */
+    return 0;
+}
+
+octree_status octree_mesh_tree_posed_with(octree_shape_scratch *x, const octree *world, const pose *world_at,
+                                          const pose *shape_at, int all_pairs, mesh_output *out, query_stats *stats)
+{
+    if (!x || !world || !world_at || !shape_at || !out)
         return OCTREE_ERR_INVALID;
+    shape_scratch *s = x->s;
+    const octree *shape = s->shape;
     pose relative;
     double grow;
     octree_status st = octree_posed_pair_setup(world, world_at, shape, shape_at, &relative, &grow);
@@ -1323,12 +1371,8 @@ octree_status octree_mesh_tree_posed(const octree *world, const pose *world_at, 
     pose_frame f;
     if (!pose_frame_make(&f, world, shape, &relative, grow))
         return placed_fallback(world, world_at, shape, shape_at, all_pairs, out, stats);
-    shape_scratch *s = scratch_new(world, shape, mode);
-    if (!s)
+    if (scratch_retarget(s, world) != 0)
         return OCTREE_ERR_NOMEM;
-    /* The float boxes filter pairs as if the shape stood at the relative pose exactly,
-     * which it does not: a placed world tests with the widened descent alone. */
-    s->boxed = 0;
     s->world_at = world_at;
     s->shape_at = shape_at;
     uint64_t fallbacks_before = predicates_fallback_count();
@@ -1353,9 +1397,21 @@ octree_status octree_mesh_tree_posed(const octree *world, const pose *world_at, 
         out->count = s->hit_count;
         out->truncated = s->hit_count > out->capacity;
     }
-    st = pq.status;
-    scratch_free(s);
     query_stats_finish(stats, &local, fallbacks_before, predicates_fallback_count());
+    return pq.status;
+}
+
+octree_status octree_mesh_tree_posed(const octree *world, const pose *world_at, const octree *shape,
+                                     const pose *shape_at, int all_pairs, accuracy_mode mode, mesh_output *out,
+                                     query_stats *stats)
+{
+    if (!world || !shape || !world_at || !shape_at || !out || mode != ACCURACY_EXACT)
+        return OCTREE_ERR_INVALID;
+    octree_shape_scratch *x = octree_shape_scratch_new(shape);
+    if (!x)
+        return OCTREE_ERR_NOMEM;
+    octree_status st = octree_mesh_tree_posed_with(x, world, world_at, shape_at, all_pairs, out, stats);
+    octree_shape_scratch_free(x);
     return st;
 }
 

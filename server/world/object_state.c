@@ -6,6 +6,46 @@
 
 #include "../../common/array_reserve.h"
 
+/* Link trees a scratch keeps a shape scratch for; past this the oldest is replaced. */
+#define STATE_SCRATCH_TREES 64
+
+struct state_scratch {
+    const octree *tree[STATE_SCRATCH_TREES];
+    octree_shape_scratch *shape[STATE_SCRATCH_TREES];
+    size_t count, next;
+};
+
+state_scratch *state_scratch_new(void)
+{
+    return calloc(1, sizeof(state_scratch));
+}
+
+void state_scratch_free(state_scratch *x)
+{
+    if (!x)
+        return;
+    for (size_t i = 0; i < x->count; i++)
+        octree_shape_scratch_free(x->shape[i]);
+    free(x);
+}
+
+/* The shape scratch for tree, made on first need; NULL when out of memory. */
+static octree_shape_scratch *scratch_for(state_scratch *x, const octree *tree)
+{
+    for (size_t i = 0; i < x->count; i++)
+        if (x->tree[i] == tree)
+            return x->shape[i];
+    octree_shape_scratch *made = octree_shape_scratch_new(tree);
+    if (!made)
+        return NULL;
+    size_t slot = x->count < STATE_SCRATCH_TREES ? x->count++ : x->next++ % STATE_SCRATCH_TREES;
+    if (x->tree[slot])
+        octree_shape_scratch_free(x->shape[slot]);
+    x->tree[slot] = tree;
+    x->shape[slot] = made;
+    return made;
+}
+
 static int names_pair(const state_allowed *p, const char *x, const char *y)
 {
     return (strcmp(p->a, x) == 0 && strcmp(p->b, y) == 0) || (strcmp(p->a, y) == 0 && strcmp(p->b, x) == 0);
@@ -28,6 +68,7 @@ static int boxes_apart(box3 a, box3 b)
 /* The pairs one tree pair found, appended in their order (by link triangle, then the
  * other's); 1 when the check is over (first contact, or out of memory in *st). */
 typedef struct state_run {
+    state_scratch *scratch;
     state_output *out;
     int all;
     mesh_pair *pairs;
@@ -43,7 +84,12 @@ static int test_pair(state_run *run, const octree *other, const pose *other_at, 
     mesh_output m = run->all ? (mesh_output){.pairs = run->pairs, .capacity = run->pairs_cap}
                              : (mesh_output){.pairs = first, .capacity = 1};
     /* The link is the shape side: pairs come as (link triangle, other triangle). */
-    run->st = octree_mesh_tree_posed(other, other_at, link->tree, &link->at, run->all, ACCURACY_EXACT, &m, run->stats);
+    octree_shape_scratch *x = scratch_for(run->scratch, link->tree);
+    if (!x) {
+        run->st = OCTREE_ERR_NOMEM;
+        return 1;
+    }
+    run->st = octree_mesh_tree_posed_with(x, other, other_at, &link->at, run->all, &m, run->stats);
     if (run->st == OCTREE_OK && run->all && m.truncated) {
         mesh_pair *more = realloc(run->pairs, m.count * sizeof *more);
         if (!more) {
@@ -53,7 +99,7 @@ static int test_pair(state_run *run, const octree *other, const pose *other_at, 
         run->pairs = more;
         run->pairs_cap = m.count;
         m = (mesh_output){.pairs = run->pairs, .capacity = run->pairs_cap};
-        run->st = octree_mesh_tree_posed(other, other_at, link->tree, &link->at, 1, ACCURACY_EXACT, &m, run->stats);
+        run->st = octree_mesh_tree_posed_with(x, other, other_at, &link->at, 1, &m, run->stats);
     }
     if (run->st != OCTREE_OK)
         return 1;
@@ -80,7 +126,7 @@ static int test_pair(state_run *run, const octree *other, const pose *other_at, 
 
 octree_status object_set_state(const object_set *s, const state_link *links, size_t link_count,
                                const state_allowed *allowed, size_t allowed_count, int self_collision,
-                               int all_contacts, state_output *out, query_stats *stats)
+                               int all_contacts, state_output *out, state_scratch *scratch, query_stats *stats)
 {
     if (!s || !out || (link_count && !links) || (allowed_count && !allowed) || link_count > STATE_MAX_LINKS ||
         allowed_count > STATE_MAX_ALLOWED)
@@ -100,12 +146,17 @@ octree_status object_set_state(const object_set *s, const state_link *links, siz
     for (size_t i = 0; i < allowed_count; i++)
         if (!allowed[i].a || !allowed[i].b)
             return OCTREE_ERR_INVALID;
-    state_run run = {out, all_contacts, NULL, 0, OCTREE_OK, stats};
+    state_scratch *own = NULL;
+    if (!scratch && !(scratch = own = state_scratch_new()))
+        return OCTREE_ERR_NOMEM;
+    state_run run = {scratch, out, all_contacts, NULL, 0, OCTREE_OK, stats};
     if (all_contacts) {
         run.pairs_cap = 64;
         run.pairs = malloc(run.pairs_cap * sizeof *run.pairs);
-        if (!run.pairs)
+        if (!run.pairs) {
+            state_scratch_free(own);
             return OCTREE_ERR_NOMEM;
+        }
     }
     int over = 0;
     for (size_t i = 0; i < link_count && !over; i++) {
@@ -125,5 +176,6 @@ octree_status object_set_state(const object_set *s, const state_link *links, siz
     if (all_contacts)
         out->truncated = out->count > out->capacity;
     free(run.pairs);
+    state_scratch_free(own);
     return run.st;
 }

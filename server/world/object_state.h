@@ -45,14 +45,21 @@ typedef struct state_output {
     size_t capacity;
 } state_output;
 
+/* What a check keeps between states: each link tree's shape scratch
+ * (octree_shape_scratch), made on the link's first check. One thread at a time. */
+typedef struct state_scratch state_scratch;
+state_scratch *state_scratch_new(void);
+void state_scratch_free(state_scratch *scratch);
+
 /* Checks one state: every link against every object whose posed box its own meets, and
  * with self_collision every pair of links, pairs named in allowed left out. With
  * all_contacts 0 the check stops at its first contact (which it reports), else it reports
  * every colliding triangle pair. OCTREE_ERR_INVALID for more than STATE_MAX_LINKS links
  * or STATE_MAX_ALLOWED pairs, a link without a tree or name, or a pose
- * octree_pose_check refuses. */
+ * octree_pose_check refuses. scratch may be NULL (the check then makes and frees its
+ * own). */
 octree_status object_set_state(const object_set *s, const state_link *links, size_t link_count,
                                const state_allowed *allowed, size_t allowed_count, int self_collision,
-                               int all_contacts, state_output *out, query_stats *stats);
+                               int all_contacts, state_output *out, state_scratch *scratch, query_stats *stats);
 
 #endif
