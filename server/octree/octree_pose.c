@@ -137,6 +137,14 @@ int octree_ray_box_interval(vec3 o, vec3 d, box3 b, double *t0, double *t1)
     return lo <= hi;
 }
 
+/* R^T c: a world offset taken into the pose's frame, R^T standing for R^-1 (the bounds
+ * below count what that and the rounding cost). */
+static vec3 unrotate(const double *r, vec3 c)
+{
+    return (vec3){r[0] * c.x + r[3] * c.y + r[6] * c.z, r[1] * c.x + r[4] * c.y + r[7] * c.z,
+                  r[2] * c.x + r[5] * c.y + r[8] * c.z};
+}
+
 octree_status octree_posed_ray_setup(const octree *tree, const pose *at, const ray_input *ray, posed_ray *out)
 {
     octree_status st = octree_pose_check(at);
@@ -147,11 +155,7 @@ octree_status octree_posed_ray_setup(const octree *tree, const pose *at, const r
     const double *r = at->r;
     const vec3 o = ray->origin, d = ray->direction, t = at->t;
     /* The local ray: R^T (o - t) and R^T d, R^T standing for R^-1. */
-    vec3 c = vec3_sub(o, t);
-    vec3 lo = {r[0] * c.x + r[3] * c.y + r[6] * c.z, r[1] * c.x + r[4] * c.y + r[7] * c.z,
-               r[2] * c.x + r[5] * c.y + r[8] * c.z};
-    vec3 ld = {r[0] * d.x + r[3] * d.y + r[6] * d.z, r[1] * d.x + r[4] * d.y + r[7] * d.z,
-               r[2] * d.x + r[5] * d.y + r[8] * d.z};
+    vec3 lo = unrotate(r, vec3_sub(o, t)), ld = unrotate(r, d);
     if (!vec3_is_finite(lo) || !vec3_is_finite(ld))
         return OCTREE_ERR_NONFINITE;
     if (ld.x == 0.0 && ld.y == 0.0 && ld.z == 0.0) /* a direction below 2^-1000 or so */
@@ -227,9 +231,7 @@ octree_status octree_posed_triangle_setup(const octree *tree, const pose *at, co
     const double *r = at->r;
     double T = max_abs3(at->t), worst = 0.0;
     for (int k = 0; k < 3; k++) {
-        vec3 c = vec3_sub(tri[k], at->t);
-        local[k] = (vec3){r[0] * c.x + r[3] * c.y + r[6] * c.z, r[1] * c.x + r[4] * c.y + r[7] * c.z,
-                          r[2] * c.x + r[5] * c.y + r[8] * c.z};
+        local[k] = unrotate(r, vec3_sub(tri[k], at->t));
         if (!vec3_is_finite(local[k]))
             return OCTREE_ERR_NONFINITE;
         double m = max_abs3(tri[k]);
@@ -266,9 +268,7 @@ octree_status octree_posed_pair_setup(const octree *world, const pose *world_at,
     for (int i = 0; i < 3; i++)
         for (int j = 0; j < 3; j++)
             relative->r[3 * i + j] = a[i] * b[j] + a[3 + i] * b[3 + j] + a[6 + i] * b[6 + j];
-    vec3 c = vec3_sub(shape_at->t, world_at->t);
-    relative->t = (vec3){a[0] * c.x + a[3] * c.y + a[6] * c.z, a[1] * c.x + a[4] * c.y + a[7] * c.z,
-                         a[2] * c.x + a[5] * c.y + a[8] * c.z};
+    relative->t = unrotate(a, vec3_sub(shape_at->t, world_at->t));
     for (int k = 0; k < 9; k++)
         if (!isfinite(relative->r[k]))
             return OCTREE_ERR_NONFINITE;

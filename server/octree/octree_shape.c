@@ -1215,6 +1215,18 @@ static octree_status check_pose(const pose *at)
     return vec3_is_finite(at->t) ? OCTREE_OK : OCTREE_ERR_NONFINITE;
 }
 
+/* An all-pairs answer from the scratch's hits: sorted, as many as fit, every one counted. */
+static void pairs_out(shape_scratch *s, mesh_output *out)
+{
+    if (s->hit_count > 1)
+        qsort(s->hits, s->hit_count, sizeof *s->hits, compare_u64);
+    size_t keep = s->hit_count < out->capacity ? s->hit_count : out->capacity;
+    for (size_t i = 0; i < keep; i++)
+        out->pairs[i] = (mesh_pair){(uint32_t)(s->hits[i] >> 32), (uint32_t)s->hits[i]};
+    out->count = s->hit_count;
+    out->truncated = s->hit_count > out->capacity;
+}
+
 /* One pose with the scratch of its call. */
 static octree_status mesh_tree_pose(shape_scratch *s, const pose *at, int all_pairs, mesh_output *out,
                                     query_stats *stats)
@@ -1244,15 +1256,8 @@ static octree_status mesh_tree_pose(shape_scratch *s, const pose *at, int all_pa
     out->hit = pq.any;
     out->count = 0;
     out->truncated = 0;
-    if (pq.status == OCTREE_OK && all_pairs) {
-        if (s->hit_count > 1)
-            qsort(s->hits, s->hit_count, sizeof *s->hits, compare_u64);
-        size_t keep = s->hit_count < out->capacity ? s->hit_count : out->capacity;
-        for (size_t i = 0; i < keep; i++)
-            out->pairs[i] = (mesh_pair){(uint32_t)(s->hits[i] >> 32), (uint32_t)s->hits[i]};
-        out->count = s->hit_count;
-        out->truncated = s->hit_count > out->capacity;
-    }
+    if (pq.status == OCTREE_OK && all_pairs)
+        pairs_out(s, out);
     query_stats_finish(stats, &local, fallbacks_before, predicates_fallback_count());
     return pq.status;
 }
@@ -1388,15 +1393,8 @@ octree_status octree_mesh_tree_posed_with(octree_shape_scratch *x, const octree 
             out->pairs[0] = (mesh_pair){(uint32_t)(pq.first >> 32), (uint32_t)pq.first};
         out->count = 1;
     }
-    if (pq.status == OCTREE_OK && all_pairs) {
-        if (s->hit_count > 1)
-            qsort(s->hits, s->hit_count, sizeof *s->hits, compare_u64);
-        size_t keep = s->hit_count < out->capacity ? s->hit_count : out->capacity;
-        for (size_t i = 0; i < keep; i++)
-            out->pairs[i] = (mesh_pair){(uint32_t)(s->hits[i] >> 32), (uint32_t)s->hits[i]};
-        out->count = s->hit_count;
-        out->truncated = s->hit_count > out->capacity;
-    }
+    if (pq.status == OCTREE_OK && all_pairs)
+        pairs_out(s, out);
     query_stats_finish(stats, &local, fallbacks_before, predicates_fallback_count());
     return pq.status;
 }
