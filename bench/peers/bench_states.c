@@ -108,6 +108,86 @@ static int by_double(const void *a, const void *b)
     return (x > y) - (x < y);
 }
 
+typedef struct bench_case {
+    const object_set *world;
+    fcl_peer_scene *scene;
+    const octree *link_tree;
+    box3 link_bounds;
+    fcl_peer_model **link_fcl;
+    char (*link_names)[8];
+    const pose *states;
+    const state_allowed *allowed; /* [0] link0-table, then the neighbouring links */
+    state_scratch *scratch;
+} bench_case;
+
+/* One figure: every state checked by both sides in alternating rounds, world collisions
+ * only or with self-collision too; 1 when the two agree on every state. */
+static int run_case(const bench_case *c, int self)
+{
+    static int t_valid[STATES], f_valid[STATES];
+    double t_time[ROUNDS], f_time[ROUNDS], ratio[ROUNDS];
+    query_stats st = {0};
+    size_t allowed_count = self ? LINKS : 1;
+    for (int round = 0; round < ROUNDS; round++) {
+        for (int side = 0; side < 2; side++) {
+            double t0 = now();
+            if ((side == 0) == (round % 2 == 0)) {
+                for (int s = 0; s < STATES; s++) {
+                    state_link links[LINKS];
+                    for (int k = 0; k < LINKS; k++)
+                        links[k] = (state_link){c->link_names[k], c->link_tree, c->link_bounds, c->states[s * LINKS + k]};
+                    state_contact one;
+                    state_output out = {.contacts = &one, .capacity = 1};
+                    if (object_set_state(c->world, links, LINKS, c->allowed, allowed_count, self, 0, &out, c->scratch,
+                                         round == 0 ? &st : NULL) != OCTREE_OK) {
+                        fprintf(stderr, "bench_states: a state check failed\n");
+                        exit(1);
+                    }
+                    t_valid[s] = out.valid;
+                }
+                t_time[round] = now() - t0;
+            } else {
+                for (int s = 0; s < STATES; s++) {
+                    int hit = 0;
+                    for (int k = 0; k < LINKS && !hit; k++) {
+                        const pose *p = &c->states[s * LINKS + k];
+                        double t[3] = {p->t.x, p->t.y, p->t.z};
+                        hit = fcl_peer_scene_collide(c->scene, c->link_fcl[k], p->r, t, k == 0 ? 0 : -1);
+                    }
+                    /* Self-collision once the world is clear (every link has moved): the
+                     * pairs that are not neighbours. */
+                    for (int i = 0; self && i < LINKS && !hit; i++)
+                        for (int j = i + 2; j < LINKS && !hit; j++)
+                            hit = fcl_peer_links_collide(c->link_fcl[i], c->link_fcl[j]);
+                    f_valid[s] = !hit;
+                }
+                f_time[round] = now() - t0;
+            }
+        }
+        ratio[round] = f_time[round] / t_time[round];
+    }
+    size_t agree = 0, colliding = 0;
+    for (int s = 0; s < STATES; s++) {
+        agree += t_valid[s] == f_valid[s];
+        colliding += !t_valid[s];
+    }
+    double sorted[ROUNDS], ts[ROUNDS], fs[ROUNDS];
+    memcpy(sorted, ratio, sizeof sorted);
+    memcpy(ts, t_time, sizeof ts);
+    memcpy(fs, f_time, sizeof fs);
+    qsort(sorted, ROUNDS, sizeof *sorted, by_double);
+    qsort(ts, ROUNDS, sizeof *ts, by_double);
+    qsort(fs, ROUNDS, sizeof *fs, by_double);
+    double med = sorted[ROUNDS / 2];
+    printf("%-44s %8.1fk %8.1fk %7.2fx %5.2f-%-6.2f >=%4.1f %5s  colliding %.2f%%, agree %.2f%%; per state %.0f "
+           "node pairs, %.0f leaf pairs, %.0f triangle pairs\n",
+           self ? "state checks a second (yes/no, world + self)" : "state checks a second (yes/no, world)",
+           STATES / ts[ROUNDS / 2] / 1e3, STATES / fs[ROUNDS / 2] / 1e3, med, sorted[0], sorted[ROUNDS - 1], TARGET,
+           med >= TARGET ? "yes" : "no", 100.0 * (double)colliding / STATES, 100.0 * (double)agree / STATES,
+           (double)st.nodes_visited / STATES, (double)st.leaves_visited / STATES, (double)st.candidates_tested / STATES);
+    return agree == STATES;
+}
+
 int main(void)
 {
     pin_to_one_cpu();
@@ -186,71 +266,21 @@ int main(void)
             at = compose(&at, &joint);
         }
     }
-    state_allowed allowed = {"link0", names[0]};
-
-    int *t_valid = malloc(STATES * sizeof *t_valid), *f_valid = malloc(STATES * sizeof *f_valid);
-    double t_time[ROUNDS], f_time[ROUNDS], ratio[ROUNDS];
-    query_stats st = {0};
+    /* The base may touch the table; with self-collision, each link its neighbours (the
+     * joints), as a robot's allowed-collision matrix says. */
+    state_allowed allowed[1 + LINKS - 1];
+    allowed[0] = (state_allowed){"link0", names[0]};
+    for (int k = 0; k + 1 < LINKS; k++)
+        allowed[1 + k] = (state_allowed){link_names[k], link_names[k + 1]};
     state_scratch *scratch = state_scratch_new(); /* as a daemon's worker keeps one */
-    for (int round = 0; round < ROUNDS; round++) {
-        for (int side = 0; side < 2; side++) {
-            if ((side == 0) == (round % 2 == 0)) {
-                double t0 = now();
-                for (int s = 0; s < STATES; s++) {
-                    state_link links[LINKS];
-                    for (int k = 0; k < LINKS; k++)
-                        links[k] = (state_link){link_names[k], link_tree, mesh_data_bounds(&link_mesh),
-                                                states[s * LINKS + k]};
-                    state_contact c;
-                    state_output out = {.contacts = &c, .capacity = 1};
-                    if (object_set_state(world, links, LINKS, &allowed, 1, 0, 0, &out, scratch, round == 0 ? &st : NULL) !=
-                        OCTREE_OK) {
-                        fprintf(stderr, "bench_states: a state check failed\n");
-                        return 1;
-                    }
-                    t_valid[s] = out.valid;
-                }
-                t_time[round] = now() - t0;
-            } else {
-                double t0 = now();
-                for (int s = 0; s < STATES; s++) {
-                    int hit = 0;
-                    for (int k = 0; k < LINKS && !hit; k++) {
-                        const pose *p = &states[s * LINKS + k];
-                        double t[3] = {p->t.x, p->t.y, p->t.z};
-                        hit = fcl_peer_scene_collide(scene, link_fcl[k], p->r, t, k == 0 ? 0 : -1);
-                    }
-                    f_valid[s] = !hit;
-                }
-                f_time[round] = now() - t0;
-            }
-        }
-        ratio[round] = f_time[round] / t_time[round];
-    }
-    size_t agree = 0, colliding = 0;
-    for (int s = 0; s < STATES; s++) {
-        agree += t_valid[s] == f_valid[s];
-        colliding += !t_valid[s];
-    }
-    double sorted[ROUNDS], ts[ROUNDS], fs[ROUNDS];
-    memcpy(sorted, ratio, sizeof sorted);
-    memcpy(ts, t_time, sizeof ts);
-    memcpy(fs, f_time, sizeof fs);
-    qsort(sorted, ROUNDS, sizeof *sorted, by_double);
-    qsort(ts, ROUNDS, sizeof *ts, by_double);
-    qsort(fs, ROUNDS, sizeof *fs, by_double);
-    double med = sorted[ROUNDS / 2];
+    bench_case c = {world, scene, link_tree, mesh_data_bounds(&link_mesh), link_fcl, link_names, states, allowed,
+                    scratch};
     printf("# states: %d links (%zu triangles each), %d objects (%zu triangles placed, 4 shared models), %d states, "
            "%d alternating rounds, one core\n",
            LINKS, link_mesh.triangle_count, OBJECTS, placed, STATES, ROUNDS);
     printf("%-44s %10s %10s %8s %12s %8s %5s  %s\n", "measure", "trioct", "FCL", "ratio", "range", "target", "met",
            "notes");
-    printf("%-44s %8.1fk %8.1fk %7.2fx %5.2f-%-6.2f >=%4.1f %5s  colliding %.1f%%, agree %.2f%%; per state %.0f "
-           "node pairs, %.0f leaf pairs, %.0f triangle pairs\n",
-           "state checks a second (yes/no, world)", STATES / ts[ROUNDS / 2] / 1e3, STATES / fs[ROUNDS / 2] / 1e3, med,
-           sorted[0], sorted[ROUNDS - 1], TARGET, med >= TARGET ? "yes" : "no", 100.0 * (double)colliding / STATES,
-           100.0 * (double)agree / STATES, (double)st.nodes_visited / STATES, (double)st.leaves_visited / STATES,
-           (double)st.candidates_tested / STATES);
+    int agreed = run_case(&c, 0) & run_case(&c, 1);
     for (int k = 0; k < LINKS; k++)
         fcl_peer_model_free(link_fcl[k]);
     fcl_peer_scene_free(scene);
@@ -265,7 +295,5 @@ int main(void)
     octree_free(link_tree);
     mesh_data_free(&link_mesh);
     free(states);
-    free(t_valid);
-    free(f_valid);
-    return agree == STATES ? 0 : 2;
+    return agreed ? 0 : 2;
 }

@@ -146,3 +146,19 @@ extern "C" void fcl_peer_scene_free(fcl_peer_scene *scene)
 {
     delete scene;
 }
+
+extern "C" int fcl_peer_links_collide(const fcl_peer_model *a, const fcl_peer_model *b)
+{
+    if (!a->object.getAABB().overlap(b->object.getAABB()))
+        return 0;
+    fcl::CollisionRequestd request(1, false);
+    fcl::CollisionResultd result;
+    fcl::collide(&a->object, &b->object, request, result);
+    return result.isCollision() ? 1 : 0;
+}
+
+extern "C" void fcl_peer_move(fcl_peer_model *link, const double r[9], const double t[3])
+{
+    link->object.setTransform(transform_of(r, t));
+    link->object.computeAABB();
+}

@@ -47,6 +47,13 @@ int fcl_peer_scene_collide(fcl_peer_scene *scene, fcl_peer_model *link, const do
                            long skip);
 void fcl_peer_scene_free(fcl_peer_scene *scene);
 
+/* Two links where the last fcl_peer_scene_collide (or fcl_peer_move) put them: their AABBs
+ * first, as a broadphase over the robot's links would, then fcl::collide with one
+ * contact. 1 when they touch. */
+int fcl_peer_links_collide(const fcl_peer_model *a, const fcl_peer_model *b);
+/* Puts a link at p' = R p + t (transform and AABB) without asking anything. */
+void fcl_peer_move(fcl_peer_model *link, const double r[9], const double t[3]);
+
 #ifdef __cplusplus
 }
 #endif
