@@ -1059,8 +1059,39 @@ typedef struct float_entry {
 /* A leaf's candidates for an exact crossing, closest or any hit: four at a time through
  * ray_tri_exact's own edge filter, and the full test only for those it cannot rule out.
  * Repeats are not skipped (walk_test_unique). */
+/* walk_test_leaf_filtered for a placed tree: four candidates at a time posed into a small
+ * block, the filter run on them with the world ray, so that it rejects exactly what the
+ * exact test on the posed triangles would. */
+static void walk_test_leaf_filtered_posed(ray_walk *w, const octree *tree, octree_node leaf)
+{
+    static const uint32_t corners[4][3] = {{0, 1, 2}, {3, 4, 5}, {6, 7, 8}, {9, 10, 11}};
+    static const uint32_t slots[4] = {0, 1, 2, 3};
+    const posed_ray *p = w->r.posed;
+    const uint32_t *ids = &tree->leaf_items[leaf.first];
+    for (uint32_t i = 0; i < leaf.count; i += 4) {
+        unsigned k = leaf.count - i < 4 ? leaf.count - i : 4;
+        vec3 posed[12];
+        for (unsigned j = 0; j < k; j++) {
+            vec3 t[3];
+            octree_triangle_vertices(tree, ids[i + j], t);
+            for (int c = 0; c < 3; c++)
+                posed[3 * j + c] = octree_apply_pose(&p->at, t[c]);
+        }
+        unsigned miss = ray_tri_exact_misses4(p->world.origin, p->world.direction, posed, corners, slots, k,
+                                              tree->traversal.avx2);
+        w->local.candidates_tested += bits_set8(miss);
+        for (unsigned j = 0; j < k; j++)
+            if (!((miss >> j) & 1) && !walk_test_unique(w, tree, ids[i + j]))
+                return;
+    }
+}
+
 static void walk_test_leaf_filtered(ray_walk *w, const octree *tree, octree_node leaf)
 {
+    if (w->r.posed) {
+        walk_test_leaf_filtered_posed(w, tree, leaf);
+        return;
+    }
     const uint32_t *ids = &tree->leaf_items[leaf.first];
     for (uint32_t i = 0; i < leaf.count; i += 4) {
         unsigned k = leaf.count - i < 4 ? leaf.count - i : 4;
@@ -1111,7 +1142,7 @@ static int compiled_begin(compiled_walk *c, ray_walk *w, const octree *tree)
     /* Closest and any-hit exact crossings may test a triangle twice (a leaf's neighbours
      * share it), which costs less than a set that prevents it, and their leaves take four
      * candidates at once through the filter. */
-    c->f.filtered = w->mode == ACCURACY_EXACT && !w->r.touch && w->detail != RAY_ALL && !w->r.posed;
+    c->f.filtered = w->mode == ACCURACY_EXACT && !w->r.touch && w->detail != RAY_ALL;
     if (!c->f.filtered)
         walk_need_set(w);
     c->lo = float_at_or_below(w->r.tmin);
