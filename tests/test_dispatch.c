@@ -1539,6 +1539,26 @@ static void test_every_status_code(void **state)
     a = ask_mesh("sphere", &mq);
     saw(&a, TRIOCT_ERR_BAD_REQUEST, "no query shape");
     answer_free(&a);
+    /* A pose that is not a rotation, named: the second of two, scaled, then mirrored; a
+     * matrix typed with six decimals is a rotation within the tolerance. */
+    trioct_pose_t two[2] = {pose_at(0, (vec3){0, 0, 0}), pose_at(0, (vec3){0, 0, 0})};
+    two[1].r[0] = two[1].r[4] = two[1].r[8] = 2;
+    mq = (trioct_mesh_request_t){.header = header("sphere"), .detail = 0, .accuracy = -1, .shape = "cube",
+                                 .num_poses = 2, .poses = two};
+    a = ask_mesh("sphere", &mq);
+    saw(&a, TRIOCT_ERR_BAD_REQUEST, "poses[1].r is not a rotation");
+    answer_free(&a);
+    two[1] = pose_at(0, (vec3){0, 0, 0});
+    two[1].r[0] = -1;
+    mq.header = header("sphere");
+    a = ask_mesh("sphere", &mq);
+    saw(&a, TRIOCT_ERR_BAD_REQUEST, "poses[1].r is not a rotation");
+    answer_free(&a);
+    two[1] = (trioct_pose_t){{0.707107, -0.707107, 0, 0.707107, 0.707107, 0, 0, 0, 1}, {0, 0, 0}};
+    mq.header = header("sphere");
+    a = ask_mesh("sphere", &mq);
+    assert_int_equal(a.status, TRIOCT_OK);
+    answer_free(&a);
 
     /* BAD_PATH, LOAD_FAILED and admin ops on the wrong channel. */
     a = load_path("escape", "../x.obj", 0, -1, 0);

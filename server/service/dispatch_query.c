@@ -407,6 +407,16 @@ static int check_mesh(job *j, const trioct_mesh_request_t *m, accuracy_mode *mod
         if (!vec_finite(&p->t))
             return job_fail(j, TRIOCT_ERR_NONFINITE, "poses[%d].t is (%g, %g, %g): coordinates must be finite",
                             i, p->t.x, p->t.y, p->t.z);
+        /* A scale, shear or mirror would pose a different shape than the one registered,
+         * and the exact answers would be exact about the wrong thing. */
+        pose at;
+        memcpy(at.r, p->r, sizeof at.r);
+        at.t = vec_in(&p->t);
+        if (octree_pose_check(&at) != OCTREE_OK)
+            return job_fail(j, TRIOCT_ERR_BAD_REQUEST,
+                            "poses[%d].r is not a rotation: R^T R must be I within %g in every entry and det(R) "
+                            "+1 (a scale, shear or mirror is refused)",
+                            i, OCTREE_ROTATION_TOLERANCE);
     }
     return TRIOCT_OK;
 }
