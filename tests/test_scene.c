@@ -491,6 +491,81 @@ static void test_duplicate_sections_and_worlds_without_mesh(void **state)
     expect_error_at("[a]\nmesh = a.obj\n\n[empty]\n", 4, "world 'empty' has no mesh");
 }
 
+/* ---------- objects ---------- */
+
+/* Objects and their poses, in either order; objects of one file share its mesh; they are
+ * kept in name order; an object without a pose stands at the identity. */
+static void test_objects_and_poses(void **state)
+{
+    (void)state;
+    loaded l;
+    const world_spec *w = load_one_world(&l, "[bench]\n"
+                                             "pose.zeta = 1 2 3 0 0 0 1\n"
+                                             "object.zeta = parts/crate.obj\n"
+                                             "object.alpha = parts/ball.obj\n"
+                                             "object.mid = parts/crate.obj\n"
+                                             "pose.mid = 0.5 0 -1 0.7071067811865476 0.7071067811865476 0 0\n");
+    assert_int_equal(w->object_count, 3);
+    assert_int_equal(w->mesh_count, 2); /* crate once, ball once */
+    assert_string_equal(w->objects[0].name, "alpha");
+    assert_string_equal(w->objects[1].name, "mid");
+    assert_string_equal(w->objects[2].name, "zeta");
+    assert_string_equal(w->meshes[w->objects[0].mesh], "parts/ball.obj");
+    assert_int_equal(w->objects[1].mesh, w->objects[2].mesh);
+    const double identity[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1}, half_turn_z[9] = {-1, 0, 0, 0, -1, 0, 0, 0, 1};
+    assert_matrix_equal(w->objects[0].at.r, identity);
+    assert_true(w->objects[0].at.t.x == 0 && w->objects[0].at.t.y == 0 && w->objects[0].at.t.z == 0);
+    assert_matrix_equal(w->objects[2].at.r, half_turn_z);
+    assert_true(w->objects[2].at.t.x == 1 && w->objects[2].at.t.y == 2 && w->objects[2].at.t.z == 3);
+    /* A quarter turn about x, normalised from its rounded quaternion. */
+    assert_int_equal(octree_pose_check(&w->objects[1].at), OCTREE_OK);
+    assert_true(fabs(w->objects[1].at.r[5] + 1) < 1e-15 && fabs(w->objects[1].at.r[7] - 1) < 1e-15);
+
+    /* The same objects with the pose lines elsewhere are the same world; a moved object is
+     * not. */
+    loaded m;
+    const world_spec *v = load_one_world(&m, "[bench]\n"
+                                             "object.zeta = parts/crate.obj\n"
+                                             "pose.mid = 0.5 0 -1 0.7071067811865476 0.7071067811865476 0 0\n"
+                                             "object.alpha = parts/ball.obj\n"
+                                             "object.mid = parts/crate.obj\n"
+                                             "pose.zeta = 1 2 3 0 0 0 1\n");
+    assert_true(world_spec_equal(w, v));
+    world_spec moved = *v;
+    moved.objects[2].at.t.x = 1.5;
+    assert_false(world_spec_equal(v, &moved));
+    scene_free(&l.sc);
+    scene_free(&m.sc);
+}
+
+static void test_object_errors(void **state)
+{
+    (void)state;
+    expect_error_at("[w]\nobject.a = a.obj\npose.b = 0 0 0 1 0 0 0\n", 1, "pose.b names no object");
+    expect_error_at("[w]\nobject.a = a.obj\nobject.a = b.obj\n", 3, "object 'a' given twice");
+    expect_error_at("[w]\nobject.a = a.obj\npose.a = 0 0 0 1 0 0 0\npose.a = 1 0 0 1 0 0 0\n", 4,
+                    "pose of object 'a' given twice");
+    expect_error_at("[w]\nobject.a = a.obj\npose.a = 0 0 0 2 0 0 0\n", 3, "must have length 1");
+    expect_error_at("[w]\nobject.a = a.obj\npose.a = 0 0 0 0 0 0 0\n", 3, "must have length 1");
+    expect_error_at("[w]\nobject.a = a.obj\npose.a = 0 0 0 1 0 0\n", 3, "seven numbers");
+    expect_error_at("[w]\nobject.a = a.obj\npose.a = 0 0 0 1 0 0 0 5\n", 3, "seven numbers");
+    expect_error_at("[w]\nobject.a = a.obj\npose.a = 0 nan 0 1 0 0 0\n", 3, "not finite");
+    expect_error_at("[w]\nobject.a-b = a.obj\n", 2, "invalid object name 'a-b'");
+    expect_error_at("[w]\nobject.a =\n", 2, "object.a needs a file path");
+    expect_error_at("[w]\nmesh = m.obj\nobject.a = a.obj\n", 1, "has objects and mesh");
+    expect_error_at("[w]\nobject.a = a.obj\ntranslate = 1 2 3\n", 1, "has objects and mesh");
+    char text[8192] = "[w]\n";
+    for (int i = 0; i < SCENE_MAX_OBJECTS; i++)
+        snprintf(text + strlen(text), sizeof text - strlen(text), "object.o%d = a.obj\n", i);
+    loaded l = load_text(text);
+    assert_int_equal(l.status, 0);
+    assert_int_equal(l.sc.worlds[0].object_count, SCENE_MAX_OBJECTS);
+    assert_int_equal(l.sc.worlds[0].mesh_count, 1);
+    scene_free(&l.sc);
+    strcat(text, "object.extra = a.obj\n");
+    expect_error_at(text, SCENE_MAX_OBJECTS + 2, "more than 64 objects in world 'w'");
+}
+
 static void test_more_than_max_worlds(void **state)
 {
     (void)state;
@@ -617,6 +692,8 @@ static void test_world_spec_equal(void **state)
 int main(void)
 {
     const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_objects_and_poses),
+        cmocka_unit_test(test_object_errors),
         cmocka_unit_test(test_good_scene_every_key),
         cmocka_unit_test(test_scene_without_daemon_section_and_with_bom_and_crlf),
         cmocka_unit_test(test_rotations_at_quarter_turns_are_exact),

@@ -324,6 +324,53 @@ static void test_build_merges_meshes(void **state)
     scratch_remove(&s);
 }
 
+/* A world of objects: one file placed twice (loaded once), each copy posed by its pose,
+ * the triangles in the objects' name order; the answers those of the posed copies. */
+static void test_build_places_objects(void **state)
+{
+    (void)state;
+    scratch s;
+    scratch_make(&s);
+    write_cube(&s, "cube.obj", 0);
+    world_spec spec;
+    world_spec_init(&spec, "yard");
+    snprintf(spec.meshes[0], sizeof spec.meshes[0], "cube.obj");
+    spec.mesh_count = 1;
+    /* "b" at the identity; "a" half a turn about z about the origin and 10 up: its cube
+     * spans [-1, 0] x [-1, 0] x [10, 11]. */
+    spec.object_count = 2;
+    spec.objects[0] = (world_object_spec){"a", 0, {{-1, 0, 0, 0, -1, 0, 0, 0, 1}, {0, 0, 10}}};
+    spec.objects[1] = (world_object_spec){"b", 0, {{1, 0, 0, 0, 1, 0, 0, 0, 1}, {0, 0, 0}}};
+    world *w = build_ok(&spec, s.dir);
+    assert_int_equal(w->report.triangles, 24);
+    assert_vec_equal(w->report.bbox_lo, -1, -1, 0);
+    assert_vec_equal(w->report.bbox_hi, 1, 1, 11);
+    octree_info info;
+    octree_get_info(w->tree, &info);
+    assert_int_equal(info.triangle_count, 24);
+    assert_true(closest_t(w->tree, vec3_make(-0.5, -0.5, 20), vec3_make(0, 0, -1)) == 9.0);
+    assert_true(closest_t(w->tree, vec3_make(0.5, 0.5, 20), vec3_make(0, 0, -1)) == 19.0);
+    assert_true(closest_t(w->tree, vec3_make(0.5, -0.5, 20), vec3_make(0, 0, -1)) == -1.0);
+    /* The first twelve triangles are a's (name order): a ray down onto a's top names one. */
+    ray_input down = {vec3_make(-0.5, -0.25, 20), vec3_make(0, 0, -1), 0, INFINITY, RAY_CROSSING};
+    ray_hit hit;
+    ray_output out = {0, 0, &hit, 1};
+    assert_int_equal(octree_ray(w->tree, &down, RAY_CLOSEST, ACCURACY_EXACT, &out, NULL), OCTREE_OK);
+    assert_true(out.hit_count == 1 && hit.triangle < 12);
+    world_release(w);
+
+    /* An object naming no mesh, or a pose that is not a rotation, is refused. */
+    char err[512];
+    spec.objects[1].mesh = 3;
+    build_fails(&spec, s.dir, TRIOCT_ERR_BAD_REQUEST, err, sizeof err);
+    assert_non_null(strstr(err, "object b"));
+    spec.objects[1].mesh = 0;
+    spec.objects[1].at.r[0] = 2;
+    build_fails(&spec, s.dir, TRIOCT_ERR_BAD_REQUEST, err, sizeof err);
+    assert_non_null(strstr(err, "object b"));
+    scratch_remove(&s);
+}
+
 static void test_build_applies_the_transform(void **state)
 {
     (void)state;
@@ -820,6 +867,7 @@ int main(void)
         cmocka_unit_test(test_build_unit_cube),
         cmocka_unit_test(test_build_uses_the_spec_octree_def),
         cmocka_unit_test(test_build_merges_meshes),
+        cmocka_unit_test(test_build_places_objects),
         cmocka_unit_test(test_build_applies_the_transform),
         cmocka_unit_test(test_build_assimp_model_with_transform),
         cmocka_unit_test(test_build_refuses_nan_naming_file_and_triangle),

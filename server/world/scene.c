@@ -24,6 +24,8 @@
 
 #define DAEMON_SECTION "daemon"
 #define SHAPE_KEY_PREFIX "shape."
+#define OBJECT_KEY_PREFIX "object."
+#define POSE_KEY_PREFIX "pose."
 
 typedef enum section_kind {
     SECTION_NONE,   /* before the first header */
@@ -36,7 +38,9 @@ typedef enum section_kind {
 typedef struct world_lines {
     int header_line;
     unsigned keys_seen;
+    uint64_t poses_seen; /* bit i: objects[i] had its pose.NAME line (SCENE_MAX_OBJECTS <= 64) */
 } world_lines;
+_Static_assert(SCENE_MAX_OBJECTS <= 64, "one bit an object in poses_seen");
 
 typedef struct scene_parser {
     const char *path;
@@ -214,6 +218,17 @@ int world_spec_equal(const world_spec *a, const world_spec *b)
         if (strcmp(a->shapes[i].name, b->shapes[i].name) != 0 ||
             strcmp(a->shapes[i].path, b->shapes[i].path) != 0)
             return 0;
+    if (a->object_count != b->object_count)
+        return 0;
+    for (size_t i = 0; i < a->object_count; i++) {
+        const world_object_spec *x = &a->objects[i], *y = &b->objects[i];
+        if (strcmp(x->name, y->name) != 0 || x->mesh != y->mesh || x->at.t.x != y->at.t.x ||
+            x->at.t.y != y->at.t.y || x->at.t.z != y->at.t.z)
+            return 0;
+        for (int k = 0; k < 9; k++)
+            if (x->at.r[k] != y->at.r[k])
+                return 0;
+    }
     return transform_equal(&a->transform, &b->transform) && def_equal(&a->def, &b->def);
 }
 
@@ -235,22 +250,39 @@ static int parse_number(const char *text, double *out)
     return 0;
 }
 
-/* Exactly three finite numbers separated by blanks or commas. */
-static int parse_three(const char *text, double out[3])
+/* Exactly n finite numbers separated by blanks or commas; why says what was wrong. */
+static int parse_numbers_exactly(const char *text, double *out, int n, char *why, size_t why_len)
 {
     const char *at = text;
-    for (int i = 0; i < 3; i++) {
+    for (int i = 0; i < n; i++) {
         while (*at == ' ' || *at == '\t' || (i > 0 && *at == ','))
             at++;
         char *end;
         out[i] = strtod(at, &end);
-        if (end == at || !isfinite(out[i]))
+        if (end == at) {
+            snprintf(why, why_len, "found %d", i);
             return -1;
+        }
+        if (!isfinite(out[i])) {
+            snprintf(why, why_len, "number %d is not finite", i + 1);
+            return -1;
+        }
         at = end;
     }
     while (*at == ' ' || *at == '\t')
         at++;
-    return *at == '\0' ? 0 : -1;
+    if (*at != '\0') {
+        snprintf(why, why_len, "more than %d, or not numbers", n);
+        return -1;
+    }
+    return 0;
+}
+
+/* Exactly three finite numbers separated by blanks or commas. */
+static int parse_three(const char *text, double out[3])
+{
+    char why[64];
+    return parse_numbers_exactly(text, out, 3, why, sizeof why);
 }
 
 /* cos and sin of an angle in degrees, exact at every multiple of 90: the angle is split
@@ -410,6 +442,83 @@ static int key_shape(scene_parser *p, world_spec *spec, const char *key, const c
     return 0;
 }
 
+/* The object entry of that name, made (with no mesh yet, mesh -1) when it is new. NULL
+ * past SCENE_MAX_OBJECTS, after saying so. */
+static world_object_spec *object_entry(scene_parser *p, world_spec *spec, const char *name)
+{
+    for (size_t i = 0; i < spec->object_count; i++)
+        if (strcmp(spec->objects[i].name, name) == 0)
+            return &spec->objects[i];
+    if (spec->object_count >= SCENE_MAX_OBJECTS) {
+        parser_fail(p, p->line, "more than %d objects in world '%s'", SCENE_MAX_OBJECTS, spec->name);
+        return NULL;
+    }
+    world_object_spec *o = &spec->objects[spec->object_count++];
+    memset(o, 0, sizeof *o);
+    memcpy(o->name, name, strlen(name) + 1);
+    o->mesh = -1;
+    const double identity[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1};
+    memcpy(o->at.r, identity, sizeof identity);
+    o->at.t = (vec3){0, 0, 0};
+    return o;
+}
+
+/* A pose line seen (a bit of the entry is not enough: the entry is made by either key). */
+static int object_pose_seen(const scene_parser *p, size_t world, size_t object)
+{
+    return (p->lines[world].poses_seen >> object) & 1;
+}
+
+static int key_object(scene_parser *p, world_spec *spec, const char *key, const char *value)
+{
+    const char *name = key + strlen(OBJECT_KEY_PREFIX);
+    if (!trioct_name_valid(name, TRIOCT_MAX_NAME_LEN))
+        return parser_fail(p, p->line, "invalid object name '%s': 1 to %d characters of A-Z a-z 0-9 _", name,
+                           TRIOCT_MAX_NAME_LEN);
+    world_object_spec *o = object_entry(p, spec, name);
+    if (!o)
+        return -1;
+    if (o->mesh >= 0)
+        return parser_fail(p, p->line, "object '%s' given twice", name);
+    if (value[0] == '\0')
+        return parser_fail(p, p->line, "%s needs a file path", key);
+    /* Objects of one file share its mesh: it is loaded once. */
+    for (size_t i = 0; i < spec->mesh_count; i++)
+        if (strcmp(spec->meshes[i], value) == 0) {
+            o->mesh = (int)i;
+            return 0;
+        }
+    if (spec->mesh_count >= SCENE_MAX_MESHES)
+        return parser_fail(p, p->line, "more than %d mesh files in world '%s'", SCENE_MAX_MESHES, spec->name);
+    if (copy_path(p, spec->meshes[spec->mesh_count], sizeof spec->meshes[0], key, value) != 0)
+        return -1;
+    o->mesh = (int)spec->mesh_count++;
+    return 0;
+}
+
+static int key_pose(scene_parser *p, world_spec *spec, const char *key, const char *value)
+{
+    const char *name = key + strlen(POSE_KEY_PREFIX);
+    if (!trioct_name_valid(name, TRIOCT_MAX_NAME_LEN))
+        return parser_fail(p, p->line, "invalid object name '%s': 1 to %d characters of A-Z a-z 0-9 _", name,
+                           TRIOCT_MAX_NAME_LEN);
+    double v[7];
+    char why[160];
+    if (parse_numbers_exactly(value, v, 7, why, sizeof why) != 0)
+        return parser_fail(p, p->line, "%s must be seven numbers \"x y z qw qx qy qz\": %s", key, why);
+    world_object_spec *o = object_entry(p, spec, name);
+    if (!o)
+        return -1;
+    size_t index = (size_t)(o - spec->objects), world = p->world_count - 1;
+    if (object_pose_seen(p, world, index))
+        return parser_fail(p, p->line, "pose of object '%s' given twice", name);
+    p->lines[world].poses_seen |= (uint64_t)1 << index;
+    if (octree_pose_from_quaternion((vec3){v[0], v[1], v[2]}, v[3], v[4], v[5], v[6], &o->at) != OCTREE_OK)
+        return parser_fail(p, p->line, "%s: the quaternion (qw qx qy qz) = (%g %g %g %g) must have length 1 within %g",
+                           key, v[3], v[4], v[5], v[6], OCTREE_QUATERNION_TOLERANCE);
+    return 0;
+}
+
 /* repeatable: the key may appear many times (meshes); the others take one value each. */
 static const struct world_key {
     const char *name;
@@ -433,6 +542,10 @@ static int world_key(scene_parser *p, const char *key, const char *value)
     world_spec *spec = &p->worlds[p->world_count - 1];
     if (strncmp(key, SHAPE_KEY_PREFIX, strlen(SHAPE_KEY_PREFIX)) == 0)
         return key_shape(p, spec, key, value);
+    if (strncmp(key, OBJECT_KEY_PREFIX, strlen(OBJECT_KEY_PREFIX)) == 0)
+        return key_object(p, spec, key, value);
+    if (strncmp(key, POSE_KEY_PREFIX, strlen(POSE_KEY_PREFIX)) == 0)
+        return key_pose(p, spec, key, value);
     for (size_t i = 0; i < WORLD_KEY_COUNT; i++) {
         if (strcmp(key, world_keys[i].name) != 0)
             continue;
@@ -445,7 +558,7 @@ static int world_key(scene_parser *p, const char *key, const char *value)
     }
     return parser_fail(p, p->line,
                        "unknown key '%s' in world '%s' (mesh, scale, rotate, translate, resolution, "
-                       "max_depth, accuracy, seed_epsilon, effects, shape.<name>)",
+                       "max_depth, accuracy, seed_epsilon, effects, shape.<name>, object.<name>, pose.<name>)",
                        key, spec->name);
 }
 
@@ -495,7 +608,7 @@ static int add_world(scene_parser *p, const char *name)
     int n = snprintf(spec->source, sizeof spec->source, "%s [%s]", p->path, name);
     if (n < 0 || (size_t)n >= sizeof spec->source)
         return parser_fail(p, p->line, "the scene path is too long");
-    p->lines[p->world_count] = (world_lines){p->line, 0};
+    p->lines[p->world_count] = (world_lines){p->line, 0, 0};
     p->world_count++;
     return 0;
 }
@@ -617,12 +730,42 @@ static void parser_free(scene_parser *p)
     free(p->lines);
 }
 
+static int by_object_name(const void *a, const void *b)
+{
+    return strcmp(((const world_object_spec *)a)->name, ((const world_object_spec *)b)->name);
+}
+
+/* Objects: each pose names an object, a section with objects takes no mesh or transform
+ * keys (a pose places each object), and they are kept in name order, the order their
+ * triangles take in the world. */
+static int check_objects(scene_parser *p, size_t i)
+{
+    world_spec *spec = &p->worlds[i];
+    if (spec->object_count == 0)
+        return 0;
+    for (size_t k = 0; k < spec->object_count; k++)
+        if (spec->objects[k].mesh < 0)
+            return parser_fail(p, p->lines[i].header_line, "world '%s': pose.%s names no object (no object.%s line)",
+                               spec->name, spec->objects[k].name, spec->objects[k].name);
+    /* world_keys order: mesh, scale, rotate, translate. */
+    if (p->lines[i].keys_seen & 0xfu)
+        return parser_fail(p, p->lines[i].header_line,
+                           "world '%s' has objects and mesh, scale, rotate or translate keys: with objects, each "
+                           "object's pose places it",
+                           spec->name);
+    qsort(spec->objects, spec->object_count, sizeof *spec->objects, by_object_name);
+    return 0;
+}
+
 static int check_every_world_has_a_mesh(scene_parser *p)
 {
-    for (size_t i = 0; i < p->world_count; i++)
+    for (size_t i = 0; i < p->world_count; i++) {
         if (p->worlds[i].mesh_count == 0)
             return parser_fail(p, p->lines[i].header_line, "world '%s' has no mesh",
                                p->worlds[i].name);
+        if (check_objects(p, i) != 0)
+            return -1;
+    }
     return 0;
 }
 

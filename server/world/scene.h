@@ -61,6 +61,17 @@ typedef struct world_shape_spec {
     char path[TRIOCT_MAX_PATH_LEN];
 } world_shape_spec;
 
+/* Objects a scene section may place (object.NAME = mesh, pose.NAME = x y z qw qx qy qz). */
+#define SCENE_MAX_OBJECTS 64
+
+/* One placed object: a mesh of the world's list (objects of one file share it) at a pose,
+ * p' = fl(R p + t) as octree_pose_point computes it; identity when no pose is given. */
+typedef struct world_object_spec {
+    char name[TRIOCT_MAX_NAME_LEN + 1];
+    int mesh; /* index into world_spec.meshes */
+    pose at;
+} world_object_spec;
+
 /* One world, as a scene section or an admin LOAD request describes it. Plain data: copy by
  * assignment, compare with world_spec_equal. */
 typedef struct world_spec {
@@ -70,6 +81,10 @@ typedef struct world_spec {
     size_t mesh_count;
     world_shape_spec shapes[TRIOCT_MAX_SHAPES];
     size_t shape_count;
+    /* With objects the world is their posed meshes, in name order; without, the meshes
+     * under the transform, as one object. A section has one or the other. */
+    world_object_spec objects[SCENE_MAX_OBJECTS];
+    size_t object_count;
     world_transform transform;
     octree_def def;      /* resolution (<= 0: heuristic), max_depth, mode, seed_epsilon */
     unsigned effects;    /* EFFECT_* bits, never 0 */

@@ -103,6 +103,7 @@ typedef struct world_builder {
     size_t err_len;
     mesh_data merged;
     size_t triangle_start[SCENE_MAX_MESHES]; /* first merged triangle of each mesh file */
+    size_t object_start[SCENE_MAX_OBJECTS];  /* with objects: first merged triangle of each */
     world *w;
 } world_builder;
 
@@ -198,8 +199,57 @@ static int merge_mesh(world_builder *b, const char *rel, mesh_data *mesh)
     return 0;
 }
 
+/* A world of objects: each file loaded once, each object a copy of its file's mesh with
+ * every vertex posed (octree_pose_point, the one posing expression), merged in the
+ * objects' (name) order. */
+static int load_objects(world_builder *b)
+{
+    const world_spec *spec = b->spec;
+    mesh_data files[SCENE_MAX_MESHES];
+    mesh_load_report reports[SCENE_MAX_MESHES];
+    memset(files, 0, sizeof files);
+    int status = 0;
+    for (size_t i = 0; i < spec->mesh_count && status == 0; i++)
+        status = load_file(b, spec->meshes[i], &files[i], &reports[i]);
+    for (size_t k = 0; k < spec->object_count && status == 0; k++) {
+        const world_object_spec *o = &spec->objects[k];
+        const mesh_data *src = &files[o->mesh];
+        mesh_data posed = {0};
+        if (mesh_data_append(&posed, src) != 0) {
+            status = build_fail(b, TRIOCT_ERR_NOMEM, "world '%s': out of memory placing object %s", spec->name, o->name);
+            break;
+        }
+        for (size_t v = 0; v < posed.vertex_count; v++)
+            posed.vertices[v] = octree_pose_point(&o->at, posed.vertices[v]);
+        size_t bad = first_nonfinite_triangle(&posed);
+        if (bad != SIZE_MAX) {
+            mesh_data_free(&posed);
+            status = build_fail(b, TRIOCT_ERR_LOAD_FAILED,
+                                "world '%s': object %s (%s): triangle %zu has a coordinate that is not finite at its pose",
+                                spec->name, o->name, spec->meshes[o->mesh], bad);
+            break;
+        }
+        mesh_load_report report = reports[o->mesh];
+        box3 bounds = mesh_data_bounds(&posed);
+        report.bbox_lo = bounds.lo;
+        report.bbox_hi = bounds.hi;
+        b->object_start[k] = b->merged.triangle_count;
+        if (merge_mesh(b, spec->meshes[o->mesh], &posed) != 0) {
+            mesh_data_free(&posed);
+            status = -1;
+            break;
+        }
+        add_report(&b->w->report, &report, k == 0);
+    }
+    for (size_t i = 0; i < spec->mesh_count; i++)
+        mesh_data_free(&files[i]);
+    return status;
+}
+
 static int load_meshes(world_builder *b)
 {
+    if (b->spec->object_count > 0)
+        return load_objects(b);
     for (size_t i = 0; i < b->spec->mesh_count; i++) {
         const char *rel = b->spec->meshes[i];
         mesh_data mesh;
@@ -283,6 +333,15 @@ static int build_tree(world_builder *b)
     if (oerr.status == OCTREE_ERR_NOMEM)
         return build_fail(b, TRIOCT_ERR_NOMEM, "world '%s': out of memory building the octree",
                           b->spec->name);
+    if (oerr.triangle != SIZE_MAX && b->spec->object_count > 0) {
+        size_t k = 0;
+        while (k + 1 < b->spec->object_count && b->object_start[k + 1] <= oerr.triangle)
+            k++;
+        const world_object_spec *o = &b->spec->objects[k];
+        return build_fail(b, TRIOCT_ERR_LOAD_FAILED, "world '%s': object %s (%s): triangle %zu: %s: %s", b->spec->name,
+                          o->name, b->spec->meshes[o->mesh], oerr.triangle - b->object_start[k],
+                          octree_status_text(oerr.status), oerr.message);
+    }
     if (oerr.triangle != SIZE_MAX) {
         size_t file = mesh_of_triangle(b, oerr.triangle);
         return build_fail(b, TRIOCT_ERR_LOAD_FAILED, "world '%s': %s: triangle %zu: %s: %s", b->spec->name,
@@ -303,6 +362,14 @@ static int check_spec(world_builder *b)
     if (spec->mesh_count == 0 || spec->mesh_count > SCENE_MAX_MESHES)
         return build_fail(b, TRIOCT_ERR_BAD_REQUEST, "world '%s' has %zu meshes (1 to %d)", spec->name,
                           spec->mesh_count, SCENE_MAX_MESHES);
+    if (spec->object_count > SCENE_MAX_OBJECTS)
+        return build_fail(b, TRIOCT_ERR_BAD_REQUEST, "world '%s' has %zu objects (at most %d)", spec->name,
+                          spec->object_count, SCENE_MAX_OBJECTS);
+    for (size_t k = 0; k < spec->object_count; k++)
+        if (spec->objects[k].mesh < 0 || (size_t)spec->objects[k].mesh >= spec->mesh_count ||
+            octree_pose_check(&spec->objects[k].at) != OCTREE_OK)
+            return build_fail(b, TRIOCT_ERR_BAD_REQUEST, "world '%s': object %.*s has no mesh or no rotation", spec->name,
+                              TRIOCT_MAX_NAME_LEN, spec->objects[k].name);
     if (spec->shape_count > TRIOCT_MAX_SHAPES)
         return build_fail(b, TRIOCT_ERR_BAD_REQUEST, "world '%s' has %zu shapes (at most %d)", spec->name,
                           spec->shape_count, TRIOCT_MAX_SHAPES);
