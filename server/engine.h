@@ -263,6 +263,10 @@ box3 octree_pose_box(const pose *at, box3 local);
  * for its rounding; 0 when the ray's line misses the box (then *t0, *t1 are unset). */
 int octree_ray_box_interval(vec3 o, vec3 d, box3 b, double *t0, double *t1);
 
+/* octree_ray's checks of a ray and its detail and mode, alone: OCTREE_OK or the status
+ * octree_ray would return for them. */
+octree_status octree_ray_check(const ray_input *ray, ray_detail detail, accuracy_mode mode);
+
 /* A ray in world coordinates against a tree built in its local frame and placed at `at`:
  * the answers octree_ray would give on a tree built from the posed triangles
  * (octree_pose_point of every vertex), the same t, barycentrics, normal and triangle

@@ -51,6 +51,14 @@ extern const unsigned char box_octant_of_upper_bits[8];
  * box_octants_by_half[0][hx] & box_octants_by_half[1][hy] & box_octants_by_half[2][hz]. */
 extern const unsigned char box_octants_by_half[3][4];
 
+/* 1 when the closed boxes a and b are strictly apart along some axis, so they share no
+ * point; boxes that touch are not apart. */
+static inline int boxes_apart(box3 a, box3 b)
+{
+    return a.lo.x > b.hi.x || a.lo.y > b.hi.y || a.lo.z > b.hi.z || a.hi.x < b.lo.x || a.hi.y < b.lo.y ||
+           a.hi.z < b.lo.z;
+}
+
 /* Which children of a box with split point c the closed region [lo, hi], meeting the
  * box, reaches (meets once clipped to the box). The clipping changes nothing (the box's
  * lo <= c <= its hi on every axis, so max(lo, box lo) <= c iff lo <= c, and likewise

@@ -424,10 +424,6 @@ octree_status octree_posed_triangle_setup(const octree *tree, const pose *at, co
 octree_status octree_posed_pair_setup(const octree *world, const pose *world_at, const octree *shape,
                                       const pose *shape_at, pose *relative, double *grow);
 
-/* 0 with *tau a bound on the spectral norm of R^T R - I, or -1 when an entry of it is
- * NaN or above 1. */
-int octree_pose_defect(const pose *at, double *tau);
-
 /* octree_mesh's argument checks: OCTREE_OK, or the status octree_mesh returns for them. */
 octree_status octree_mesh_check(const mesh_view *shape, const pose *at, accuracy_mode mode);
 

@@ -3,7 +3,7 @@
  * still reaches every triangle the world-space ray meets (octree_ray_posed).
  *
  * The bounds below use u = 2^-53 (a double's unit roundoff) and tau, a bound on the
- * spectral norm of R^T R - I (how far R is from orthonormal), which octree_pose_defect
+ * spectral norm of R^T R - I (how far R is from orthonormal), which pose_defect
  * computes from R itself. Each is derived where it is used, and each is taken about twice
  * as large as the derivation needs, so that the rounding of the bound's own arithmetic
  * cannot make it too small. */
@@ -39,7 +39,9 @@ octree_status octree_pose_from_quaternion(vec3 t, double qw, double qx, double q
     return OCTREE_OK;
 }
 
-int octree_pose_defect(const pose *at, double *tau)
+/* 0 with *tau a bound on the spectral norm of R^T R - I, or -1 when an entry of it is
+ * NaN or above 1. */
+static int pose_defect(const pose *at, double *tau)
 {
     const double *r = at->r;
     double worst = 0.0;
@@ -59,15 +61,15 @@ int octree_pose_defect(const pose *at, double *tau)
     return 0;
 }
 
-octree_status octree_pose_check(const pose *at)
+/* octree_pose_check, with the defect bound the widenings below are made of. */
+static octree_status rotation_check(const pose *at, double *tau)
 {
     for (int k = 0; k < 9; k++)
         if (!isfinite(at->r[k]))
             return OCTREE_ERR_NONFINITE;
     if (!vec3_is_finite(at->t))
         return OCTREE_ERR_NONFINITE;
-    double tau;
-    if (octree_pose_defect(at, &tau) != 0 || tau > 3.0 * OCTREE_ROTATION_TOLERANCE + 64 * U)
+    if (pose_defect(at, tau) != 0 || *tau > 3.0 * OCTREE_ROTATION_TOLERANCE + 64 * U)
         return OCTREE_ERR_INVALID;
     const double *r = at->r;
     double det = r[0] * (r[4] * r[8] - r[5] * r[7]) - r[1] * (r[3] * r[8] - r[5] * r[6]) +
@@ -75,6 +77,12 @@ octree_status octree_pose_check(const pose *at)
     /* Orthonormal within the tolerance, the determinant is within a few of it of +1 or -1:
      * the sign tells a rotation from a reflection. */
     return det > 0.5 ? OCTREE_OK : OCTREE_ERR_INVALID;
+}
+
+octree_status octree_pose_check(const pose *at)
+{
+    double tau;
+    return rotation_check(at, &tau);
 }
 
 static double max_abs3(vec3 v)
@@ -147,11 +155,10 @@ static vec3 unrotate(const double *r, vec3 c)
 
 octree_status octree_posed_ray_setup(const octree *tree, const pose *at, const ray_input *ray, posed_ray *out)
 {
-    octree_status st = octree_pose_check(at);
+    double tau;
+    octree_status st = rotation_check(at, &tau);
     if (st != OCTREE_OK)
         return st;
-    double tau;
-    octree_pose_defect(at, &tau);
     const double *r = at->r;
     const vec3 o = ray->origin, d = ray->direction, t = at->t;
     /* The local ray: R^T (o - t) and R^T d, R^T standing for R^-1. */
@@ -187,14 +194,13 @@ octree_status octree_posed_ray_setup(const octree *tree, const pose *at, const r
     if (!vec3_is_finite(wb.lo) || !vec3_is_finite(wb.hi))
         return OCTREE_ERR_NONFINITE;
     double t0, t1;
-    if (!octree_ray_box_interval(o, d, wb, &t0, &t1)) {
-        out->misses = 1;
-        out->grow = out->vertex_reach = out->origin_reach = out->direction_reach = out->s_bound = 0.0;
-        return OCTREE_OK;
+    int reaches = octree_ray_box_interval(o, d, wb, &t0, &t1);
+    if (reaches) {
+        t0 = t0 > ray->tmin ? t0 : ray->tmin;
+        t1 = t1 < ray->tmax ? t1 : ray->tmax;
+        reaches = t0 <= t1;
     }
-    t0 = t0 > ray->tmin ? t0 : ray->tmin;
-    t1 = t1 < ray->tmax ? t1 : ray->tmax;
-    if (t0 > t1) {
+    if (!reaches) {
         out->misses = 1;
         out->grow = out->vertex_reach = out->origin_reach = out->direction_reach = out->s_bound = 0.0;
         return OCTREE_OK;
@@ -223,11 +229,10 @@ octree_status octree_posed_ray_setup(const octree *tree, const pose *at, const r
 octree_status octree_posed_triangle_setup(const octree *tree, const pose *at, const vec3 tri[3], vec3 local[3],
                                           double *grow)
 {
-    octree_status st = octree_pose_check(at);
+    double tau;
+    octree_status st = rotation_check(at, &tau);
     if (st != OCTREE_OK)
         return st;
-    double tau;
-    octree_pose_defect(at, &tau);
     const double *r = at->r;
     double T = max_abs3(at->t), worst = 0.0;
     for (int k = 0; k < 3; k++) {
@@ -257,13 +262,12 @@ octree_status octree_posed_triangle_setup(const octree *tree, const pose *at, co
 octree_status octree_posed_pair_setup(const octree *world, const pose *world_at, const octree *shape,
                                       const pose *shape_at, pose *relative, double *grow)
 {
-    octree_status st = octree_pose_check(world_at);
+    double tau, shape_tau;
+    octree_status st = rotation_check(world_at, &tau);
     if (st == OCTREE_OK)
-        st = octree_pose_check(shape_at);
+        st = rotation_check(shape_at, &shape_tau);
     if (st != OCTREE_OK)
         return st;
-    double tau;
-    octree_pose_defect(world_at, &tau);
     const double *a = world_at->r, *b = shape_at->r;
     for (int i = 0; i < 3; i++)
         for (int j = 0; j < 3; j++)

@@ -246,21 +246,37 @@ static double touch_t_upper_bound(double t)
     return t + fabs(t) * 0x1p-40 + TINY;
 }
 
+/* Triangle id's vertices as the walk's final tests take them: posed where the tree is
+ * placed (octree_ray_posed), the tree's own otherwise. */
+static inline __attribute__((always_inline)) void walk_triangle(const octree *tree, const ray_setup *r, uint32_t id,
+                                                                vec3 tri[3])
+{
+    octree_triangle_vertices(tree, id, tri);
+    if (r->posed)
+        for (int k = 0; k < 3; k++)
+            tri[k] = octree_apply_pose(&r->posed->at, tri[k]);
+}
+
+/* The exact order of two hits' t under the contact rule (both hit by the ray). */
+static int exact_hit_order(vec3 o, vec3 d, double tmin, double tmax, int touch, const vec3 a[3], const vec3 b[3])
+{
+    return touch ? ray_tri_touch_compare(o, d, tmin, tmax, a, b) : ray_tri_compare_t(o, d, a, b);
+}
+
 /* Forced inline: it runs once per candidate, and as a call it passes the ray by value a
  * second time (1.3% of an exact ray's instructions). */
 static inline __attribute__((always_inline)) int test_triangle(const octree *tree, const ray_setup *r,
                                                               accuracy_mode mode, uint32_t id, ray_tri_hit *hit)
 {
     vec3 tri[3];
-    octree_triangle_vertices(tree, id, tri);
     if (r->posed) { /* exact mode only (octree_ray_posed) */
         const posed_ray *p = r->posed;
-        for (int k = 0; k < 3; k++)
-            tri[k] = octree_apply_pose(&p->at, tri[k]);
+        walk_triangle(tree, r, id, tri);
         if (r->touch)
             return ray_tri_touch(p->world.origin, p->world.direction, r->tmin, r->tmax, tri, hit);
         return ray_tri_exact(p->world.origin, p->world.direction, r->tmin, r->tmax, tri, hit);
     }
+    octree_triangle_vertices(tree, id, tri);
     switch (mode) {
     case ACCURACY_SEED:
         return ray_tri_seed(r->o, r->d, r->tmin, r->tmax, tri, tree->seed_epsilon, hit);
@@ -279,24 +295,13 @@ static int hit_order(const octree *tree, const ray_setup *r, accuracy_mode mode,
                      const ray_hit *b)
 {
     int c;
-    vec3 ta[3], tb[3];
-    vec3 o = r->o, d = r->d;
     if (mode == ACCURACY_EXACT) {
-        octree_triangle_vertices(tree, a->triangle, ta);
-        octree_triangle_vertices(tree, b->triangle, tb);
-        if (r->posed) {
-            for (int k = 0; k < 3; k++) {
-                ta[k] = octree_apply_pose(&r->posed->at, ta[k]);
-                tb[k] = octree_apply_pose(&r->posed->at, tb[k]);
-            }
-            o = r->posed->world.origin;
-            d = r->posed->world.direction;
-        }
-    }
-    if (mode == ACCURACY_EXACT && r->touch) {
-        c = ray_tri_touch_compare(o, d, r->tmin, r->tmax, ta, tb);
-    } else if (mode == ACCURACY_EXACT) {
-        c = ray_tri_compare_t(o, d, ta, tb);
+        vec3 ta[3], tb[3];
+        walk_triangle(tree, r, a->triangle, ta);
+        walk_triangle(tree, r, b->triangle, tb);
+        /* A placed tree's hits are on the world ray. */
+        vec3 o = r->posed ? r->posed->world.origin : r->o, d = r->posed ? r->posed->world.direction : r->d;
+        c = exact_hit_order(o, d, r->tmin, r->tmax, r->touch, ta, tb);
     } else {
         c = (a->t > b->t) - (a->t < b->t);
     }
@@ -312,10 +317,7 @@ static int hit_order(const octree *tree, const ray_setup *r, accuracy_mode mode,
 static ray_hit reported(const octree *tree, const ray_setup *r, ray_hit hit)
 {
     vec3 tri[3];
-    octree_triangle_vertices(tree, hit.triangle, tri);
-    if (r->posed)
-        for (int k = 0; k < 3; k++)
-            tri[k] = octree_apply_pose(&r->posed->at, tri[k]);
+    walk_triangle(tree, r, hit.triangle, tri);
     hit.normal = vec3_normalize(vec3_cross(vec3_sub(tri[1], tri[0]), vec3_sub(tri[2], tri[0])));
     hit.triangle = tree->original_id[hit.triangle];
     return hit;
@@ -1056,13 +1058,10 @@ typedef struct float_entry {
 /* 7 siblings waiting per level plus the node. */
 #define FLOAT_STACK_MAX (7 * (OCTREE_MAX_DEPTH_CAP + 1) + 2)
 
-/* A leaf's candidates for an exact crossing, closest or any hit: four at a time through
- * ray_tri_exact's own edge filter, and the full test only for those it cannot rule out.
- * Repeats are not skipped (walk_test_unique). */
 /* walk_test_leaf_filtered for a placed tree: four candidates at a time posed into a small
  * block, the filter run on them with the world ray, so that it rejects exactly what the
  * exact test on the posed triangles would. */
-static void walk_test_leaf_filtered_posed(ray_walk *w, const octree *tree, octree_node leaf)
+static __attribute__((noinline)) void walk_test_leaf_filtered_posed(ray_walk *w, const octree *tree, octree_node leaf)
 {
     static const uint32_t corners[4][3] = {{0, 1, 2}, {3, 4, 5}, {6, 7, 8}, {9, 10, 11}};
     static const uint32_t slots[4] = {0, 1, 2, 3};
@@ -1071,12 +1070,8 @@ static void walk_test_leaf_filtered_posed(ray_walk *w, const octree *tree, octre
     for (uint32_t i = 0; i < leaf.count; i += 4) {
         unsigned k = leaf.count - i < 4 ? leaf.count - i : 4;
         vec3 posed[12];
-        for (unsigned j = 0; j < k; j++) {
-            vec3 t[3];
-            octree_triangle_vertices(tree, ids[i + j], t);
-            for (int c = 0; c < 3; c++)
-                posed[3 * j + c] = octree_apply_pose(&p->at, t[c]);
-        }
+        for (unsigned j = 0; j < k; j++)
+            walk_triangle(tree, &w->r, ids[i + j], &posed[3 * j]);
         unsigned miss = ray_tri_exact_misses4(p->world.origin, p->world.direction, posed, corners, slots, k,
                                               tree->traversal.avx2);
         w->local.candidates_tested += bits_set8(miss);
@@ -1086,6 +1081,9 @@ static void walk_test_leaf_filtered_posed(ray_walk *w, const octree *tree, octre
     }
 }
 
+/* A leaf's candidates for an exact crossing, closest or any hit: four at a time through
+ * ray_tri_exact's own edge filter, and the full test only for those it cannot rule out.
+ * Repeats are not skipped (walk_test_unique). */
 static void walk_test_leaf_filtered(ray_walk *w, const octree *tree, octree_node leaf)
 {
     if (w->r.posed) {
@@ -1527,11 +1525,14 @@ octree_status octree_ray_posed(const octree *tree, const pose *at, const ray_inp
     return st;
 }
 
+octree_status octree_ray_check(const ray_input *ray, ray_detail detail, accuracy_mode mode)
+{
+    return ray ? check_query(ray, detail, mode) : OCTREE_ERR_INVALID;
+}
+
 int octree_ray_hit_order(const ray_input *ray, const vec3 a[3], const vec3 b[3])
 {
-    if (ray->contact == RAY_TOUCH)
-        return ray_tri_touch_compare(ray->origin, ray->direction, ray->tmin, ray->tmax, a, b);
-    return ray_tri_compare_t(ray->origin, ray->direction, a, b);
+    return exact_hit_order(ray->origin, ray->direction, ray->tmin, ray->tmax, ray->contact == RAY_TOUCH, a, b);
 }
 
 /* Rays from one origin (a camera image, a lidar scan) in visiting-order groups of up to

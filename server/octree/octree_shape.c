@@ -246,12 +246,6 @@ static inline int world_box_apart(const pose_frame *f, box3 wb, const box_side *
     return 0;
 }
 
-static inline int boxes_apart(box3 a, box3 b)
-{
-    return a.lo.x > b.hi.x || a.lo.y > b.hi.y || a.lo.z > b.hi.z || a.hi.x < b.lo.x || a.hi.y < b.lo.y ||
-           a.hi.z < b.lo.z;
-}
-
 static inline box3 box_grown(box3 b, double g)
 {
     return (box3){vec3_sub(b.lo, (vec3){g, g, g}), vec3_add(b.hi, (vec3){g, g, g})};
@@ -1185,17 +1179,26 @@ static void triangle_in_caller_order(const void *ctx, size_t i, vec3 out[3])
     octree_triangle_vertices(c->shape, c->internal[i], out);
 }
 
+/* The internal id of the caller's triangle i, for every i (NULL when out of memory): the
+ * per-triangle paths answer in the caller's order. */
+static uint32_t *internal_in_caller_order(const octree *shape)
+{
+    size_t n = shape->triangle_count;
+    uint32_t *internal = malloc((n ? n : 1) * sizeof *internal);
+    for (size_t i = 0; internal && i < n; i++)
+        internal[shape->original_id[i]] = (uint32_t)i;
+    return internal;
+}
+
 /* The per-triangle path over a shape tree's triangles, in the caller's order: for poses
  * outside the frame's range. */
 static octree_status shape_fallback(const octree *world, const octree *shape, const pose *at, int all_pairs,
                                     accuracy_mode mode, mesh_output *out, query_stats *stats)
 {
     size_t n = shape->triangle_count;
-    tree_in_caller_order c = {shape, malloc(n * sizeof(uint32_t))};
+    tree_in_caller_order c = {shape, internal_in_caller_order(shape)};
     if (!c.internal)
         return OCTREE_ERR_NOMEM;
-    for (size_t i = 0; i < n; i++)
-        c.internal[shape->original_id[i]] = (uint32_t)i;
     octree_status st =
         octree_mesh_per_triangle(world, &c, n, triangle_in_caller_order, at, all_pairs, mode, out, stats);
     free(c.internal);
@@ -1269,14 +1272,12 @@ static octree_status placed_fallback(const octree *world, const pose *world_at, 
                                      const pose *shape_at, int all_pairs, mesh_output *out, query_stats *stats)
 {
     size_t n = shape->triangle_count;
-    uint32_t *internal = malloc((n ? n : 1) * sizeof *internal);
+    uint32_t *internal = internal_in_caller_order(shape);
     size_t cap = 16;
     tri_contact *contacts = malloc(cap * sizeof *contacts);
     octree_status st = internal && contacts ? OCTREE_OK : OCTREE_ERR_NOMEM;
     out->hit = 0;
     out->count = 0;
-    for (size_t i = 0; st == OCTREE_OK && i < n; i++)
-        internal[shape->original_id[i]] = (uint32_t)i;
     for (size_t i = 0; st == OCTREE_OK && i < n; i++) {
         vec3 q[3];
         octree_triangle_vertices(shape, internal[i], q);

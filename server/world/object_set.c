@@ -10,6 +10,7 @@
 #include <string.h>
 
 #include "../../common/array_reserve.h"
+#include "../geom/box_geometry.h"
 #include "../geom/vec3.h"
 #include "error_text.h"
 
@@ -324,16 +325,15 @@ static void sort_object_hits(const object_set *s, const ray_input *ray, object_h
 octree_status object_set_ray(const object_set *s, const ray_input *ray, ray_detail detail,
                              object_ray_output *out, query_stats *stats)
 {
-    if (!s || !ray || !out || (detail != RAY_ANY && detail != RAY_CLOSEST && detail != RAY_ALL))
+    if (!s || !ray || !out)
         return OCTREE_ERR_INVALID;
     out->hit_count = 0;
     out->truncated = 0;
-    if (!vec3_is_finite(ray->origin) || !vec3_is_finite(ray->direction))
-        return OCTREE_ERR_NONFINITE;
-    if (ray->direction.x == 0 && ray->direction.y == 0 && ray->direction.z == 0)
-        return OCTREE_ERR_INVALID;
-    if (!isfinite(ray->tmin) || isnan(ray->tmax) || ray->tmin > ray->tmax)
-        return OCTREE_ERR_INVALID;
+    /* The engine's own checks, so that a world with no object refuses what one with
+     * objects would. */
+    octree_status checked = octree_ray_check(ray, detail, ACCURACY_EXACT);
+    if (checked != OCTREE_OK)
+        return checked;
     if (s->count == 0)
         return OCTREE_OK;
 
@@ -433,12 +433,6 @@ octree_status object_set_ray(const object_set *s, const ray_input *ray, ray_deta
 }
 
 /* ---------- triangles ---------- */
-
-static int boxes_apart(box3 a, box3 b)
-{
-    return a.lo.x > b.hi.x || a.lo.y > b.hi.y || a.lo.z > b.hi.z || a.hi.x < b.lo.x || a.hi.y < b.lo.y ||
-           a.hi.z < b.lo.z;
-}
 
 octree_status object_set_triangle(const object_set *s, const vec3 tri[3], tri_detail detail,
                                   object_tri_output *out, query_stats *stats)

@@ -5,6 +5,7 @@
 #include <string.h>
 
 #include "../../common/array_reserve.h"
+#include "../geom/box_geometry.h"
 
 /* Link trees a scratch keeps a shape scratch for; past this the oldest is replaced. */
 #define STATE_SCRATCH_TREES 64
@@ -57,12 +58,6 @@ static int allowed_pair(const state_allowed *allowed, size_t count, const char *
         if (names_pair(&allowed[i], x, y))
             return 1;
     return 0;
-}
-
-static int boxes_apart(box3 a, box3 b)
-{
-    return a.lo.x > b.hi.x || a.lo.y > b.hi.y || a.lo.z > b.hi.z || a.hi.x < b.lo.x || a.hi.y < b.lo.y ||
-           a.hi.z < b.lo.z;
 }
 
 /* The pairs one tree pair found, appended in their order (by link triangle, then the

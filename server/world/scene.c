@@ -457,8 +457,7 @@ static world_object_spec *object_entry(scene_parser *p, world_spec *spec, const 
     memset(o, 0, sizeof *o);
     memcpy(o->name, name, strlen(name) + 1);
     o->mesh = -1;
-    const double identity[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1};
-    memcpy(o->at.r, identity, sizeof identity);
+    memcpy(o->at.r, identity3, sizeof identity3);
     o->at.t = (vec3){0, 0, 0};
     return o;
 }
