@@ -228,7 +228,7 @@ install-service:
 PIC_DIR        := $(BUILD)/pic
 CLIENT_PIC_OBJ := $(CLIENT_SRC:%.c=$(PIC_DIR)/%.o) $(COMMON_SRC:%.c=$(PIC_DIR)/%.o) \
                   $(GEN_SRC:$(GEN_DIR)/%.c=$(PIC_DIR)/gen/%.o)
-CLIENT_SO      := $(BUILD)/libtrioct.so.0
+CLIENT_SO      := $(BUILD)/libtrioct.so.1
 PIC_CFLAGS      = $(ALL_CFLAGS) -fPIC -fvisibility=hidden
 $(PIC_DIR)/%.o: %.c | $(DEPS_STAMP) $(GEN_STAMP)
 	@mkdir -p $(dir $@)
@@ -237,12 +237,12 @@ $(PIC_DIR)/gen/%.o: $(GEN_DIR)/%.c
 	@mkdir -p $(dir $@)
 	$(CC) $(PIC_CFLAGS) -Wno-unused-parameter -c $< -o $@
 $(CLIENT_SO): $(CLIENT_PIC_OBJ)
-	$(CC) $(ALL_CFLAGS) -shared -Wl,-soname,libtrioct.so.0 -Wl,-z,defs $^ -llcm -o $@
+	$(CC) $(ALL_CFLAGS) -shared -Wl,-soname,libtrioct.so.1 -Wl,-z,defs $^ -llcm -lm -o $@
 # The example docs/client.md walks through, built so that it cannot rot.
 EXAMPLE_BIN := $(BUILD)/examples/ray_example
 $(EXAMPLE_BIN): $(BUILD)/client/examples/ray_example.o $(CLIENT_LIB)
 	@mkdir -p $(dir $@)
-	$(CC) $(ALL_CFLAGS) $< $(CLIENT_LIB) -llcm -o $@
+	$(CC) $(ALL_CFLAGS) $< $(CLIENT_LIB) -llcm -lm -o $@
 all: $(CLIENT_SO) $(EXAMPLE_BIN)
 test: $(CLIENT_SO) $(EXAMPLE_BIN)
 
@@ -263,8 +263,8 @@ install-lib: $(DAEMON_BIN) $(CLIENT_LIB) $(CLIENT_SO) $(if $(wildcard client/cli
 	install -m 0755 $(DAEMON_BIN) $(DESTDIR)$(BINDIR)/trioctd
 	if [ -f $(BUILD)/trioct ]; then install -m 0755 $(BUILD)/trioct $(DESTDIR)$(BINDIR)/trioct; fi
 	install -m 0644 $(CLIENT_LIB) $(DESTDIR)$(LIBDIR)/libtrioct.a
-	install -m 0644 $(CLIENT_SO) $(DESTDIR)$(LIBDIR)/libtrioct.so.0
-	ln -sf libtrioct.so.0 $(DESTDIR)$(LIBDIR)/libtrioct.so
+	install -m 0644 $(CLIENT_SO) $(DESTDIR)$(LIBDIR)/libtrioct.so.1
+	ln -sf libtrioct.so.1 $(DESTDIR)$(LIBDIR)/libtrioct.so
 	install -m 0644 client/trioct.h common/trioct_limits.h common/trioct_status.h \
 	    $(DESTDIR)$(INCLUDEDIR)/trioct/
 	sed -e 's|@PREFIX@|$(PREFIX)|g' -e 's|@LIBDIR@|$(LIBDIR)|g' -e 's|@VERSION@|$(PC_VERSION)|g' \

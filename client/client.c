@@ -63,6 +63,41 @@ void client_no_daemon_world(const trioct_client *c, const char *world, int timeo
              timeout_ms);
 }
 
+int client_object_names(trioct_reply *r, int32_t count, char *const *names, trioct_object_names *out)
+{
+    out->count = 0;
+    out->names = NULL;
+    if (count < 0)
+        return client_fail(r, TRIOCT_ERR_BAD_REPLY, "the reply names %d objects", count);
+    out->names = calloc(count ? (size_t)count : 1, sizeof *out->names);
+    if (!out->names)
+        return client_fail(r, TRIOCT_ERR_NOMEM, "out of memory for %d object names", count);
+    for (int32_t i = 0; i < count; i++) {
+        if (strlen(names[i]) > TRIOCT_MAX_NAME_LEN)
+            return client_fail(r, TRIOCT_ERR_BAD_REPLY, "object name %d is longer than %d characters", i,
+                               TRIOCT_MAX_NAME_LEN);
+        client_copy(out->names[i], sizeof out->names[i], names[i]);
+    }
+    out->count = (size_t)count;
+    return TRIOCT_OK;
+}
+
+int client_check_object(trioct_reply *r, int32_t object, const trioct_object_names *names, const char *what,
+                        size_t record)
+{
+    if (object < 0 || (size_t)object >= names->count)
+        return client_fail(r, TRIOCT_ERR_BAD_REPLY, "%s %zu names object %d of %zu", what, record, object,
+                           names->count);
+    return TRIOCT_OK;
+}
+
+void client_object_names_free(trioct_object_names *names)
+{
+    free(names->names);
+    names->names = NULL;
+    names->count = 0;
+}
+
 void client_reply_from_header(trioct_reply *r, const trioct_reply_header_t *h, int chunks)
 {
     r->status = h->status;

@@ -86,6 +86,7 @@ int client_world_info(trioct_world_info *out, const trioct_world_info_t *in, con
     out->bytes_effects = in->bytes_effects;
     out->bytes_total = in->bytes_total;
     out->build_seconds = in->build_seconds;
+    out->objects = in->objects;
     out->queries = in->queries;
     client_copy(out->last_error, sizeof out->last_error, in->last_error);
     out->num_shapes = in->num_shapes;

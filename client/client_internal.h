@@ -114,6 +114,15 @@ void client_no_daemon_world(const trioct_client *c, const char *world, int timeo
 /* Fills r from a reply header (status, message, daemon, world, version, ids). */
 void client_reply_from_header(trioct_reply *r, const trioct_reply_header_t *h, int chunks);
 
+/* The names table of a reply's chunk 0 into out; TRIOCT_ERR_BAD_REPLY (a name too long)
+ * or TRIOCT_ERR_NOMEM into r. */
+int client_object_names(trioct_reply *r, int32_t count, char *const *names, trioct_object_names *out);
+/* TRIOCT_OK when object indexes a table of names entries, else TRIOCT_ERR_BAD_REPLY into r
+ * naming the record. */
+int client_check_object(trioct_reply *r, int32_t object, const trioct_object_names *names, const char *what,
+                        size_t record);
+void client_object_names_free(trioct_object_names *names);
+
 /* ---- client.c: sending --------------------------------------------------------------- */
 
 /* Channel of kind for name; TRIOCT_ERR_BAD_REQUEST into r when the name is invalid. */

@@ -102,6 +102,8 @@ static int build_result(const assembly *a, size_t n, trioct_mesh_result *out)
     out->num_poses = n;
     if (n > 0)
         memcpy(out->found, first->found, n * sizeof *out->found);
+    if (client_object_names(r, first->num_objects, first->objects, &out->objects) != TRIOCT_OK)
+        return r->status;
     size_t k = 0;
     for (int32_t i = 0; i < a->chunk_count; i++) {
         const trioct_mesh_reply_t *chunk = a->chunks[i];
@@ -110,7 +112,9 @@ static int build_result(const assembly *a, size_t n, trioct_mesh_result *out)
             if (pr->pose < 0 || (size_t)pr->pose >= n)
                 return client_fail(r, TRIOCT_ERR_BAD_REPLY, "pair %zu names pose %d of %zu", k,
                                    pr->pose, n);
-            out->pairs[k] = (trioct_mesh_pair){pr->pose, pr->shape_triangle, pr->world_triangle};
+            if (client_check_object(r, pr->object, &out->objects, "pair", k) != TRIOCT_OK)
+                return r->status;
+            out->pairs[k] = (trioct_mesh_pair){pr->pose, pr->shape_triangle, pr->object, pr->world_triangle};
         }
     }
     out->num_pairs = total;
@@ -216,6 +220,7 @@ void trioct_mesh_result_free(trioct_mesh_result *res)
         return;
     free(res->found);
     free(res->pairs);
+    client_object_names_free(&res->objects);
     res->found = NULL;
     res->pairs = NULL;
     res->num_poses = 0;

@@ -117,6 +117,8 @@ static int build_result(const assembly *a, size_t num_rays, trioct_ray_result *o
     out->num_rays = num_rays;
     if (num_rays > 0)
         memcpy(out->found, first->found, num_rays * sizeof *out->found);
+    if (client_object_names(r, first->num_objects, first->objects, &out->objects) != TRIOCT_OK)
+        return r->status;
     size_t k = 0;
     for (int32_t i = 0; i < a->chunk_count; i++) {
         const trioct_ray_reply_t *chunk = a->chunks[i];
@@ -125,9 +127,12 @@ static int build_result(const assembly *a, size_t num_rays, trioct_ray_result *o
             if (h->ray < 0 || (size_t)h->ray >= num_rays)
                 return client_fail(r, TRIOCT_ERR_BAD_REPLY, "hit %zu names ray %d of %zu", k,
                                    h->ray, num_rays);
+            if (client_check_object(r, h->object, &out->objects, "hit", k) != TRIOCT_OK)
+                return r->status;
             out->hits[k] = (trioct_ray_hit){
                 .ray = h->ray,
                 .t = h->t,
+                .object = h->object,
                 .triangle = h->triangle,
                 .u = h->u,
                 .v = h->v,
@@ -249,6 +254,7 @@ void trioct_ray_result_free(trioct_ray_result *res)
         return;
     free(res->found);
     free(res->hits);
+    client_object_names_free(&res->objects);
     res->found = NULL;
     res->hits = NULL;
     res->num_rays = 0;

@@ -106,6 +106,8 @@ static int build_result(const assembly *a, size_t n, trioct_triangle_result *out
     out->num_triangles = n;
     if (n > 0)
         memcpy(out->found, first->found, n * sizeof *out->found);
+    if (client_object_names(r, first->num_objects, first->objects, &out->objects) != TRIOCT_OK)
+        return r->status;
     size_t k = 0, s = 0;
     for (int32_t i = 0; i < a->chunk_count; i++) {
         const trioct_triangle_reply_t *chunk = a->chunks[i];
@@ -114,7 +116,9 @@ static int build_result(const assembly *a, size_t n, trioct_triangle_result *out
             if (ct->query < 0 || (size_t)ct->query >= n)
                 return client_fail(r, TRIOCT_ERR_BAD_REPLY,
                                    "contact %zu names query triangle %d of %zu", k, ct->query, n);
-            out->contacts[k] = (trioct_contact){ct->query, ct->triangle};
+            if (client_check_object(r, ct->object, &out->objects, "contact", k) != TRIOCT_OK)
+                return r->status;
+            out->contacts[k] = (trioct_contact){ct->query, ct->object, ct->triangle};
         }
         for (int32_t j = 0; j < chunk->num_segments; j++, s++)
             out->segments[s] = (trioct_segment){api_vec(chunk->segments[j].p),
@@ -216,6 +220,7 @@ void trioct_triangle_result_free(trioct_triangle_result *res)
     free(res->found);
     free(res->contacts);
     free(res->segments);
+    client_object_names_free(&res->objects);
     res->found = NULL;
     res->contacts = NULL;
     res->segments = NULL;

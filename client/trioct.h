@@ -168,6 +168,14 @@ typedef struct trioct_reply {
     int chunks;            /* how many messages the answer came in */
 } trioct_reply;
 
+/* The objects a result's records name: each record's `object` indexes names. A world is
+ * a set of named objects; a scene section without objects is one object named after the
+ * world. Only objects some record names are listed, in the world's object (name) order. */
+typedef struct trioct_object_names {
+    size_t count;
+    char (*names)[TRIOCT_MAX_NAME_LEN + 1];
+} trioct_object_names;
+
 /* ---- Rays ---------------------------------------------------------------------------- */
 
 enum { TRIOCT_RAY_ANY = 0, TRIOCT_RAY_CLOSEST = 1, TRIOCT_RAY_ALL = 2 };
@@ -190,7 +198,8 @@ TRIOCT_API trioct_ray_query trioct_ray_query_default(const char *world);
 typedef struct trioct_ray_hit {
     int32_t ray;      /* index of the ray in the query */
     double t;
-    int32_t triangle; /* world triangle id */
+    int32_t object;   /* index into the result's objects.names */
+    int32_t triangle; /* triangle id within that object's mesh */
     double u, v;      /* barycentric weights of the triangle's vertices b and c */
     trioct_vec3 normal;
 } trioct_ray_hit;
@@ -203,6 +212,7 @@ typedef struct trioct_ray_result {
                               the hits stored for the ray when max_hits cut the list) */
     size_t num_hits;
     trioct_ray_hit *hits;  /* by ray, then by increasing t */
+    trioct_object_names objects;
 } trioct_ray_result;
 
 TRIOCT_API int trioct_rays(trioct_client *c, const trioct_ray_query *q, int timeout_ms,
@@ -238,7 +248,8 @@ typedef struct trioct_triangle_query {
 
 typedef struct trioct_contact {
     int32_t query;    /* index of the query triangle */
-    int32_t triangle; /* world triangle id */
+    int32_t object;   /* index into the result's objects.names */
+    int32_t triangle; /* triangle id within that object's mesh */
 } trioct_contact;
 
 typedef struct trioct_segment {
@@ -253,6 +264,7 @@ typedef struct trioct_triangle_result {
     size_t num_contacts;
     trioct_contact *contacts;  /* IDS, SEGMENTS: sorted by (query, triangle) */
     trioct_segment *segments;  /* SEGMENTS: one per contact; else NULL */
+    trioct_object_names objects;
 } trioct_triangle_result;
 
 TRIOCT_API int trioct_triangles(trioct_client *c, const trioct_triangle_query *q,
@@ -278,7 +290,8 @@ typedef struct trioct_mesh_query {
 typedef struct trioct_mesh_pair {
     int32_t pose; /* index of the pose in the query */
     int32_t shape_triangle;
-    int32_t world_triangle;
+    int32_t object;         /* index into the result's objects.names */
+    int32_t world_triangle; /* triangle id within that object's mesh */
 } trioct_mesh_pair;
 
 typedef struct trioct_mesh_result {
@@ -287,12 +300,68 @@ typedef struct trioct_mesh_result {
     size_t num_poses;
     int32_t *found;          /* per pose: touching pairs (0/1 for YESNO) */
     size_t num_pairs;
-    trioct_mesh_pair *pairs; /* PAIRS: sorted by (pose, shape triangle, world triangle) */
+    trioct_mesh_pair *pairs; /* PAIRS: sorted by (pose, shape triangle, object, world
+                                triangle) in a world of one object at the identity, else by
+                                (pose, object, shape triangle, world triangle) */
+    trioct_object_names objects;
 } trioct_mesh_result;
 
 TRIOCT_API int trioct_mesh(trioct_client *c, const trioct_mesh_query *q, int timeout_ms,
                            trioct_mesh_result *out);
 TRIOCT_API void trioct_mesh_result_free(trioct_mesh_result *r);
+
+/* ---- Poses --------------------------------------------------------------------------- */
+
+/* The pose of translation (x, y, z) and the rotation of quaternion (qw, qx, qy, qz),
+ * normalised first, into *out: TRIOCT_OK, TRIOCT_ERR_NONFINITE for a NaN or infinite
+ * component, or TRIOCT_ERR_BAD_POSE when the quaternion's length is not 1 within 1e-3 (a
+ * mistake, not rounding). The daemon makes the same matrix from the same numbers. */
+TRIOCT_API int trioct_pose_from_quaternion(double x, double y, double z, double qw, double qx, double qy,
+                                           double qz, trioct_pose *out);
+
+/* ---- Objects ------------------------------------------------------------------------- */
+
+/* A world is a set of named objects, each a mesh with its own octree placed by a pose; a
+ * scene section without objects is one object named after the world. An edit list applies
+ * in order and all or none, and makes a new version of the world; queries in flight finish
+ * on the version they started on. Objects are edited in exact worlds only. */
+enum { TRIOCT_OBJECT_ADD = 0, TRIOCT_OBJECT_MOVE = 1, TRIOCT_OBJECT_REMOVE = 2 };
+
+typedef struct trioct_object_edit {
+    int op;           /* TRIOCT_OBJECT_ADD, _MOVE or _REMOVE */
+    const char *name; /* 1..32 characters of [A-Za-z0-9_.-] */
+    const char *mesh; /* ADD: a mesh file relative to the daemon's world directory (objects
+                         of one file share its loaded mesh and tree); NULL or "": the
+                         inline triangles */
+    trioct_pose pose; /* ADD and MOVE: a rotation (orthonormal within 1e-6, det +1) */
+    size_t num_triangles; /* ADD without a mesh: 1..TRIOCT_MAX_INLINE_SHAPE_TRIANGLES */
+    const trioct_triangle *triangles;
+} trioct_object_edit;
+
+typedef struct trioct_object_info {
+    char name[TRIOCT_MAX_NAME_LEN + 1];
+    char mesh[TRIOCT_MAX_PATH_LEN + 1]; /* its file, "inline", or "section:WORLD" */
+    int64_t triangles;
+    trioct_pose pose;
+    trioct_vec3 bbox_min, bbox_max;     /* a box holding every posed vertex */
+    int64_t bytes;                      /* its mesh and tree (shared ones counted in each) */
+    int shared;                         /* objects using the same mesh and tree (1: none other) */
+} trioct_object_info;
+
+typedef struct trioct_object_result {
+    trioct_reply reply;   /* world_version: the version the edits made, or the one served */
+    int failed_edit;      /* on an error about one edit, its index; else -1 */
+    int64_t objects;      /* objects in that version */
+    int64_t triangles;
+    size_t num_objects;   /* listed: with list, every object, in name order */
+    trioct_object_info *list;
+} trioct_object_result;
+
+/* Applies count edits (at most TRIOCT_MAX_EDITS; 0 just describes the version served) to
+ * world; with list the result lists the objects of the version it names. */
+TRIOCT_API int trioct_objects_edit(trioct_client *c, const char *world, const trioct_object_edit *edits,
+                                   size_t count, int list, int timeout_ms, trioct_object_result *out);
+TRIOCT_API void trioct_object_result_free(trioct_object_result *r);
 
 /* ---- Worlds -------------------------------------------------------------------------- */
 
@@ -317,6 +386,7 @@ typedef struct trioct_world_info {
     int64_t bytes_nodes, bytes_leaf_lists, bytes_triangles, bytes_effects, bytes_total;
     double build_seconds;
 
+    int64_t objects;                             /* objects in this version */
     int64_t queries;                             /* requests answered for this world */
     char last_error[TRIOCT_MAX_MESSAGE_LEN + 1]; /* why the last reload failed, or "" */
     int num_shapes;
@@ -392,7 +462,7 @@ typedef struct trioct_daemon_status {
     int64_t uptime_us;
     int state; /* TRIOCT_DAEMON_* */
     int threads, queue_depth, queue_capacity;
-    int64_t served[4]; /* answered requests: ray, triangle, mesh, admin */
+    int64_t served[5]; /* answered requests: ray, triangle, mesh, admin, objects */
     int64_t malformed; /* messages the daemon dropped before decoding */
     size_t num_status_codes;
     int64_t *replies_by_status; /* indexed by status code */
@@ -442,6 +512,7 @@ typedef void (*trioct_triangle_done)(trioct_client *c, trioct_triangle_result *r
 typedef void (*trioct_mesh_done)(trioct_client *c, trioct_mesh_result *res, void *user);
 typedef void (*trioct_admin_done)(trioct_client *c, trioct_admin_result *res, void *user);
 typedef void (*trioct_list_done)(trioct_client *c, trioct_list_result *res, void *user);
+typedef void (*trioct_object_done)(trioct_client *c, trioct_object_result *res, void *user);
 
 TRIOCT_API int trioct_rays_async(trioct_client *c, const trioct_ray_query *q, int timeout_ms,
                                  trioct_ray_done cb, void *user, int64_t *request_id);
@@ -460,6 +531,9 @@ TRIOCT_API int trioct_unload_async(trioct_client *c, const char *world, int time
                                    trioct_admin_done cb, void *user, int64_t *request_id);
 TRIOCT_API int trioct_info_async(trioct_client *c, const char *world, int timeout_ms,
                                  trioct_admin_done cb, void *user, int64_t *request_id);
+TRIOCT_API int trioct_objects_edit_async(trioct_client *c, const char *world, const trioct_object_edit *edits,
+                                         size_t count, int list, int timeout_ms, trioct_object_done cb, void *user,
+                                         int64_t *request_id);
 /* Gathers until the timeout, the gather window or the expected count, as trioct_list. */
 TRIOCT_API int trioct_list_async(trioct_client *c, const trioct_list_options *opt,
                                  int timeout_ms, trioct_list_done cb, void *user,

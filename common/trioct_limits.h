@@ -27,6 +27,8 @@
 #define TRIOCT_MAX_HITS_PER_RAY 1000
 #define TRIOCT_MAX_CONTACTS_PER_TRIANGLE 10000
 #define TRIOCT_MAX_RESULTS 65536
+/* Edits in one object_edit_request_t (each at least 117 bytes on the wire). */
+#define TRIOCT_MAX_EDITS 256
 /* Worlds one daemon lists or reports in one status message. */
 #define TRIOCT_MAX_WORLDS 64
 #define TRIOCT_MAX_SHAPES 16

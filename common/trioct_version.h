@@ -3,6 +3,6 @@
 #ifndef TRIOCT_VERSION_H
 #define TRIOCT_VERSION_H
 
-#define TRIOCT_VERSION "0.5.0"
+#define TRIOCT_VERSION "0.6.0"
 
 #endif

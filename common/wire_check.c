@@ -10,6 +10,8 @@
 #include "trioct_admin_reply_t.h"
 #include "trioct_admin_request_t.h"
 #include "trioct_mesh_reply_t.h"
+#include "trioct_object_edit_request_t.h"
+#include "trioct_object_reply_t.h"
 #include "trioct_mesh_request_t.h"
 #include "trioct_ray_reply_t.h"
 #include "trioct_ray_request_t.h"
@@ -23,17 +25,17 @@ enum {
     VEC3_BYTES = 3 * 8,
     TRIANGLE_BYTES = 3 * VEC3_BYTES,
     POSE_BYTES = 9 * 8 + VEC3_BYTES,
-    RAY_HIT_BYTES = 4 + 8 + 4 + 8 + 8 + VEC3_BYTES,
-    CONTACT_BYTES = 2 * 4,
-    MESH_PAIR_BYTES = 3 * 4,
+    RAY_HIT_BYTES = 4 + 8 + 4 + 4 + 8 + 8 + VEC3_BYTES,
+    CONTACT_BYTES = 3 * 4,
+    MESH_PAIR_BYTES = 4 * 4,
     SEGMENT_BYTES = 2 * VEC3_BYTES,
     FINGERPRINT_BYTES = 8,
     /* The shortest string: a length of 1 and the NUL it counts. */
     MIN_STRING_BYTES = 4 + 1,
-    /* The shortest world_info_t: five empty strings, thirteen int64, four doubles, three
+    /* The shortest world_info_t: five empty strings, fourteen int64, four doubles, three
      * int32, three vec3 and no shapes. Only bounds a count early; each world is then walked
      * field by field. */
-    MIN_WORLD_INFO_BYTES = 5 * MIN_STRING_BYTES + 13 * 8 + 4 * 8 + 3 * 4 + 3 * VEC3_BYTES,
+    MIN_WORLD_INFO_BYTES = 5 * MIN_STRING_BYTES + 14 * 8 + 4 * 8 + 3 * 4 + 3 * VEC3_BYTES,
 };
 
 /* The generated code counts offsets in int: nothing larger can have come from it. */
@@ -277,6 +279,7 @@ static void walk_world_info(wire_cursor *c)
     cursor_int64(c, "bytes_effects");
     cursor_int64(c, "bytes_total");
     cursor_double(c, "build_seconds");
+    cursor_int64(c, "objects");
     cursor_int64(c, "queries");
     cursor_string(c, "last_error");
     int32_t num_shapes = cursor_count(c, "num_shapes", MIN_STRING_BYTES);
@@ -351,12 +354,65 @@ static void walk_admin_request(wire_cursor *c)
     cursor_int32(c, "effects");
 }
 
+/* A reply's table of object names (chunk 0; empty in the others). */
+static void walk_object_names(wire_cursor *c)
+{
+    int32_t num_objects = cursor_count(c, "num_objects", MIN_STRING_BYTES);
+    for (int32_t i = 0; i < num_objects && !c->failed; i++)
+        cursor_string_element(c, "objects", i);
+}
+
+/* The shortest object_edit_t: an op, two empty strings, a pose and no triangles. */
+enum { MIN_OBJECT_EDIT_BYTES = 1 + 2 * MIN_STRING_BYTES + POSE_BYTES + 4 };
+
+static void walk_object_edit_request(wire_cursor *c)
+{
+    walk_request_header(c);
+    cursor_int8(c, "list");
+    int32_t num_edits = cursor_count(c, "num_edits", MIN_OBJECT_EDIT_BYTES);
+    c->scope = "edits";
+    for (int32_t i = 0; i < num_edits && !c->failed; i++) {
+        c->scope_index = i;
+        cursor_int8(c, "op");
+        cursor_string(c, "name");
+        cursor_string(c, "mesh");
+        cursor_skip(c, POSE_BYTES, "pose");
+        int32_t num_triangles = cursor_count(c, "num_triangles", TRIANGLE_BYTES);
+        cursor_fixed_array(c, num_triangles, TRIANGLE_BYTES, "triangles");
+    }
+    c->scope = "";
+}
+
+/* The shortest object_info_t: two empty strings, two int64, a pose, two vec3, an int32. */
+enum { MIN_OBJECT_INFO_BYTES = 2 * MIN_STRING_BYTES + 2 * 8 + POSE_BYTES + 2 * VEC3_BYTES + 4 };
+
+static void walk_object_reply(wire_cursor *c)
+{
+    walk_reply_header(c);
+    cursor_int32(c, "failed_edit");
+    cursor_int64(c, "objects");
+    cursor_int64(c, "triangles");
+    int32_t num_objects = cursor_count(c, "num_objects", MIN_OBJECT_INFO_BYTES);
+    c->scope = "list";
+    for (int32_t i = 0; i < num_objects && !c->failed; i++) {
+        c->scope_index = i;
+        cursor_string(c, "name");
+        cursor_string(c, "mesh");
+        cursor_int64(c, "triangles");
+        cursor_skip(c, POSE_BYTES + 2 * VEC3_BYTES, "pose and box");
+        cursor_int64(c, "bytes");
+        cursor_int32(c, "shared");
+    }
+    c->scope = "";
+}
+
 static void walk_ray_reply(wire_cursor *c)
 {
     walk_reply_header(c);
     cursor_int8(c, "detail");
     int32_t num_rays = cursor_count(c, "num_rays", 4);
     cursor_fixed_array(c, num_rays, 4, "found");
+    walk_object_names(c);
     int32_t num_hits = cursor_count(c, "num_hits", RAY_HIT_BYTES);
     cursor_fixed_array(c, num_hits, RAY_HIT_BYTES, "hits");
 }
@@ -367,6 +423,7 @@ static void walk_triangle_reply(wire_cursor *c)
     cursor_int8(c, "detail");
     int32_t num_triangles = cursor_count(c, "num_triangles", 4);
     cursor_fixed_array(c, num_triangles, 4, "found");
+    walk_object_names(c);
     int32_t num_contacts = cursor_count(c, "num_contacts", CONTACT_BYTES);
     cursor_fixed_array(c, num_contacts, CONTACT_BYTES, "contacts");
     int32_t num_segments = cursor_count(c, "num_segments", SEGMENT_BYTES);
@@ -379,6 +436,7 @@ static void walk_mesh_reply(wire_cursor *c)
     cursor_int8(c, "detail");
     int32_t num_poses = cursor_count(c, "num_poses", 4);
     cursor_fixed_array(c, num_poses, 4, "found");
+    walk_object_names(c);
     int32_t num_pairs = cursor_count(c, "num_pairs", MESH_PAIR_BYTES);
     cursor_fixed_array(c, num_pairs, MESH_PAIR_BYTES, "pairs");
 }
@@ -400,7 +458,7 @@ static void walk_status(wire_cursor *c)
     cursor_int32(c, "threads");
     cursor_int32(c, "queue_depth");
     cursor_int32(c, "queue_capacity");
-    cursor_skip(c, 4 * 8, "served");
+    cursor_skip(c, 5 * 8, "served");
     cursor_int64(c, "malformed");
     int32_t num_status_codes = cursor_count(c, "num_status_codes", 8);
     cursor_fixed_array(c, num_status_codes, 8, "replies_by_status");
@@ -428,6 +486,9 @@ static const wire_type_info type_table[WIRE_TYPE_COUNT] = {
     [WIRE_ADMIN_REPLY] = {"admin_reply_t", __trioct_admin_reply_t_get_hash, walk_admin_reply},
     [WIRE_STATUS] = {"status_t", __trioct_status_t_get_hash, walk_status},
     [WIRE_RAY_REQUEST_V1] = {"ray_request_v1_t", __trioct_ray_request_v1_t_get_hash, walk_ray_request_v1},
+    [WIRE_OBJECT_EDIT_REQUEST] = {"object_edit_request_t", __trioct_object_edit_request_t_get_hash,
+                                  walk_object_edit_request},
+    [WIRE_OBJECT_REPLY] = {"object_reply_t", __trioct_object_reply_t_get_hash, walk_object_reply},
 };
 
 static int wire_type_valid(wire_type type)

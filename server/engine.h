@@ -238,11 +238,16 @@ typedef struct pose {
  * uses, so answers are exact on those doubles. */
 vec3 octree_pose_point(const pose *at, vec3 p);
 
+/* R = I and t = 0: octree_pose_point then returns every point unchanged (up to the sign
+ * of a zero), so a tree at the identity is queried as it stands. */
+pose octree_pose_identity(void);
+int octree_pose_is_identity(const pose *at);
+
 /* Largest |(R^T R - I)_ij| a pose's R may have, and the relative amount a quaternion's
  * length may differ from 1: within these a pose is taken as the rotation it approximates
  * (a matrix typed with six decimals passes), past them it is refused as a mistake. */
 #define OCTREE_ROTATION_TOLERANCE 1e-6
-#define OCTREE_QUATERNION_TOLERANCE 1e-3
+#define OCTREE_QUATERNION_TOLERANCE 1e-3 /* TRIOCT_QUATERNION_TOLERANCE (common/quaternion.h) */
 
 /* OCTREE_OK when R is a rotation within OCTREE_ROTATION_TOLERANCE (orthonormal, det +1)
  * and every entry is finite; OCTREE_ERR_NONFINITE, or OCTREE_ERR_INVALID for a matrix

@@ -203,6 +203,9 @@ static void slice(int m, int i, int k, int *lo, int *hi)
         assert_int_equal((out)->size, size_);                                    \
     } while (0)
 
+/* The objects every fake answer's records name, alternately. */
+static char *fake_objects[2] = {"arm_base", "shelf.left"};
+
 /* A deterministic answer to a ray request: ray i crosses i % 5 triangles for ALL (stored up
  * to max_hits), else 1 unless i % 3 == 2; the values depend on the ray so that a mixed-up
  * ray shows. */
@@ -221,6 +224,7 @@ static void answer_rays(fake *f, const trioct_ray_request_t *q)
             f->hits[m] = (trioct_ray_hit_t){
                 .ray = i,
                 .t = q->tmin + 0.125 * (j + 1) + q->origin[i].x * 1e-3,
+                .object = (i + j) % 2,
                 .triangle = 1000 * i + j,
                 .u = 0.1 + 0.01 * j,
                 .v = 1.0 / 3.0,
@@ -240,6 +244,8 @@ static void answer_rays(fake *f, const trioct_ray_request_t *q)
             .detail = q->detail,
             .num_rays = c == 0 && !f->script.status ? n : 0,
             .found = f->found,
+            .num_objects = c == 0 && !f->script.status ? 2 : 0,
+            .objects = fake_objects,
             .num_hits = hi - lo,
             .hits = f->hits + lo,
         };
@@ -263,7 +269,7 @@ static void answer_triangles(fake *f, const trioct_triangle_request_t *q)
         if (q->detail == TRIOCT_TRI_YESNO)
             continue;
         for (int j = 0; j < touched; j++, m++) {
-            f->contacts[m] = (trioct_contact_t){.query = i, .triangle = 7 * i + j};
+            f->contacts[m] = (trioct_contact_t){.query = i, .object = (i + j) % 2, .triangle = 7 * i + j};
             trioct_vec3_t a = q->triangles[i].a, b = q->triangles[i].b;
             f->segments[m] = (trioct_segment_t){
                 .p = {a.x + j, a.y, a.z},
@@ -284,6 +290,8 @@ static void answer_triangles(fake *f, const trioct_triangle_request_t *q)
             .detail = q->detail,
             .num_triangles = c == 0 && !f->script.status ? n : 0,
             .found = f->found,
+            .num_objects = c == 0 && !f->script.status ? 2 : 0,
+            .objects = fake_objects,
             .num_contacts = hi - lo,
             .contacts = f->contacts + lo,
             .num_segments = segments ? hi - lo : 0,
@@ -308,7 +316,8 @@ static void answer_mesh(fake *f, const trioct_mesh_request_t *q)
         if (q->detail == TRIOCT_MESH_YESNO)
             continue;
         for (int j = 0; j < touching; j++, m++)
-            f->pairs[m] = (trioct_mesh_pair_t){.pose = i, .shape_triangle = j, .world_triangle = 50 * i + j};
+            f->pairs[m] = (trioct_mesh_pair_t){.pose = i, .shape_triangle = j, .object = (i + j) % 2,
+                                               .world_triangle = 50 * i + j};
     }
     f->num_records = m;
     int k = script_chunks(f);
@@ -322,6 +331,8 @@ static void answer_mesh(fake *f, const trioct_mesh_request_t *q)
             .detail = q->detail,
             .num_poses = c == 0 && !f->script.status ? n : 0,
             .found = f->found,
+            .num_objects = c == 0 && !f->script.status ? 2 : 0,
+            .objects = fake_objects,
             .num_pairs = hi - lo,
             .pairs = f->pairs + lo,
         };

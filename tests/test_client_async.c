@@ -120,6 +120,9 @@ static void slice(int m, int i, int k, int *lo, int *hi)
     *hi = m * (i + 1) / k;
 }
 
+/* The one object every fake answer's records name. */
+static char *one_object[1] = {"yard"};
+
 /* Ray i of a request hits once, at t = 1000 * origin.x + i + 0.25, triangle 7 i + origin.y. */
 static int answer_rays(fake *f, const trioct_ray_request_t *q, int k, blob *out)
 {
@@ -143,6 +146,8 @@ static int answer_rays(fake *f, const trioct_ray_request_t *q, int k, blob *out)
                                   .detail = q->detail,
                                   .num_rays = c == 0 && !f->status ? n : 0,
                                   .found = found,
+                                  .num_objects = c == 0 && !f->status ? 1 : 0,
+                                  .objects = one_object,
                                   .num_hits = hi - lo,
                                   .hits = hits + lo};
         ENCODE(trioct_ray_reply_t, &rep, &out[c]);
@@ -160,12 +165,14 @@ static int answer_triangles(fake *f, const trioct_triangle_request_t *q, blob *o
     trioct_contact_t *contacts = calloc((size_t)n + 1, sizeof *contacts);
     for (int i = 0; i < n; i++) {
         found[i] = 1;
-        contacts[i] = (trioct_contact_t){i, 10 * (int32_t)q->triangles[i].a.x + i};
+        contacts[i] = (trioct_contact_t){i, 0, 10 * (int32_t)q->triangles[i].a.x + i};
     }
     trioct_triangle_reply_t rep = {.header = reply_header(f, &q->header, 0, 1),
                                    .detail = q->detail,
                                    .num_triangles = n,
                                    .found = found,
+                                   .num_objects = 1,
+                                   .objects = one_object,
                                    .num_contacts = n,
                                    .contacts = contacts};
     ENCODE(trioct_triangle_reply_t, &rep, &out[0]);
@@ -182,12 +189,14 @@ static int answer_mesh(fake *f, const trioct_mesh_request_t *q, blob *out)
     trioct_mesh_pair_t *pairs = calloc((size_t)n + 1, sizeof *pairs);
     for (int i = 0; i < n; i++) {
         found[i] = 1;
-        pairs[i] = (trioct_mesh_pair_t){i, 0, (int32_t)q->poses[i].t.x};
+        pairs[i] = (trioct_mesh_pair_t){i, 0, 0, (int32_t)q->poses[i].t.x};
     }
     trioct_mesh_reply_t rep = {.header = reply_header(f, &q->header, 0, 1),
                                .detail = q->detail,
                                .num_poses = n,
                                .found = found,
+                               .num_objects = 1,
+                               .objects = one_object,
                                .num_pairs = n,
                                .pairs = pairs};
     ENCODE(trioct_mesh_reply_t, &rep, &out[0]);

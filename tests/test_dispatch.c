@@ -136,7 +136,8 @@ static int setup(void **state)
                             "[raysonly]\nmesh = sphere.obj\neffects = rays\n\n"
                             "[flat]\nmesh = flat.obj\neffects = triangles meshes\nshape.cube = cube.obj\n\n"
                             "[layers]\nmesh = layers.obj\neffects = rays\n\n"
-                            "[spare]\nmesh = box.obj\naccuracy = fast\neffects = rays\n");
+                            "[spare]\nmesh = box.obj\naccuracy = fast\neffects = rays\n\n"
+                            "[edited]\nmesh = box.obj\neffects = rays triangles meshes\nshape.cube = cube.obj\n");
     char path[256], err[512];
     snprintf(path, sizeof path, "%s/scene.ini", F.dir);
     if (scene_load(path, &F.sc, err, sizeof err) != 0)
@@ -195,6 +196,7 @@ DEFINE_ENCODER(trioct_ray_request_v1_t)
 DEFINE_ENCODER(trioct_triangle_request_t)
 DEFINE_ENCODER(trioct_mesh_request_t)
 DEFINE_ENCODER(trioct_admin_request_t)
+DEFINE_ENCODER(trioct_object_edit_request_t)
 #define ENCODE(type, ptr) encode_##type(ptr)
 
 static const char *channel_of(trioct_channel_kind kind, const char *name)
@@ -302,6 +304,11 @@ typedef struct answer {
     trioct_mesh_pair_t *pairs;
     size_t num_worlds;
     trioct_world_info_t *worlds; /* deep copies */
+    int32_t num_names;           /* query replies: chunk 0's object names */
+    char names[64][TRIOCT_MAX_NAME_LEN + 1];
+    int32_t failed_edit;         /* object replies */
+    int64_t objects;
+    trioct_object_info_t *listed; /* deep copies */
 } answer;
 
 static void answer_free(answer *a)
@@ -314,6 +321,9 @@ static void answer_free(answer *a)
     if (a->worlds)
         __trioct_world_info_t_decode_array_cleanup(a->worlds, (int)a->num_worlds);
     free(a->worlds);
+    if (a->listed)
+        __trioct_object_info_t_decode_array_cleanup(a->listed, (int)a->num_worlds);
+    free(a->listed);
     memset(a, 0, sizeof *a);
 }
 
@@ -358,7 +368,16 @@ static const wire_type reply_wire[REQUEST_TYPE_COUNT] = {
     [REQUEST_TRIANGLE] = WIRE_TRIANGLE_REPLY,
     [REQUEST_MESH] = WIRE_MESH_REPLY,
     [REQUEST_ADMIN] = WIRE_ADMIN_REPLY,
+    [REQUEST_OBJECTS] = WIRE_OBJECT_REPLY,
 };
+
+static void keep_names(answer *a, int32_t count, char **names)
+{
+    assert_true(count >= 0 && count <= 64);
+    a->num_names = count;
+    for (int32_t k = 0; k < count; k++)
+        snprintf(a->names[k], sizeof a->names[k], "%s", names[k]);
+}
 
 static void collect_chunk(answer *a, const dispatch_chunk *c, int64_t request_id, size_t index, size_t count)
 {
@@ -371,6 +390,7 @@ static void collect_chunk(answer *a, const dispatch_chunk *c, int64_t request_id
         if (index == 0) {
             a->detail = m.detail;
             a->num_found = m.num_rays;
+            keep_names(a, m.num_objects, m.objects);
             a->found = calloc((size_t)m.num_rays + 1, sizeof *a->found);
             if (m.num_rays > 0)
                 memcpy(a->found, m.found, (size_t)m.num_rays * sizeof *a->found);
@@ -391,6 +411,7 @@ static void collect_chunk(answer *a, const dispatch_chunk *c, int64_t request_id
         if (index == 0) {
             a->detail = m.detail;
             a->num_found = m.num_triangles;
+            keep_names(a, m.num_objects, m.objects);
             a->found = calloc((size_t)m.num_triangles + 1, sizeof *a->found);
             if (m.num_triangles > 0)
                 memcpy(a->found, m.found, (size_t)m.num_triangles * sizeof *a->found);
@@ -416,6 +437,7 @@ static void collect_chunk(answer *a, const dispatch_chunk *c, int64_t request_id
         if (index == 0) {
             a->detail = m.detail;
             a->num_found = m.num_poses;
+            keep_names(a, m.num_objects, m.objects);
             a->found = calloc((size_t)m.num_poses + 1, sizeof *a->found);
             if (m.num_poses > 0)
                 memcpy(a->found, m.found, (size_t)m.num_poses * sizeof *a->found);
@@ -426,6 +448,20 @@ static void collect_chunk(answer *a, const dispatch_chunk *c, int64_t request_id
         grow((void **)&a->pairs, &have, (size_t)m.num_pairs, sizeof *a->pairs, m.pairs);
         a->records = have;
         trioct_mesh_reply_t_decode_cleanup(&m);
+        break;
+    }
+    case REQUEST_OBJECTS: {
+        trioct_object_reply_t m;
+        assert_int_equal(trioct_object_reply_t_decode(c->data, 0, len, &m), len);
+        check_head(&m.header, a, request_id, index, count);
+        a->failed_edit = m.failed_edit;
+        a->objects = m.objects;
+        /* The listing is kept in num_worlds' count: both are "records of their own size". */
+        a->listed = realloc(a->listed, (a->num_worlds + (size_t)m.num_objects + 1) * sizeof *a->listed);
+        assert_non_null(a->listed);
+        assert_int_equal(__trioct_object_info_t_clone_array(m.list, &a->listed[a->num_worlds], m.num_objects), 0);
+        a->num_worlds += (size_t)m.num_objects;
+        trioct_object_reply_t_decode_cleanup(&m);
         break;
     }
     default: {
@@ -510,6 +546,17 @@ static answer ask_triangle(const char *world, const trioct_triangle_request_t *r
 static answer ask_mesh(const char *world, const trioct_mesh_request_t *r)
 {
     return ask(channel_of(TRIOCT_CHANNEL_MESH, world), ENCODE(trioct_mesh_request_t, r), REQUEST_MESH);
+}
+
+static answer ask_objects(const char *world, int list, int n, const trioct_object_edit_t *edits)
+{
+    trioct_object_edit_request_t r = {header(world), (int8_t)list, n, (trioct_object_edit_t *)edits};
+    return ask(channel_of(TRIOCT_CHANNEL_OBJECTS, world), ENCODE(trioct_object_edit_request_t, &r), REQUEST_OBJECTS);
+}
+
+static trioct_object_edit_t wire_edit(int8_t op, const char *name, const char *mesh, trioct_pose_t at)
+{
+    return (trioct_object_edit_t){op, (char *)name, (char *)(mesh ? mesh : ""), at, 0, NULL};
 }
 
 static trioct_admin_request_t admin_request(const char *world, int8_t op)
@@ -1262,7 +1309,7 @@ static void test_mesh_queries_equal_the_engine(void **state)
     world *w = held("sphere");
     const world_shape *cube = world_find_shape(w, "cube");
     assert_non_null(cube);
-    mesh_view cube_view = mesh_data_view(&cube->mesh);
+    mesh_view cube_view = mesh_data_view(&cube->model->mesh);
     for (int8_t detail = 0; detail <= 1; detail++) {
         trioct_mesh_request_t q = {.header = header("sphere"), .detail = detail, .accuracy = -1, .shape = "cube",
                                    .num_poses = n, .poses = poses};
@@ -1380,6 +1427,175 @@ static void test_result_caps_are_errors_not_cuts(void **state)
     expect_rays(&a, "layers", &rays, RAY_ALL, ACCURACY_EXACT, 0, INFINITY, 51);
     answer_free(&a);
     ray_set_free(&rays);
+}
+
+/* ---------- object edits ---------- */
+
+static const trioct_pose_t identity_pose = {{1, 0, 0, 0, 1, 0, 0, 0, 1}, {0, 0, 0}};
+
+/* The tree of box.obj with every vertex placed by at, in the engine's one posing
+ * expression: what the answers about an object at that pose must equal. */
+static octree *posed_box_tree(const pose *at, mesh_data *posed)
+{
+    char path[256], err[256];
+    snprintf(path, sizeof path, "%s/box.obj", F.dir);
+    assert_int_equal(mesh_load_file(path, posed, NULL, err, sizeof err), 0);
+    for (size_t v = 0; v < posed->vertex_count; v++)
+        posed->vertices[v] = octree_pose_point(at, posed->vertices[v]);
+    mesh_view view = mesh_data_view(posed);
+    octree_def def = octree_default_def();
+    def.node_bounds = 1;
+    octree_error e;
+    octree *t = octree_build(&view, &def, &e);
+    assert_non_null(t);
+    return t;
+}
+
+/* Edits make versions; answers about a moved object equal those of a tree built from its
+ * posed vertices, and name it; a world back to one object at the identity is one tree. */
+static void test_object_edits_answer_as_posed_trees(void **state)
+{
+    (void)state;
+    install_from_scene("edited");
+    answer a = ask_objects("edited", 1, 0, NULL);
+    assert_int_equal(a.status, TRIOCT_OK);
+    assert_int_equal(a.objects, 1);
+    assert_int_equal(a.num_worlds, 1);
+    assert_string_equal(a.listed[0].name, "edited");
+    int64_t v0 = a.version;
+    answer_free(&a);
+
+    /* b: box.obj a quarter turn about z, at (3, 0.5, 0.25): x in [2, 3], y in [0.5, 1.5]. */
+    trioct_pose_t at_b = {{0, -1, 0, 1, 0, 0, 0, 0, 1}, {3, 0.5, 0.25}};
+    trioct_object_edit_t add = wire_edit(TRIOCT_OBJECT_EDIT_T_ADD, "b", "box.obj", at_b);
+    a = ask_objects("edited", 1, 1, &add);
+    assert_int_equal(a.status, TRIOCT_OK);
+    assert_int_equal(a.version, v0 + 1);
+    assert_int_equal(a.objects, 2);
+    assert_string_equal(a.listed[0].name, "b");
+    assert_true(a.listed[0].bbox_min.x == 2 && a.listed[0].bbox_max.y == 1.5);
+    answer_free(&a);
+
+    pose pb;
+    memcpy(pb.r, at_b.r, sizeof pb.r);
+    pb.t = (vec3){at_b.t.x, at_b.t.y, at_b.t.z};
+    mesh_data posed;
+    octree *expect = posed_box_tree(&pb, &posed);
+    rng r = rng_seeded(base_seed + 40);
+    enum { N = 40 };
+    ray_set rays = {N, calloc(N, sizeof(trioct_vec3_t)), calloc(N, sizeof(trioct_vec3_t))};
+    for (int i = 0; i < N; i++) {
+        rays.origin[i] = (trioct_vec3_t){rng_uniform(&r, 1.9, 3.1), rng_uniform(&r, 0.4, 1.6), 5};
+        rays.direction[i] = (trioct_vec3_t){rng_uniform(&r, -0.1, 0.1), rng_uniform(&r, -0.1, 0.1), -1};
+    }
+    trioct_ray_request_t q = ray_request("edited", &rays, TRIOCT_RAY_REQUEST_T_CLOSEST, -1, 0, INFINITY, 0);
+    a = ask_ray("edited", &q);
+    assert_int_equal(a.status, TRIOCT_OK);
+    size_t hits = 0;
+    for (int i = 0; i < N; i++) {
+        ray_input in = {{rays.origin[i].x, rays.origin[i].y, rays.origin[i].z},
+                        {rays.direction[i].x, rays.direction[i].y, rays.direction[i].z}, 0, INFINITY, RAY_CROSSING};
+        ray_hit h;
+        ray_output out = {.hits = &h, .max_hits = 1};
+        assert_int_equal(octree_ray(expect, &in, RAY_CLOSEST, ACCURACY_EXACT, &out, NULL), OCTREE_OK);
+        assert_int_equal(a.found[i], (int)out.hit_count);
+        for (size_t k = 0; k < a.records; k++)
+            if (a.hits[k].ray == i) {
+                assert_string_equal(a.names[a.hits[k].object], "b");
+                assert_true(a.hits[k].t == h.t);
+                assert_int_equal(a.hits[k].triangle, (int)h.triangle);
+                hits++;
+            }
+    }
+    assert_true(hits > N / 2);
+    answer_free(&a);
+
+    /* ALL along x through both: the section's box first, then b, names in name order. */
+    ray_set along = {1, calloc(1, sizeof(trioct_vec3_t)), calloc(1, sizeof(trioct_vec3_t))};
+    along.origin[0] = (trioct_vec3_t){-1, 0.75, 0.75};
+    along.direction[0] = (trioct_vec3_t){1, 0, 0};
+    q = ray_request("edited", &along, TRIOCT_RAY_REQUEST_T_ALL, -1, 0, INFINITY, 8);
+    a = ask_ray("edited", &q);
+    assert_int_equal(a.records, 4);
+    assert_int_equal(a.num_names, 2);
+    assert_string_equal(a.names[0], "b");
+    assert_string_equal(a.names[1], "edited");
+    static const double t_all[4] = {1, 2, 3, 4};
+    for (size_t k = 0; k < 4; k++) {
+        assert_true(a.hits[k].t == t_all[k]);
+        assert_string_equal(a.names[a.hits[k].object], k < 2 ? "edited" : "b");
+    }
+    answer_free(&a);
+
+    /* The shape at poses over b's top: the pairs of the posed tree, naming b. */
+    world *w = registry_acquire(F.reg, "edited");
+    const world_shape *cube = world_find_shape(w, "cube");
+    mesh_view cube_view = mesh_data_view(&cube->model->mesh);
+    trioct_pose_t poses[6];
+    for (int i = 0; i < 6; i++)
+        poses[i] = (trioct_pose_t){{1, 0, 0, 0, 1, 0, 0, 0, 1}, {2.2 + 0.12 * i, 1.0, 1.25 + 0.1 * (i % 3)}};
+    trioct_mesh_request_t mq = {.header = header("edited"), .detail = TRIOCT_MESH_REQUEST_T_PAIRS, .accuracy = -1,
+                                .shape = "cube", .num_poses = 6, .poses = poses};
+    a = ask_mesh("edited", &mq);
+    assert_int_equal(a.status, TRIOCT_OK);
+    size_t pairs = 0;
+    for (int i = 0; i < 6; i++) {
+        pose at;
+        memcpy(at.r, poses[i].r, sizeof at.r);
+        at.t = (vec3){poses[i].t.x, poses[i].t.y, poses[i].t.z};
+        mesh_pair buf[256];
+        mesh_output out = {.pairs = buf, .capacity = 256};
+        assert_int_equal(octree_mesh(expect, &cube_view, &at, 1, ACCURACY_EXACT, &out, NULL), OCTREE_OK);
+        assert_int_equal(a.found[i], (int)out.count);
+        pairs += out.count;
+    }
+    assert_int_equal(a.records, pairs);
+    assert_true(pairs > 0);
+    for (size_t k = 0; k < a.records; k++)
+        assert_string_equal(a.names[a.pairs[k].object], "b");
+    answer_free(&a);
+    world_release(w);
+
+    /* Moved away and removed: the old footprint is clear, and one object at the identity
+     * is one tree again. */
+    trioct_object_edit_t edits[2] = {wire_edit(TRIOCT_OBJECT_EDIT_T_MOVE, "b", NULL, identity_pose),
+                                     wire_edit(TRIOCT_OBJECT_EDIT_T_REMOVE, "b", NULL, identity_pose)};
+    edits[0].pose.t.x = 10;
+    a = ask_objects("edited", 0, 2, edits);
+    assert_int_equal(a.status, TRIOCT_OK);
+    assert_int_equal(a.objects, 1);
+    answer_free(&a);
+    q = ray_request("edited", &rays, TRIOCT_RAY_REQUEST_T_CLOSEST, -1, 0, INFINITY, 0);
+    a = ask_ray("edited", &q);
+    assert_int_equal(a.records, 0);
+    answer_free(&a);
+    w = registry_acquire(F.reg, "edited");
+    assert_non_null(w->tree);
+    world_release(w);
+    /* One object, moved: no longer its tree as it stands. */
+    trioct_object_edit_t lift = wire_edit(TRIOCT_OBJECT_EDIT_T_MOVE, "edited", NULL, identity_pose);
+    lift.pose.t.z = 1;
+    a = ask_objects("edited", 0, 1, &lift);
+    assert_int_equal(a.status, TRIOCT_OK);
+    answer_free(&a);
+    along.origin[0] = (trioct_vec3_t){0.5, 0.5, 5};
+    along.direction[0] = (trioct_vec3_t){0, 0, -1};
+    q = ray_request("edited", &along, TRIOCT_RAY_REQUEST_T_CLOSEST, -1, 0, INFINITY, 0);
+    a = ask_ray("edited", &q);
+    assert_int_equal(a.records, 1);
+    assert_true(a.hits[0].t == 3); /* the top, z = 1 + 1 */
+    answer_free(&a);
+    w = registry_acquire(F.reg, "edited");
+    assert_null(w->tree);
+    world_release(w);
+
+    octree_free(expect);
+    mesh_data_free(&posed);
+    free(rays.origin);
+    free(rays.direction);
+    free(along.origin);
+    free(along.direction);
+    assert_int_equal(registry_remove(F.reg, "edited"), 0);
 }
 
 /* ---------- status codes ---------- */
@@ -1546,13 +1762,13 @@ static void test_every_status_code(void **state)
     mq = (trioct_mesh_request_t){.header = header("sphere"), .detail = 0, .accuracy = -1, .shape = "cube",
                                  .num_poses = 2, .poses = two};
     a = ask_mesh("sphere", &mq);
-    saw(&a, TRIOCT_ERR_BAD_REQUEST, "poses[1].r is not a rotation");
+    saw(&a, TRIOCT_ERR_BAD_POSE, "poses[1].r is not a rotation");
     answer_free(&a);
     two[1] = pose_at(0, (vec3){0, 0, 0});
     two[1].r[0] = -1;
     mq.header = header("sphere");
     a = ask_mesh("sphere", &mq);
-    saw(&a, TRIOCT_ERR_BAD_REQUEST, "poses[1].r is not a rotation");
+    saw(&a, TRIOCT_ERR_BAD_POSE, "poses[1].r is not a rotation");
     answer_free(&a);
     two[1] = (trioct_pose_t){{0.707107, -0.707107, 0, 0.707107, 0.707107, 0, 0, 0, 1}, {0, 0, 0}};
     mq.header = header("sphere");
@@ -1624,6 +1840,26 @@ static void test_every_status_code(void **state)
         }
         free(m.data);
     }
+
+    /* UNKNOWN_OBJECT, OBJECT_EXISTS, BAD_POSE: object edits, each naming its edit. */
+    install_from_scene("edited");
+    trioct_object_edit_t oe = wire_edit(TRIOCT_OBJECT_EDIT_T_MOVE, "nothing", NULL, identity_pose);
+    a = ask_objects("edited", 0, 1, &oe);
+    saw(&a, TRIOCT_ERR_UNKNOWN_OBJECT, "edits[0] (move nothing)");
+    assert_int_equal(a.failed_edit, 0);
+    answer_free(&a);
+    trioct_object_edit_t pair_edits[2] = {wire_edit(TRIOCT_OBJECT_EDIT_T_MOVE, "edited", NULL, identity_pose),
+                                   wire_edit(TRIOCT_OBJECT_EDIT_T_ADD, "edited", "box.obj", identity_pose)};
+    a = ask_objects("edited", 0, 2, pair_edits);
+    saw(&a, TRIOCT_ERR_OBJECT_EXISTS, "edits[1] (add edited)");
+    assert_int_equal(a.failed_edit, 1);
+    answer_free(&a);
+    oe = wire_edit(TRIOCT_OBJECT_EDIT_T_MOVE, "edited", NULL, identity_pose);
+    oe.pose.r[4] = 1.5;
+    a = ask_objects("edited", 0, 1, &oe);
+    saw(&a, TRIOCT_ERR_BAD_POSE, "edits[0] (edited): the pose is not a rotation");
+    answer_free(&a);
+    assert_int_equal(registry_remove(F.reg, "edited"), 0);
 
     for (int s = 0; s < TRIOCT_WIRE_STATUS_COUNT; s++)
         if (!provoked[s])
@@ -2019,6 +2255,7 @@ int main(void)
         cmocka_unit_test(test_mesh_pairs_come_in_chunks),
         cmocka_unit_test(test_result_caps_are_errors_not_cuts),
         cmocka_unit_test(test_every_status_code),
+        cmocka_unit_test(test_object_edits_answer_as_posed_trees),
         cmocka_unit_test(test_list_and_info_describe_the_worlds),
         cmocka_unit_test(test_load_and_unload),
         cmocka_unit_test(test_list_comes_in_chunks),

@@ -35,6 +35,7 @@
 #include "../tools/replay/replay_compare.h"
 #include "../tools/replay/replay_log.h"
 #include "../tools/replay/replay_match.h"
+#include "trioct_object_reply_t.h"
 #include "trioct_ray_reply_t.h"
 #include "trioct_ray_request_t.h"
 #include "trioct_status.h"
@@ -405,7 +406,8 @@ typedef struct log_case {
 } log_case;
 
 /* OK, BAD_REQUEST, UNKNOWN_WORLD, NONFINITE, ZERO_DIRECTION, OVER_CAP, EFFECT, BAD_PATH,
- * DEADLINE, BUSY, LOAD_FAILED, STOPPING, UNKNOWN_SHAPE, NOMEM */
+ * DEADLINE, BUSY, LOAD_FAILED, STOPPING, UNKNOWN_SHAPE, NOMEM, UNKNOWN_OBJECT,
+ * OBJECT_EXISTS, BAD_POSE */
 static const log_case cases[] = {
     {"queries", "scene.ini", "requests 29 (0 malformed), replies 29: 29 matched, 0 mismatched, 0 missing, 0 extra (0 to nobody)",
      {29}},
@@ -429,6 +431,8 @@ static const log_case cases[] = {
      {7, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 12}},
     {"touch", "scene.ini", "requests 10 (0 malformed), replies 10: 10 matched, 0 mismatched, 0 missing, 0 extra (0 to nobody)",
      {8, 2}},
+    {"objects", "scene.ini", "requests 38 (0 malformed), replies 38: 38 matched, 0 mismatched, 0 missing, 0 extra (0 to nobody)",
+     {27, 4, 0, 1, 0, 0, 0, 1, 0, 0, 1, 0, 0, 0, 2, 1, 1}},
 };
 #define CASES (sizeof cases / sizeof cases[0])
 
@@ -556,6 +560,109 @@ static void test_touch_golden_blocks_grazing_rays(void **state)
     replay_log_free(&log);
 }
 
+
+/* The object names a query reply's records give, each once: what the records name. */
+static int names_object(const replay_reply *r, const char *name)
+{
+    for (int32_t k = 0; k < r->num_names; k++)
+        if (strcmp(r->names[k], name) == 0)
+            return 1;
+    return 0;
+}
+
+static const trioct_object_info_t *listed(const replay_reply *r, const char *name)
+{
+    for (size_t k = 0; k < r->num_records; k++) {
+        const trioct_object_info_t *o = r->records[k];
+        if (strcmp(o->name, name) == 0)
+            return o;
+    }
+    return NULL;
+}
+
+/* The objects log's golden answers follow its edits (tools/replay/logs_objects.c): each
+ * applied list makes the next version, every query answers on the version the edits before
+ * it made, the adds share the crates' tree, a removed object is never named again, and
+ * every failed list, the one whose second edit fails included, leaves the world as it was. */
+static void test_objects_golden_follows_the_edits(void **state)
+{
+    (void)state;
+    char err[512];
+    replay_proto p;
+    replay_log log;
+    replay_book b;
+    assert_int_equal(replay_proto_from_scene(&p, LOGS "/scene.ini", err, sizeof err), 0);
+    assert_int_equal(replay_log_read(LOGS "/objects.golden.lcmlog", &log, err, sizeof err), 0);
+    assert_int_equal(replay_book_build(&b, &log, &p, err, sizeof err), 0);
+    const replay_reply *r[39] = {0};
+    for (int id = 1; id <= 38; id++) {
+        size_t n;
+        r[id] = replay_book_replies(&b, 0x80, id, &n);
+        assert_non_null(r[id]);
+        assert_int_equal(n, 1);
+    }
+    /* The scene's three objects, the crates twice over one tree. */
+    assert_int_equal(r[1]->header->status, TRIOCT_OK);
+    assert_int_equal(r[1]->num_records, 3);
+    assert_int_equal(listed(r[1], "crate_a")->shared, 2);
+    assert_int_equal(listed(r[1], "floor")->shared, 1);
+    assert_true(listed(r[1], "crate_b")->pose.t.z == 4);
+    /* Versions: 1, then one per applied list; the queries between on the version before. */
+    static const int version_after[] = {1, 2, 3, 4};
+    for (int step = 0; step < 4; step++) {
+        int edit = 1 + 5 * step; /* the edit (or listing) before each block of four queries */
+        assert_int_equal(r[edit]->header->status, TRIOCT_OK);
+        assert_int_equal(r[edit]->header->world_version, version_after[step]);
+        for (int k = 1; k <= 4; k++) {
+            assert_int_equal(r[edit + k]->header->status, TRIOCT_OK);
+            assert_int_equal(r[edit + k]->header->world_version, version_after[step]);
+        }
+    }
+    /* The move changed the answers; the adds are listed, sharing the crates' tree. */
+    int moved = 0;
+    for (size_t k = 0; k < r[2]->num_records && k < r[7]->num_records; k++) {
+        const trioct_ray_hit_t *a = r[2]->records[k], *c = r[7]->records[k];
+        moved += a->t != c->t;
+    }
+    assert_true(moved > 0);
+    assert_int_equal(r[11]->num_records, 5);
+    assert_int_equal(listed(r[11], "crate_c")->shared, 3);
+    assert_string_equal(listed(r[11], "box.1")->mesh, "inline");
+    assert_int_equal(listed(r[11], "box.1")->triangles, 12);
+    /* Removed: crate_a is named by no query answered after it. */
+    for (int id = 17; id <= 34; id++)
+        if (r[id]->type != WIRE_OBJECT_REPLY)
+            assert_false(names_object(r[id], "crate_a"));
+    assert_true(names_object(r[2], "crate_a"));
+    /* Every error names its edit and leaves version 4 serving. */
+    static const int errors[9] = {TRIOCT_ERR_UNKNOWN_OBJECT, TRIOCT_ERR_OBJECT_EXISTS, TRIOCT_ERR_BAD_POSE,
+                                  TRIOCT_ERR_BAD_PATH,       TRIOCT_ERR_LOAD_FAILED,   TRIOCT_ERR_BAD_REQUEST,
+                                  TRIOCT_ERR_NONFINITE,      TRIOCT_ERR_BAD_REQUEST,   TRIOCT_ERR_UNKNOWN_OBJECT};
+    for (int i = 0; i < 9; i++) {
+        const replay_reply *e = r[21 + i];
+        const trioct_object_reply_t *m = e->chunk[0];
+        assert_int_equal(e->header->status, errors[i]);
+        assert_int_equal(e->header->world_version, 4);
+        assert_int_equal(m->failed_edit, i == 8 ? 1 : 0);
+        assert_int_equal(m->objects, 4);
+    }
+    /* All or none: crate_b is where the move before the failing list put it. */
+    const trioct_object_info_t *b30 = listed(r[30], "crate_b");
+    assert_non_null(b30);
+    assert_true(b30->pose.t.x == 1 && b30->pose.t.y == 1 && b30->pose.t.z == 0.25);
+    assert_null(listed(r[30], "crate_a"));
+    /* The moved world refuses seed mode; the fast world refuses edits; a plain section moves
+     * as the one object named after it. */
+    assert_int_equal(r[35]->header->status, TRIOCT_ERR_BAD_REQUEST);
+    assert_int_equal(r[36]->header->status, TRIOCT_ERR_BAD_REQUEST);
+    assert_int_equal(((const trioct_object_reply_t *)r[36]->chunk[0])->failed_edit, -1);
+    assert_int_equal(r[37]->header->status, TRIOCT_OK);
+    assert_string_equal(((const trioct_object_info_t *)r[37]->records[0])->name, "yard");
+    assert_int_equal(r[38]->num_names, 1);
+    assert_string_equal(r[38]->names[0], "yard");
+    replay_book_free(&b);
+    replay_log_free(&log);
+}
 
 /* Under CI (CI=true) or as root nothing this program needs is missing, so what would be a
  * skip elsewhere is a failure there. */
@@ -883,6 +990,7 @@ int main(int argc, char **argv)
         cmocka_unit_test(test_replay_every_log_at_1_and_4_threads),
         cmocka_unit_test(test_goldens_hold_the_statuses_meant),
         cmocka_unit_test(test_touch_golden_blocks_grazing_rays),
+        cmocka_unit_test(test_objects_golden_follows_the_edits),
         cmocka_unit_test(test_recorded_logs),
         cmocka_unit_test(test_changed_answer_fails),
         cmocka_unit_test(test_changed_world_fails),

@@ -22,6 +22,8 @@
 #include "trioct_admin_request_t.h"
 #include "trioct_mesh_reply_t.h"
 #include "trioct_mesh_request_t.h"
+#include "trioct_object_edit_request_t.h"
+#include "trioct_object_reply_t.h"
 #include "trioct_ray_reply_t.h"
 #include "trioct_ray_request_t.h"
 #include "trioct_ray_request_v1_t.h"
@@ -260,16 +262,26 @@ static int32_t *random_found(rng *r, int32_t count)
     return found;
 }
 
+static char **random_names(rng *r, variant v, int32_t count)
+{
+    char **names = array_of(count, sizeof *names);
+    for (int32_t i = 0; i < count; i++)
+        names[i] = random_text(r, v);
+    return names;
+}
+
 static void make_ray_reply(rng *r, variant v, trioct_ray_reply_t *m)
 {
     fill_reply_header(r, v, &m->header);
     m->detail = (int8_t)random_i32(r);
     m->num_rays = pick_count(r, v);
     m->found = random_found(r, m->num_rays);
+    m->num_objects = pick_count(r, v);
+    m->objects = random_names(r, v, m->num_objects);
     m->num_hits = pick_count(r, v);
     m->hits = array_of(m->num_hits, sizeof *m->hits);
     for (int32_t i = 0; i < m->num_hits; i++)
-        m->hits[i] = (trioct_ray_hit_t){random_i32(r), random_double(r), random_i32(r), random_double(r),
+        m->hits[i] = (trioct_ray_hit_t){random_i32(r), random_double(r), random_i32(r), random_i32(r), random_double(r),
                                         random_double(r), random_vec3(r)};
 }
 
@@ -279,10 +291,12 @@ static void make_triangle_reply(rng *r, variant v, trioct_triangle_reply_t *m)
     m->detail = (int8_t)random_i32(r);
     m->num_triangles = pick_count(r, v);
     m->found = random_found(r, m->num_triangles);
+    m->num_objects = pick_count(r, v);
+    m->objects = random_names(r, v, m->num_objects);
     m->num_contacts = pick_count(r, v);
     m->contacts = array_of(m->num_contacts, sizeof *m->contacts);
     for (int32_t i = 0; i < m->num_contacts; i++)
-        m->contacts[i] = (trioct_contact_t){random_i32(r), random_i32(r)};
+        m->contacts[i] = (trioct_contact_t){random_i32(r), random_i32(r), random_i32(r)};
     m->num_segments = pick_count(r, v);
     m->segments = array_of(m->num_segments, sizeof *m->segments);
     for (int32_t i = 0; i < m->num_segments; i++)
@@ -295,10 +309,12 @@ static void make_mesh_reply(rng *r, variant v, trioct_mesh_reply_t *m)
     m->detail = (int8_t)random_i32(r);
     m->num_poses = pick_count(r, v);
     m->found = random_found(r, m->num_poses);
+    m->num_objects = pick_count(r, v);
+    m->objects = random_names(r, v, m->num_objects);
     m->num_pairs = pick_count(r, v);
     m->pairs = array_of(m->num_pairs, sizeof *m->pairs);
     for (int32_t i = 0; i < m->num_pairs; i++)
-        m->pairs[i] = (trioct_mesh_pair_t){random_i32(r), random_i32(r), random_i32(r)};
+        m->pairs[i] = (trioct_mesh_pair_t){random_i32(r), random_i32(r), random_i32(r), random_i32(r)};
 }
 
 static void make_admin_reply(rng *r, variant v, trioct_admin_reply_t *m)
@@ -307,6 +323,52 @@ static void make_admin_reply(rng *r, variant v, trioct_admin_reply_t *m)
     m->op = (int8_t)random_i32(r);
     m->num_worlds = pick_count(r, v);
     m->worlds = random_worlds(r, v, m->num_worlds);
+}
+
+static void random_pose(rng *r, trioct_pose_t *p)
+{
+    for (int k = 0; k < 9; k++)
+        p->r[k] = random_double(r);
+    p->t = random_vec3(r);
+}
+
+static void make_object_edit_request(rng *r, variant v, trioct_object_edit_request_t *m)
+{
+    fill_request_header(r, v, &m->header);
+    m->list = (int8_t)random_i32(r);
+    m->num_edits = pick_count(r, v);
+    m->edits = array_of(m->num_edits, sizeof *m->edits);
+    for (int32_t i = 0; i < m->num_edits; i++) {
+        trioct_object_edit_t *e = &m->edits[i];
+        e->op = (int8_t)random_i32(r);
+        e->name = random_text(r, v);
+        e->mesh = random_text(r, v);
+        random_pose(r, &e->pose);
+        e->num_triangles = pick_count(r, v);
+        e->triangles = array_of(e->num_triangles, sizeof *e->triangles);
+        fill_triangles(r, e->triangles, e->num_triangles);
+    }
+}
+
+static void make_object_reply(rng *r, variant v, trioct_object_reply_t *m)
+{
+    fill_reply_header(r, v, &m->header);
+    m->failed_edit = random_i32(r);
+    m->objects = random_i32(r);
+    m->triangles = random_i32(r);
+    m->num_objects = pick_count(r, v);
+    m->list = array_of(m->num_objects, sizeof *m->list);
+    for (int32_t i = 0; i < m->num_objects; i++) {
+        trioct_object_info_t *o = &m->list[i];
+        o->name = random_text(r, v);
+        o->mesh = random_text(r, v);
+        o->triangles = random_i32(r);
+        random_pose(r, &o->pose);
+        o->bbox_min = random_vec3(r);
+        o->bbox_max = random_vec3(r);
+        o->bytes = random_i32(r);
+        o->shared = random_i32(r);
+    }
 }
 
 static void make_status(rng *r, variant v, trioct_status_t *m)
@@ -319,7 +381,7 @@ static void make_status(rng *r, variant v, trioct_status_t *m)
     m->threads = random_i32(r);
     m->queue_depth = random_i32(r);
     m->queue_capacity = random_i32(r);
-    for (int k = 0; k < 4; k++)
+    for (int k = 0; k < 5; k++)
         m->served[k] = random_i64(r);
     m->malformed = random_i64(r);
     m->num_status_codes = pick_count(r, v);
@@ -424,7 +486,7 @@ static int world_info_middle_bytes(const trioct_world_info_t *w)
            __int64_t_encoded_array_size(&w->nodes, 2) + __int32_t_encoded_array_size(&w->max_level, 1) +
            __double_encoded_array_size(&w->resolution, 2) + __trioct_vec3_t_encoded_array_size(&w->world_min, 1) +
            __int64_t_encoded_array_size(&w->bytes_nodes, 5) + __double_encoded_array_size(&w->build_seconds, 1) +
-           __int64_t_encoded_array_size(&w->queries, 1);
+           __int64_t_encoded_array_size(&w->objects, 1) + __int64_t_encoded_array_size(&w->queries, 1);
 }
 
 static void lay_worlds(layout *l, int32_t count, const trioct_world_info_t *worlds)
@@ -499,6 +561,9 @@ static void lay_ray_reply(layout *l, const trioct_ray_reply_t *m)
     lay_bytes(l, 1);
     lay_count(l, "num_rays", m->num_rays);
     lay_bytes(l, __int32_t_encoded_array_size(m->found, m->num_rays));
+    lay_count(l, "num_objects", m->num_objects);
+    for (int32_t k = 0; k < m->num_objects; k++)
+        lay_string_element(l, "objects", (int)k, &m->objects[k]);
     lay_count(l, "num_hits", m->num_hits);
     lay_bytes(l, __trioct_ray_hit_t_encoded_array_size(m->hits, m->num_hits));
 }
@@ -509,6 +574,9 @@ static void lay_triangle_reply(layout *l, const trioct_triangle_reply_t *m)
     lay_bytes(l, 1);
     lay_count(l, "num_triangles", m->num_triangles);
     lay_bytes(l, __int32_t_encoded_array_size(m->found, m->num_triangles));
+    lay_count(l, "num_objects", m->num_objects);
+    for (int32_t k = 0; k < m->num_objects; k++)
+        lay_string_element(l, "objects", (int)k, &m->objects[k]);
     lay_count(l, "num_contacts", m->num_contacts);
     lay_bytes(l, __trioct_contact_t_encoded_array_size(m->contacts, m->num_contacts));
     lay_count(l, "num_segments", m->num_segments);
@@ -521,6 +589,9 @@ static void lay_mesh_reply(layout *l, const trioct_mesh_reply_t *m)
     lay_bytes(l, 1);
     lay_count(l, "num_poses", m->num_poses);
     lay_bytes(l, __int32_t_encoded_array_size(m->found, m->num_poses));
+    lay_count(l, "num_objects", m->num_objects);
+    for (int32_t k = 0; k < m->num_objects; k++)
+        lay_string_element(l, "objects", (int)k, &m->objects[k]);
     lay_count(l, "num_pairs", m->num_pairs);
     lay_bytes(l, __trioct_mesh_pair_t_encoded_array_size(m->pairs, m->num_pairs));
 }
@@ -532,12 +603,45 @@ static void lay_admin_reply(layout *l, const trioct_admin_reply_t *m)
     lay_worlds(l, m->num_worlds, m->worlds);
 }
 
+static void lay_object_edit_request(layout *l, const trioct_object_edit_request_t *m)
+{
+    lay_request_header(l, &m->header);
+    lay_bytes(l, 1);
+    lay_count(l, "num_edits", m->num_edits);
+    for (int32_t i = 0; i < m->num_edits; i++) {
+        const trioct_object_edit_t *e = &m->edits[i];
+        snprintf(l->scope, sizeof l->scope, "edits[%d].", (int)i);
+        lay_bytes(l, 1);
+        lay_string(l, "name", &e->name);
+        lay_string(l, "mesh", &e->mesh);
+        lay_bytes(l, __trioct_pose_t_encoded_array_size(&e->pose, 1));
+        lay_count(l, "num_triangles", e->num_triangles);
+        lay_bytes(l, __trioct_triangle_t_encoded_array_size(e->triangles, e->num_triangles));
+        l->scope[0] = '\0';
+    }
+}
+
+static void lay_object_reply(layout *l, const trioct_object_reply_t *m)
+{
+    lay_reply_header(l, &m->header);
+    lay_bytes(l, 4 + 8 + 8);
+    lay_count(l, "num_objects", m->num_objects);
+    for (int32_t i = 0; i < m->num_objects; i++) {
+        const trioct_object_info_t *o = &m->list[i];
+        snprintf(l->scope, sizeof l->scope, "list[%d].", (int)i);
+        lay_string(l, "name", &o->name);
+        lay_string(l, "mesh", &o->mesh);
+        lay_bytes(l, 8 + __trioct_pose_t_encoded_array_size(&o->pose, 1) + 2 * __trioct_vec3_t_encoded_array_size(&o->bbox_min, 1) + 8 + 4);
+        l->scope[0] = '\0';
+    }
+}
+
 static void lay_status(layout *l, const trioct_status_t *m)
 {
     lay_bytes(l, 8);
     lay_string(l, "daemon", &m->daemon);
     lay_string(l, "version", &m->version);
-    lay_bytes(l, 8 + 1 + 3 * 4 + 4 * 8 + 8);
+    lay_bytes(l, 8 + 1 + 3 * 4 + 5 * 8 + 8);
     lay_count(l, "num_status_codes", m->num_status_codes);
     lay_bytes(l, __int64_t_encoded_array_size(m->replies_by_status, m->num_status_codes));
     lay_bytes(l, 3 * 8);
@@ -557,6 +661,8 @@ typedef union any_message {
     trioct_admin_reply_t admin_reply;
     trioct_status_t status;
     trioct_ray_request_v1_t ray_request_v1;
+    trioct_object_edit_request_t object_edit_request;
+    trioct_object_reply_t object_reply;
 } any_message;
 
 typedef struct codec {
@@ -596,6 +702,8 @@ CODEC_FUNCTIONS(mesh_reply)
 CODEC_FUNCTIONS(admin_reply)
 CODEC_FUNCTIONS(status)
 CODEC_FUNCTIONS(ray_request_v1)
+CODEC_FUNCTIONS(object_edit_request)
+CODEC_FUNCTIONS(object_reply)
 
 #define CODEC_ENTRY(type, member)                                                                     \
     {type, #member "_t", codec_make_##member, codec_lay_##member, codec_encode_##member,              \
@@ -607,6 +715,7 @@ static const codec codecs[WIRE_TYPE_COUNT] = {
     CODEC_ENTRY(WIRE_RAY_REPLY, ray_reply),         CODEC_ENTRY(WIRE_TRIANGLE_REPLY, triangle_reply),
     CODEC_ENTRY(WIRE_MESH_REPLY, mesh_reply),       CODEC_ENTRY(WIRE_ADMIN_REPLY, admin_reply),
     CODEC_ENTRY(WIRE_STATUS, status),               CODEC_ENTRY(WIRE_RAY_REQUEST_V1, ray_request_v1),
+    CODEC_ENTRY(WIRE_OBJECT_EDIT_REQUEST, object_edit_request), CODEC_ENTRY(WIRE_OBJECT_REPLY, object_reply),
 };
 
 /* ---------- samples: encoded messages with their layout ---------- */
@@ -786,7 +895,7 @@ static void test_smallest_elements_fill_the_message_exactly(void **state)
     }
     int size = trioct_admin_reply_t_encoded_size(&reply);
     int worlds_bytes = __trioct_world_info_t_encoded_array_size(reply.worlds, reply.num_worlds);
-    assert_int_equal(worlds_bytes, 245 * reply.num_worlds);
+    assert_int_equal(worlds_bytes, 253 * reply.num_worlds);
     uint8_t *bytes = malloc((size_t)size);
     assert_non_null(bytes);
     assert_int_equal(trioct_admin_reply_t_encode(bytes, 0, size, &reply), size);
@@ -1176,7 +1285,7 @@ static void test_short_absent_and_oversized_input_is_rejected(void **state)
         assert_non_null(strstr(err.what, "more than LCM can encode"));
     }
     assert_int_equal(wire_check(WIRE_TYPE_COUNT, fingerprint, 8, &err), -1);
-    assert_string_equal(err.what, "wire type 10 is unknown");
+    assert_string_equal(err.what, "wire type 12 is unknown");
     assert_int_equal(wire_check((wire_type)-3, fingerprint, 8, NULL), -1);
 }
 

@@ -324,8 +324,21 @@ static void test_build_merges_meshes(void **state)
     scratch_remove(&s);
 }
 
-/* A world of objects: one file placed twice (loaded once), each copy posed by its pose,
- * the triangles in the objects' name order; the answers those of the posed copies. */
+/* The closest hit's t over a world's objects (-1 for a miss) and the object it names. */
+static double closest_object_t(const world *w, vec3 origin, vec3 direction, uint32_t *object)
+{
+    ray_input ray = {origin, direction, 0, INFINITY, RAY_CROSSING};
+    object_hit hit;
+    object_ray_output out = {.hits = &hit, .max_hits = 1};
+    assert_int_equal(object_set_ray(w->objects, &ray, RAY_CLOSEST, &out, NULL), OCTREE_OK);
+    if (out.hit_count == 0)
+        return -1.0;
+    *object = hit.object;
+    return hit.hit.t;
+}
+
+/* A world of objects: one file placed twice (loaded once into one model), each object that
+ * model at its pose; answers name the object. */
 static void test_build_places_objects(void **state)
 {
     (void)state;
@@ -345,19 +358,36 @@ static void test_build_places_objects(void **state)
     assert_int_equal(w->report.triangles, 24);
     assert_vec_equal(w->report.bbox_lo, -1, -1, 0);
     assert_vec_equal(w->report.bbox_hi, 1, 1, 11);
+    /* Two objects of one model: one tree, built once, shared; no single tree to ask. */
+    assert_null(w->tree);
+    assert_int_equal(w->objects->count, 2);
+    assert_ptr_equal(w->objects->objects[0].model, w->objects->objects[1].model);
+    assert_int_equal(w->objects->objects[0].model->mesh.triangle_count, 12);
     octree_info info;
-    octree_get_info(w->tree, &info);
+    world_tree_info(w, &info);
     assert_int_equal(info.triangle_count, 24);
-    assert_true(closest_t(w->tree, vec3_make(-0.5, -0.5, 20), vec3_make(0, 0, -1)) == 9.0);
-    assert_true(closest_t(w->tree, vec3_make(0.5, 0.5, 20), vec3_make(0, 0, -1)) == 19.0);
-    assert_true(closest_t(w->tree, vec3_make(0.5, -0.5, 20), vec3_make(0, 0, -1)) == -1.0);
-    /* The first twelve triangles are a's (name order): a ray down onto a's top names one. */
-    ray_input down = {vec3_make(-0.5, -0.25, 20), vec3_make(0, 0, -1), 0, INFINITY, RAY_CROSSING};
-    ray_hit hit;
-    ray_output out = {0, 0, &hit, 1};
-    assert_int_equal(octree_ray(w->tree, &down, RAY_CLOSEST, ACCURACY_EXACT, &out, NULL), OCTREE_OK);
-    assert_true(out.hit_count == 1 && hit.triangle < 12);
+    octree_info one;
+    octree_get_info(w->objects->objects[0].model->tree, &one);
+    assert_int_equal(info.node_count, one.node_count);
+    assert_int_equal(info.bytes_total, one.bytes_total);
+    /* Rays name the object they meet: "a" from above at z = 11, "b" at z = 1. */
+    uint32_t object = 99;
+    assert_true(closest_object_t(w, vec3_make(-0.5, -0.5, 20), vec3_make(0, 0, -1), &object) == 9.0);
+    assert_int_equal(object, 0);
+    assert_true(closest_object_t(w, vec3_make(0.5, 0.5, 20), vec3_make(0, 0, -1), &object) == 19.0);
+    assert_int_equal(object, 1);
+    assert_true(closest_object_t(w, vec3_make(0.5, -0.5, 20), vec3_make(0, 0, -1), &object) == -1.0);
     world_release(w);
+
+    /* One object at the identity is queried as its own tree. */
+    spec.object_count = 1;
+    spec.objects[0] = spec.objects[1];
+    w = build_ok(&spec, s.dir);
+    assert_non_null(w->tree);
+    assert_true(closest_t(w->tree, vec3_make(0.5, 0.5, 20), vec3_make(0, 0, -1)) == 19.0);
+    world_release(w);
+    spec.object_count = 2;
+    spec.objects[0] = (world_object_spec){"a", 0, {{-1, 0, 0, 0, -1, 0, 0, 0, 1}, {0, 0, 10}}};
 
     /* An object naming no mesh, or a pose that is not a rotation, is refused. */
     char err[512];
@@ -545,21 +575,21 @@ static void test_shapes_load_only_for_mesh_effect(void **state)
     assert_non_null(box);
     assert_null(world_find_shape(w, "Tetra"));
     assert_null(world_find_shape(NULL, "tetra"));
-    assert_int_equal(tetra->mesh.vertex_count, 4);
-    assert_int_equal(tetra->mesh.triangle_count, 4);
-    assert_int_equal(box->mesh.vertex_count, 8);
-    assert_int_equal(box->mesh.triangle_count, 12);
-    box3 b = mesh_data_bounds(&box->mesh);
+    assert_int_equal(tetra->model->mesh.vertex_count, 4);
+    assert_int_equal(tetra->model->mesh.triangle_count, 4);
+    assert_int_equal(box->model->mesh.vertex_count, 8);
+    assert_int_equal(box->model->mesh.triangle_count, 12);
+    box3 b = mesh_data_bounds(&box->model->mesh);
     assert_vec_equal(b.lo, 0, 0, 0);
     assert_vec_equal(b.hi, 1, 1, 1); /* not scaled */
     assert_vec_equal(w->report.bbox_hi, 2, 2, 2);
     /* Each shape has its own tree in its own frame, with node bounds, counted in the
      * shapes' bytes. */
-    assert_non_null(tetra->tree);
-    assert_non_null(box->tree);
+    assert_non_null(tetra->model->tree);
+    assert_non_null(box->model->tree);
     octree_info ti, bi;
-    octree_get_info(tetra->tree, &ti);
-    octree_get_info(box->tree, &bi);
+    octree_get_info(tetra->model->tree, &ti);
+    octree_get_info(box->model->tree, &bi);
     assert_int_equal(ti.triangle_count, 4);
     assert_int_equal(bi.triangle_count, 12);
     assert_true(bi.bytes_node_bounds > 0);

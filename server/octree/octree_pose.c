@@ -10,6 +10,7 @@
 #include <float.h>
 #include <math.h>
 
+#include "../../common/quaternion.h"
 #include "octree_internal.h"
 
 #define U 0x1p-53
@@ -19,22 +20,29 @@ vec3 octree_pose_point(const pose *at, vec3 p)
     return octree_apply_pose(at, p);
 }
 
+pose octree_pose_identity(void)
+{
+    return (pose){{1, 0, 0, 0, 1, 0, 0, 0, 1}, {0, 0, 0}};
+}
+
+int octree_pose_is_identity(const pose *at)
+{
+    static const double eye[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1};
+    for (int k = 0; k < 9; k++)
+        if (at->r[k] != eye[k])
+            return 0;
+    return at->t.x == 0 && at->t.y == 0 && at->t.z == 0;
+}
+
 octree_status octree_pose_from_quaternion(vec3 t, double qw, double qx, double qy, double qz, pose *out)
 {
-    if (!isfinite(qw) || !isfinite(qx) || !isfinite(qy) || !isfinite(qz) || !vec3_is_finite(t))
+    if (!vec3_is_finite(t))
         return OCTREE_ERR_NONFINITE;
-    double n = sqrt(qw * qw + qx * qx + qy * qy + qz * qz);
-    /* A quaternion far from unit length is a caller's mistake (a degree for a radian, a
-     * missing component), not rounding: refused, so that it cannot pass as a rotation. */
-    if (!(n >= 1.0 - OCTREE_QUATERNION_TOLERANCE && n <= 1.0 + OCTREE_QUATERNION_TOLERANCE))
+    trioct_quaternion_status st = trioct_quaternion_matrix(qw, qx, qy, qz, out->r);
+    if (st == TRIOCT_QUATERNION_NONFINITE)
+        return OCTREE_ERR_NONFINITE;
+    if (st != TRIOCT_QUATERNION_OK)
         return OCTREE_ERR_INVALID;
-    double w = qw / n, x = qx / n, y = qy / n, z = qz / n;
-    /* The rotation matrix of the unit quaternion (w, x, y, z), row-major. */
-    double r[9] = {1 - 2 * (y * y + z * z), 2 * (x * y - w * z),     2 * (x * z + w * y),
-                   2 * (x * y + w * z),     1 - 2 * (x * x + z * z), 2 * (y * z - w * x),
-                   2 * (x * z - w * y),     2 * (y * z + w * x),     1 - 2 * (x * x + y * y)};
-    for (int k = 0; k < 9; k++)
-        out->r[k] = r[k];
     out->t = t;
     return OCTREE_OK;
 }

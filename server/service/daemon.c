@@ -34,6 +34,7 @@ static const trioct_channel_kind world_kinds[] = {
     TRIOCT_CHANNEL_TRI,
     TRIOCT_CHANNEL_MESH,
     TRIOCT_CHANNEL_ADMIN,
+    TRIOCT_CHANNEL_OBJECTS,
 };
 #define WORLD_KINDS (sizeof world_kinds / sizeof world_kinds[0])
 
@@ -164,6 +165,7 @@ static const char *const type_names[REQUEST_TYPE_COUNT] = {
     [REQUEST_TRIANGLE] = "triangle",
     [REQUEST_MESH] = "mesh",
     [REQUEST_ADMIN] = "admin",
+    [REQUEST_OBJECTS] = "objects",
 };
 
 static void publish_status(daemon *d);
@@ -424,7 +426,7 @@ static void on_message(const lcm_recv_buf_t *rbuf, const char *channel, void *us
     job->size = size;
     memcpy(job->bytes, rbuf->data, size);
     if (d->opt.ordered) {
-        job->alone = req.type == REQUEST_ADMIN;
+        job->alone = req.type == REQUEST_ADMIN || req.type == REQUEST_OBJECTS; /* both change what queries see */
         if (req.channel_kind == TRIOCT_CHANNEL_LOAD)
             d->wakeup_over = 1;
         ordered_hold(d, job);
@@ -639,7 +641,7 @@ static void on_lcm_readable(uv_poll_t *handle, int status, int events)
 /* With --ordered every answer is the one a one-thread daemon gives, whatever --threads, so
  * a replayed log answers alike on every machine. The requests one wake-up reads wait in
  * d->held, in input order, and go to the pool from there: queries side by side, an admin
- * request alone (after all read before it, before all read after it). The next wake-up
+ * request or an object edit alone (after all read before it, before all read after it). The next wake-up
  * reads only once every one is answered. A LOAD ends its wake-up, so the messages after it
  * hear the world it brings, as a client asks only once the LOAD is answered; the requests
  * read after an UNLOAD in its wake-up were taken while the world was held, and get

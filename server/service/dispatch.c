@@ -70,6 +70,7 @@ static const wire_type wire_of[REQUEST_TYPE_COUNT] = {
     [REQUEST_TRIANGLE] = WIRE_TRIANGLE_REQUEST,
     [REQUEST_MESH] = WIRE_MESH_REQUEST,
     [REQUEST_ADMIN] = WIRE_ADMIN_REQUEST,
+    [REQUEST_OBJECTS] = WIRE_OBJECT_EDIT_REQUEST,
 };
 
 /* Offsets after the header of the fields dispatch_is_small reads: ray_request_t (and v1)
@@ -152,6 +153,9 @@ static dispatch_peek_result peek(const dispatch_ctx *ctx, const char *channel, c
     case TRIOCT_CHANNEL_LIST:
         type = REQUEST_ADMIN;
         break;
+    case TRIOCT_CHANNEL_OBJECTS:
+        type = REQUEST_OBJECTS;
+        break;
     default:
         return PEEK_NOT_MINE; /* STATUS: another daemon's heartbeat */
     }
@@ -219,7 +223,7 @@ int dispatch_is_small(dispatch_ctx *ctx, const dispatch_request *req)
         if (!w)
             return 1;
         octree_info info;
-        octree_get_info(w->tree, &info);
+        world_tree_info(w, &info);
         world_release(w);
         /* NaN (a coordinate not finite) is not small: the workers answer it, with an error. */
         return req->extent <= DISPATCH_INLINE_MAX_TRIANGLE_LEAVES * info.resolution;
@@ -310,7 +314,7 @@ static int check_admin_channel(job *j)
 static int channel_has_world(trioct_channel_kind kind)
 {
     return kind == TRIOCT_CHANNEL_RAY || kind == TRIOCT_CHANNEL_TRI || kind == TRIOCT_CHANNEL_MESH ||
-           kind == TRIOCT_CHANNEL_ADMIN;
+           kind == TRIOCT_CHANNEL_ADMIN || kind == TRIOCT_CHANNEL_OBJECTS;
 }
 
 static const struct {
@@ -369,7 +373,7 @@ static int check_header(job *j, int64_t now_utime)
                             req->channel_name, j->ctx->daemon);
         j->world_version = (int64_t)j->w->version;
     }
-    if (req->type != REQUEST_ADMIN && !(j->w->spec.effects & effect_of[req->type].bit)) {
+    if (req->type != REQUEST_ADMIN && req->type != REQUEST_OBJECTS && !(j->w->spec.effects & effect_of[req->type].bit)) {
         char words[64];
         return job_fail(j, TRIOCT_ERR_EFFECT, "world %s serves %s only; %s queries need effects = %s",
                         req->channel_name, effects_words(j->w->spec.effects, words, sizeof words),
@@ -429,6 +433,14 @@ static int run_request(job *j, const void *bytes, size_t size)
         trioct_mesh_request_t_decode_cleanup(&m);
         return status;
     }
+    case REQUEST_OBJECTS: {
+        trioct_object_edit_request_t m;
+        if (trioct_object_edit_request_t_decode(bytes, 0, len, &m) < 0)
+            break;
+        status = dispatch_objects(j, &m);
+        trioct_object_edit_request_t_decode_cleanup(&m);
+        return status;
+    }
     default: {
         trioct_admin_request_t m;
         if (trioct_admin_request_t_decode(bytes, 0, len, &m) < 0)
@@ -447,7 +459,7 @@ int dispatch_handle(dispatch_ctx *ctx, const char *channel, const void *bytes, s
                     dispatch_reply *out)
 {
     memset(out, 0, sizeof *out);
-    job j = {.ctx = ctx, .out = out, .status = TRIOCT_OK};
+    job j = {.ctx = ctx, .out = out, .status = TRIOCT_OK, .failed_edit = -1};
     if (peek(ctx, channel, bytes, size, &j.req, &j.hdr) != PEEK_REQUEST)
         return -1;
     reply_start(out, &j.req);
@@ -467,7 +479,11 @@ int dispatch_handle(dispatch_ctx *ctx, const char *channel, const void *bytes, s
         /* A handler that failed after encoding part of a reply leaves nothing half-sent. */
         dispatch_reply_free(out);
         reply_head h = job_head(&j, status, j.message);
-        if (encode_error_reply(out, j.req.type, &h, echoed_detail(&j.req)) != TRIOCT_OK)
+        int encoded = j.req.type == REQUEST_OBJECTS
+                          ? encode_object_reply(out, &h, j.failed_edit, j.w ? (int64_t)j.w->objects->count : 0,
+                                                j.w ? (int64_t)j.w->objects->triangles : 0, NULL, 0)
+                          : encode_error_reply(out, j.req.type, &h, echoed_detail(&j.req));
+        if (encoded != TRIOCT_OK)
             rc = -1;
     }
     out->status = status;

@@ -30,6 +30,7 @@ typedef enum request_type {
     REQUEST_TRIANGLE = 1,
     REQUEST_MESH = 2,
     REQUEST_ADMIN = 3,
+    REQUEST_OBJECTS = 4,
     REQUEST_TYPE_COUNT
 } request_type;
 

@@ -15,7 +15,7 @@ void dispatch_world_info(const dispatch_ctx *ctx, const registry_entry *entry, t
 {
     const world *w = entry->w;
     octree_info oi;
-    octree_get_info(w->tree, &oi);
+    world_tree_info(w, &oi);
     memset(info, 0, sizeof *info);
     /* The generated struct has char * fields; the encoder only reads them. */
     info->name = (char *)w->spec.name;
@@ -53,6 +53,7 @@ void dispatch_world_info(const dispatch_ctx *ctx, const registry_entry *entry, t
     info->bytes_total = (int64_t)oi.bytes_total + (int64_t)w->bytes_shapes;
     info->build_seconds = oi.build_seconds;
 
+    info->objects = (int64_t)w->objects->count;
     info->queries = (int64_t)atomic_load(&((world *)w)->queries);
     info->last_error = (char *)entry->last_error;
     size_t shapes = w->shape_count < TRIOCT_MAX_SHAPES ? w->shape_count : TRIOCT_MAX_SHAPES;

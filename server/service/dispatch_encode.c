@@ -8,7 +8,7 @@
 #include "dispatch_internal.h"
 
 /* How one reply type measures and writes a chunk holding records [lo, hi); `first` says
- * whether it is chunk 0 (which carries found[]). The chunk index and count are fixed-size
+ * whether it is chunk 0 (which carries found[] and the object names). The chunk index and count are fixed-size
  * fields, so the size does not depend on them. */
 typedef struct chunk_ops {
     int (*size)(const void *ctx, int first, size_t lo, size_t hi);
@@ -126,6 +126,8 @@ static void ray_fill(const query_chunks *q, int first, size_t lo, size_t hi, int
     m->detail = q->detail;
     m->num_rays = first ? q->r->item_count : 0;
     m->found = first ? q->r->found : NULL;
+    m->num_objects = first ? q->r->object_count : 0;
+    m->objects = first ? q->r->objects : NULL;
     m->num_hits = (int32_t)(hi - lo);
     m->hits = SLICE(q->r->hits, lo);
 }
@@ -152,6 +154,8 @@ static void triangle_fill(const query_chunks *q, int first, size_t lo, size_t hi
     m->detail = q->detail;
     m->num_triangles = first ? q->r->item_count : 0;
     m->found = first ? q->r->found : NULL;
+    m->num_objects = first ? q->r->object_count : 0;
+    m->objects = first ? q->r->objects : NULL;
     m->num_contacts = (int32_t)(hi - lo);
     m->contacts = SLICE(q->r->contacts, lo);
     m->num_segments = q->r->segments ? (int32_t)(hi - lo) : 0;
@@ -180,6 +184,8 @@ static void mesh_fill(const query_chunks *q, int first, size_t lo, size_t hi, in
     m->detail = q->detail;
     m->num_poses = first ? q->r->item_count : 0;
     m->found = first ? q->r->found : NULL;
+    m->num_objects = first ? q->r->object_count : 0;
+    m->objects = first ? q->r->objects : NULL;
     m->num_pairs = (int32_t)(hi - lo);
     m->pairs = SLICE(q->r->pairs, lo);
 }
@@ -285,9 +291,61 @@ int encode_admin_reply(dispatch_reply *out, const reply_head *h, int8_t op, cons
     return split_encode(out, &ops, &a, count);
 }
 
+/* Object replies: the objects listed are the records, each of its own size. */
+typedef struct object_chunks {
+    const reply_head *head;
+    int32_t failed_edit;
+    int64_t objects, triangles;
+    const trioct_object_info_t *infos;
+} object_chunks;
+
+static void object_fill(const object_chunks *o, size_t lo, size_t hi, int32_t index, int32_t count,
+                        trioct_object_reply_t *m)
+{
+    fill_head(&m->header, o->head, index, count);
+    m->failed_edit = o->failed_edit;
+    m->objects = o->objects;
+    m->triangles = o->triangles;
+    m->num_objects = (int32_t)(hi - lo);
+    m->list = (trioct_object_info_t *)SLICE(o->infos, lo);
+}
+
+static int object_size(const void *ctx, int first, size_t lo, size_t hi)
+{
+    (void)first;
+    trioct_object_reply_t m;
+    object_fill(ctx, lo, hi, 0, 1, &m);
+    return trioct_object_reply_t_encoded_size(&m);
+}
+
+static int object_encode(const void *ctx, int first, size_t lo, size_t hi, int32_t index, int32_t count,
+                         void *buf, int len)
+{
+    (void)first;
+    trioct_object_reply_t m;
+    object_fill(ctx, lo, hi, index, count, &m);
+    return trioct_object_reply_t_encode(buf, 0, len, &m);
+}
+
+static size_t object_record_size(const void *ctx, size_t i)
+{
+    const object_chunks *o = ctx;
+    return (size_t)__trioct_object_info_t_encoded_array_size(&o->infos[i], 1);
+}
+
+int encode_object_reply(dispatch_reply *out, const reply_head *h, int32_t failed_edit, int64_t objects,
+                        int64_t triangles, const trioct_object_info_t *infos, size_t count)
+{
+    static const chunk_ops ops = {object_size, object_encode, object_record_size};
+    object_chunks o = {h, failed_edit, objects, triangles, count ? infos : NULL};
+    return split_encode(out, &ops, &o, count);
+}
+
 int encode_error_reply(dispatch_reply *out, request_type type, const reply_head *h, int8_t detail)
 {
     switch (type) {
+    case REQUEST_OBJECTS:
+        return encode_object_reply(out, h, -1, 0, 0, NULL, 0);
     case REQUEST_RAY:
         return encode_ray_reply(out, h, detail, NULL);
     case REQUEST_TRIANGLE:
@@ -306,5 +364,6 @@ void query_result_free(query_result *r)
     free(r->contacts);
     free(r->segments);
     free(r->pairs);
+    free(r->objects);
     memset(r, 0, sizeof *r);
 }

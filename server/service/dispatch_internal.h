@@ -3,7 +3,9 @@
  *
  *   dispatch.c          peek, the checks every request goes through, error replies
  *   dispatch_query.c    ray, triangle and mesh requests: validation and the engine's work
+ *   dispatch_posed.c    the same asked of a world of posed objects; the replies' object names
  *   dispatch_admin.c    LIST, INFO, LOAD, UNLOAD and world_info_t
+ *   dispatch_objects.c  object edits and listings
  *   dispatch_encode.c   replies cut into chunks that each fit TRIOCT_MAX_CHUNK_BYTES */
 #ifndef TRIOCT_SERVICE_DISPATCH_INTERNAL_H
 #define TRIOCT_SERVICE_DISPATCH_INTERNAL_H
@@ -17,6 +19,8 @@
 #include "trioct_admin_request_t.h"
 #include "trioct_mesh_reply_t.h"
 #include "trioct_mesh_request_t.h"
+#include "trioct_object_edit_request_t.h"
+#include "trioct_object_reply_t.h"
 #include "trioct_ray_reply_t.h"
 #include "trioct_ray_request_t.h"
 #include "trioct_ray_request_v1_t.h"
@@ -65,6 +69,7 @@ typedef struct job {
     char message[TRIOCT_MAX_MESSAGE_LEN + 1];
     dispatch_reply *out;
     int counted;                   /* the request was answered on w (w->queries) */
+    int32_t failed_edit;           /* object edits: the edit an error is about, or -1 */
 } job;
 
 /* Records an error (status and a printf message) and returns status, so a check reads
@@ -84,6 +89,7 @@ int dispatch_ray(job *j, const trioct_ray_request_t *m);
 int dispatch_triangle(job *j, const trioct_triangle_request_t *m);
 int dispatch_mesh(job *j, const trioct_mesh_request_t *m);
 int dispatch_admin(job *j, const trioct_admin_request_t *m);
+int dispatch_objects(job *j, const trioct_object_edit_request_t *m);
 
 /* ---------- replies ---------- */
 
@@ -111,9 +117,25 @@ typedef struct query_result {
     trioct_contact_t *contacts;
     trioct_segment_t *segments;
     trioct_mesh_pair_t *pairs;
+    /* The names of the objects the records name (chunk 0), pointing into the world's
+     * object set: only the array is the result's. */
+    int32_t object_count;
+    char **objects;
 } query_result;
 
 void query_result_free(query_result *r);
+
+/* A world of posed objects (j->w->tree is NULL): each item asked of the object set, the
+ * records' object fields indexes in the set. Fill res (found, records, counts) and return
+ * TRIOCT_OK, or an error status with j->message set. */
+int posed_rays(job *j, const ray_input *in, size_t n, ray_detail detail, size_t keep_cap, query_result *res);
+int posed_triangles(job *j, const vec3 (*tris)[3], size_t n, tri_detail detail, query_result *res);
+int posed_meshes(job *j, const octree *shape_tree, box3 shape_bounds, const pose *poses, size_t n, int all_pairs,
+                 query_result *res);
+
+/* Turns the records' object fields from indexes in the world's set into indexes in the
+ * reply's table of names, which it makes: each named object once, in set (name) order. */
+int posed_name_objects(job *j, query_result *r);
 
 /* Each encodes a whole reply into out->chunks (every chunk <= TRIOCT_MAX_CHUNK_BYTES) and
  * returns TRIOCT_OK, or TRIOCT_ERR_NOMEM (or TRIOCT_ERR_OVER_CAP for a record that fits no
@@ -124,6 +146,10 @@ int encode_triangle_reply(dispatch_reply *out, const reply_head *h, int8_t detai
 int encode_mesh_reply(dispatch_reply *out, const reply_head *h, int8_t detail, const query_result *r);
 int encode_admin_reply(dispatch_reply *out, const reply_head *h, int8_t op,
                        const trioct_world_info_t *worlds, size_t count);
+
+/* An object reply: count objects of infos (NULL: none listed) split over the chunks. */
+int encode_object_reply(dispatch_reply *out, const reply_head *h, int32_t failed_edit, int64_t objects,
+                        int64_t triangles, const trioct_object_info_t *infos, size_t count);
 
 /* One chunk, no results, of the reply type for type. */
 int encode_error_reply(dispatch_reply *out, request_type type, const reply_head *h, int8_t detail);

@@ -10,6 +10,7 @@
 #include <math.h>
 #include <string.h>
 
+#include "../geom/vec3.h"
 #include "dispatch_internal.h"
 
 /* ---------- shared checks ---------- */
@@ -29,9 +30,21 @@ static trioct_vec3_t vec_out(vec3 v)
     return (trioct_vec3_t){v.x, v.y, v.z};
 }
 
-/* Every request type uses ray_request_t's accuracy constants. */
+/* Every request type uses ray_request_t's accuracy constants. A world of posed objects is
+ * answered exactly: the world's mode means exact there, and an explicit seed or fast mode
+ * is refused rather than silently upgraded. */
 static int request_mode(job *j, int8_t accuracy, accuracy_mode *mode)
 {
+    if (!j->w->tree && (accuracy == TRIOCT_RAY_REQUEST_T_SEED || accuracy == TRIOCT_RAY_REQUEST_T_FAST))
+        return job_fail(j, TRIOCT_ERR_BAD_REQUEST,
+                        "world %s holds %zu objects, not one at the identity, and answers them exactly only: send "
+                        "accuracy EXACT (0) or ACCURACY_WORLD (-1), not %s",
+                        j->w->spec.name, j->w->objects->count,
+                        accuracy == TRIOCT_RAY_REQUEST_T_SEED ? "SEED (1)" : "FAST (2)");
+    if (!j->w->tree) {
+        *mode = ACCURACY_EXACT;
+        return TRIOCT_OK;
+    }
     if (accuracy == TRIOCT_RAY_REQUEST_T_ACCURACY_WORLD) {
         *mode = j->w->spec.def.mode;
         return TRIOCT_OK;
@@ -83,8 +96,10 @@ static int out_of_memory(job *j, const char *what)
 
 /* The OK reply of a query, encoded; the world's query counter goes up once it is. */
 static int answer(job *j, int (*encode)(dispatch_reply *, const reply_head *, int8_t, const query_result *),
-                  int8_t detail, const query_result *r)
+                  int8_t detail, query_result *r)
 {
+    if (posed_name_objects(j, r) != TRIOCT_OK)
+        return j->status;
     reply_head h = job_head(j, TRIOCT_OK, "ok");
     int status = encode(j->out, &h, detail, r);
     if (status == TRIOCT_ERR_NOMEM)
@@ -216,7 +231,7 @@ static int ray_work(job *j, const trioct_ray_request_t *m, accuracy_mode mode, r
             res->found[i] = clamp_i32(outs[i].hit_count);
             for (size_t k = 0; k < keep; k++, r++) {
                 const ray_hit *h = &outs[i].hits[k];
-                res->hits[r] = (trioct_ray_hit_t){.ray = (int32_t)i, .t = h->t, .triangle = (int32_t)h->triangle,
+                res->hits[r] = (trioct_ray_hit_t){.ray = (int32_t)i, .t = h->t, .object = 0, .triangle = (int32_t)h->triangle,
                                                   .u = h->u, .v = h->v, .normal = vec_out(h->normal)};
             }
         }
@@ -237,7 +252,18 @@ int dispatch_ray(job *j, const trioct_ray_request_t *m)
     ray_output *outs = dispatch_malloc(n * sizeof *outs);
     octree_status *st = dispatch_malloc(n * sizeof *st);
     query_result res = {0};
-    int status = in && outs && st ? ray_work(j, m, mode, in, outs, st, &res) : out_of_memory(j, "the rays");
+    int status;
+    if (!in || !outs || !st) {
+        status = out_of_memory(j, "the rays");
+    } else if (j->w->tree) {
+        status = ray_work(j, m, mode, in, outs, st, &res);
+    } else {
+        for (size_t i = 0; i < n; i++)
+            in[i] = (ray_input){vec_in(&m->origin[i]), vec_in(&m->direction[i]), m->tmin, m->tmax,
+                                m->contact == TRIOCT_RAY_REQUEST_T_TOUCH ? RAY_TOUCH : RAY_CROSSING};
+        status = posed_rays(j, in, n, (ray_detail)m->detail,
+                            m->detail == TRIOCT_RAY_REQUEST_T_ALL ? (size_t)m->max_hits : 1, &res);
+    }
     free(in);
     free(outs);
     free(st);
@@ -336,7 +362,7 @@ static int triangle_work(job *j, const trioct_triangle_request_t *m, accuracy_mo
             res->found[i] = lists ? clamp_i32(outs[i].count) : outs[i].hit != 0;
             for (size_t k = 0; lists && k < outs[i].count; k++, r++) {
                 const tri_contact *c = &outs[i].contacts[k];
-                res->contacts[r] = (trioct_contact_t){(int32_t)i, (int32_t)c->triangle};
+                res->contacts[r] = (trioct_contact_t){(int32_t)i, 0, (int32_t)c->triangle};
                 if (res->segments)
                     res->segments[r] = (trioct_segment_t){vec_out(c->p), vec_out(c->q)};
             }
@@ -358,8 +384,20 @@ int dispatch_triangle(job *j, const trioct_triangle_request_t *m)
     tri_output *outs = dispatch_malloc(n * sizeof *outs);
     octree_status *st = dispatch_malloc(n * sizeof *st);
     query_result res = {0};
-    int status = tris && outs && st ? triangle_work(j, m, mode, tris, outs, st, &res)
-                                    : out_of_memory(j, "the triangles");
+    int status;
+    if (!tris || !outs || !st) {
+        status = out_of_memory(j, "the triangles");
+    } else if (j->w->tree) {
+        status = triangle_work(j, m, mode, tris, outs, st, &res);
+    } else {
+        for (size_t i = 0; i < n; i++) {
+            const trioct_triangle_t *t = &m->triangles[i];
+            tris[i][0] = vec_in(&t->a);
+            tris[i][1] = vec_in(&t->b);
+            tris[i][2] = vec_in(&t->c);
+        }
+        status = posed_triangles(j, (const vec3(*)[3])tris, n, (tri_detail)m->detail, &res);
+    }
     free(tris);
     free(outs);
     free(st);
@@ -413,7 +451,7 @@ static int check_mesh(job *j, const trioct_mesh_request_t *m, accuracy_mode *mod
         memcpy(at.r, p->r, sizeof at.r);
         at.t = vec_in(&p->t);
         if (octree_pose_check(&at) != OCTREE_OK)
-            return job_fail(j, TRIOCT_ERR_BAD_REQUEST,
+            return job_fail(j, TRIOCT_ERR_BAD_POSE,
                             "poses[%d].r is not a rotation: R^T R must be I within %g in every entry and det(R) "
                             "+1 (a scale, shear or mirror is refused)",
                             i, OCTREE_ROTATION_TOLERANCE);
@@ -487,13 +525,45 @@ static int mesh_work(job *j, const trioct_mesh_request_t *m, accuracy_mode mode,
         for (size_t i = 0; i < n; i++) {
             res->found[i] = all_pairs ? clamp_i32(outs[i].count) : outs[i].hit != 0;
             for (size_t k = 0; all_pairs && k < outs[i].count; k++, r++)
-                res->pairs[r] = (trioct_mesh_pair_t){(int32_t)i, (int32_t)outs[i].pairs[k].query_triangle,
+                res->pairs[r] = (trioct_mesh_pair_t){(int32_t)i, (int32_t)outs[i].pairs[k].query_triangle, 0,
                                                      (int32_t)outs[i].pairs[k].world_triangle};
         }
         res->record_count = total;
     }
     free(extra);
     free(pool);
+    return status;
+}
+
+/* A world of posed objects asks the shape as a one-link state at each pose (the two
+ * trees descended together); an inline shape gets its tree here. */
+static int posed_mesh_work(job *j, const trioct_mesh_request_t *m, const mesh_view *shape, const octree *shape_tree,
+                           pose *poses, query_result *res)
+{
+    size_t n = (size_t)m->num_poses;
+    for (size_t i = 0; i < n; i++) {
+        memcpy(poses[i].r, m->poses[i].r, sizeof poses[i].r);
+        poses[i].t = vec_in(&m->poses[i].t);
+    }
+    octree *own = NULL;
+    if (!shape_tree) {
+        octree_def def = octree_default_def();
+        def.node_bounds = 1;
+        octree_error e;
+        own = octree_build(shape, &def, &e);
+        if (!own)
+            return e.status == OCTREE_ERR_NOMEM ? out_of_memory(j, "the inline shape's tree")
+                                                : job_fail(j, TRIOCT_ERR_BAD_REQUEST, "the inline shape: %s: %s",
+                                                           octree_status_text(e.status), e.message);
+        shape_tree = own;
+    }
+    box3 bounds = {shape->vertices[0], shape->vertices[0]};
+    for (size_t v = 1; v < shape->vertex_count; v++) {
+        bounds.lo = vec3_min(bounds.lo, shape->vertices[v]);
+        bounds.hi = vec3_max(bounds.hi, shape->vertices[v]);
+    }
+    int status = posed_meshes(j, shape_tree, bounds, poses, n, m->detail == TRIOCT_MESH_REQUEST_T_PAIRS, res);
+    octree_free(own);
     return status;
 }
 
@@ -535,8 +605,8 @@ int dispatch_mesh(job *j, const trioct_mesh_request_t *m)
             return job_fail(j, TRIOCT_ERR_UNKNOWN_SHAPE, "world %s has no query shape \"%s\" (it has %zu)",
                             j->w->spec.name, dispatch_quote(m->shape, q, sizeof q), j->w->shape_count);
         }
-        shape = mesh_data_view(&s->mesh);
-        shape_tree = s->tree;
+        shape = mesh_data_view(&s->model->mesh);
+        shape_tree = s->model->tree;
     } else if (inline_shape(j, m, &vertices, &indices, &shape) != TRIOCT_OK) {
         free(vertices);
         free(indices);
@@ -547,8 +617,13 @@ int dispatch_mesh(job *j, const trioct_mesh_request_t *m)
     mesh_output *outs = dispatch_malloc(n * sizeof *outs);
     octree_status *st = dispatch_malloc(n * sizeof *st);
     query_result res = {0};
-    int status = poses && outs && st ? mesh_work(j, m, mode, &shape, shape_tree, poses, outs, st, &res)
-                                     : out_of_memory(j, "the poses");
+    int status;
+    if (!poses || !outs || !st)
+        status = out_of_memory(j, "the poses");
+    else if (j->w->tree)
+        status = mesh_work(j, m, mode, &shape, shape_tree, poses, outs, st, &res);
+    else
+        status = posed_mesh_work(j, m, &shape, shape_tree, poses, &res);
     free(poses);
     free(outs);
     free(st);

@@ -27,20 +27,29 @@ object_model *object_model_create(const char *key, mesh_data *mesh, const octree
         error_text(err, err_len, "%s: the mesh has no triangles", key);
         return NULL;
     }
-    object_model *m = calloc(1, sizeof *m);
-    if (!m) {
-        error_text(err, err_len, "%s: out of memory", key);
-        return NULL;
-    }
     mesh_view view = mesh_data_view(mesh);
     octree_error e;
-    m->tree = octree_build(&view, def, &e);
-    if (!m->tree) {
+    octree *tree = octree_build(&view, def, &e);
+    if (!tree) {
         error_text(err, err_len, "%s: %s", key, e.message);
-        free(m);
         return NULL;
     }
+    object_model *m = object_model_adopt(key, mesh, tree);
+    if (!m) {
+        octree_free(tree);
+        error_text(err, err_len, "%s: out of memory", key);
+    }
+    return m;
+}
+
+object_model *object_model_adopt(const char *key, mesh_data *mesh, octree *tree)
+{
+    object_model *m = key && strlen(key) < TRIOCT_MAX_PATH_LEN ? calloc(1, sizeof *m) : NULL;
+    if (!m)
+        return NULL;
+    m->tree = tree;
     snprintf(m->key, sizeof m->key, "%s", key);
+    snprintf(m->source, sizeof m->source, "%s", key);
     m->mesh = *mesh;
     *mesh = (mesh_data){0};
     m->bounds = mesh_data_bounds(&m->mesh);
@@ -155,7 +164,7 @@ static object_edit_status apply_one(table *t, const object_edit *e, char *err, s
 {
     const char *what = edit_kind_text(e->kind);
     if (!name_ok(e->name)) {
-        error_text(err, err_len, "edit %zu (%s): object name '%s' is not 1-%d of [A-Za-z0-9_.-]", index, what,
+        error_text(err, err_len, "edits[%zu] (%s): object name '%s' is not 1-%d of [A-Za-z0-9_.-]", index, what,
                    e->name ? e->name : "", TRIOCT_MAX_NAME_LEN);
         return OBJECT_EDIT_BAD_NAME;
     }
@@ -164,29 +173,40 @@ static object_edit_status apply_one(table *t, const object_edit *e, char *err, s
     if (e->kind == OBJECT_EDIT_ADD || e->kind == OBJECT_EDIT_MOVE) {
         octree_status ps = octree_pose_check(&e->at);
         if (ps != OCTREE_OK) {
-            error_text(err, err_len, "edit %zu (%s %s): the pose %s", index, what, e->name,
+            error_text(err, err_len, "edits[%zu] (%s %s): the pose %s", index, what, e->name,
                        ps == OCTREE_ERR_NONFINITE ? "has a NaN or infinite entry"
                                                   : "is not a rotation (orthonormal with det +1 within 1e-6)");
+            return OBJECT_EDIT_BAD_POSE;
+        }
+    }
+    /* Posing is monotone in each coordinate, so the posed corners of the model's box bound
+     * every posed vertex and every partial sum: finite corners mean finite vertices. */
+    const object_model *model = e->kind == OBJECT_EDIT_ADD ? e->model : found ? t->items[slot].model : NULL;
+    if (model && e->kind != OBJECT_EDIT_REMOVE) {
+        box3 posed = octree_pose_box(&e->at, model->bounds);
+        if (!vec3_is_finite(posed.lo) || !vec3_is_finite(posed.hi)) {
+            error_text(err, err_len, "edits[%zu] (%s %s): the pose places a vertex at a coordinate that is not finite",
+                       index, what, e->name);
             return OBJECT_EDIT_BAD_POSE;
         }
     }
     switch (e->kind) {
     case OBJECT_EDIT_ADD:
         if (!e->model) {
-            error_text(err, err_len, "edit %zu (add %s): no model", index, e->name);
+            error_text(err, err_len, "edits[%zu] (add %s): no model", index, e->name);
             return OBJECT_EDIT_BAD_EDIT;
         }
         if (found) {
-            error_text(err, err_len, "edit %zu (add %s): the world already has an object of that name", index, e->name);
+            error_text(err, err_len, "edits[%zu] (add %s): the world already has an object of that name", index, e->name);
             return OBJECT_EDIT_EXISTS;
         }
         if (t->count >= OBJECT_SET_MAX_OBJECTS) {
-            error_text(err, err_len, "edit %zu (add %s): a world holds at most %d objects", index, e->name,
+            error_text(err, err_len, "edits[%zu] (add %s): a world holds at most %d objects", index, e->name,
                        OBJECT_SET_MAX_OBJECTS);
             return OBJECT_EDIT_TOO_MANY;
         }
         if (array_reserve((void **)&t->items, &t->capacity, t->count + 1, sizeof *t->items, 8) != 0) {
-            error_text(err, err_len, "edit %zu (add %s): out of memory", index, e->name);
+            error_text(err, err_len, "edits[%zu] (add %s): out of memory", index, e->name);
             return OBJECT_EDIT_NOMEM;
         }
         memmove(&t->items[slot + 1], &t->items[slot], (t->count - slot) * sizeof *t->items);
@@ -200,7 +220,7 @@ static object_edit_status apply_one(table *t, const object_edit *e, char *err, s
         return OBJECT_EDIT_OK;
     case OBJECT_EDIT_MOVE:
         if (!found) {
-            error_text(err, err_len, "edit %zu (move %s): the world has no object of that name", index, e->name);
+            error_text(err, err_len, "edits[%zu] (move %s): the world has no object of that name", index, e->name);
             return OBJECT_EDIT_UNKNOWN;
         }
         t->items[slot].at = e->at;
@@ -208,14 +228,14 @@ static object_edit_status apply_one(table *t, const object_edit *e, char *err, s
         return OBJECT_EDIT_OK;
     case OBJECT_EDIT_REMOVE:
         if (!found) {
-            error_text(err, err_len, "edit %zu (remove %s): the world has no object of that name", index, e->name);
+            error_text(err, err_len, "edits[%zu] (remove %s): the world has no object of that name", index, e->name);
             return OBJECT_EDIT_UNKNOWN;
         }
         memmove(&t->items[slot], &t->items[slot + 1], (t->count - slot - 1) * sizeof *t->items);
         t->count--;
         return OBJECT_EDIT_OK;
     }
-    error_text(err, err_len, "edit %zu: unknown kind %d", index, (int)e->kind);
+    error_text(err, err_len, "edits[%zu]: unknown kind %d", index, (int)e->kind);
     return OBJECT_EDIT_BAD_EDIT;
 }
 

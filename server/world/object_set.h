@@ -19,6 +19,7 @@
 #include "../../common/trioct_limits.h"
 #include "../engine.h"
 #include "mesh_data.h"
+#include "mesh_load.h"
 
 /* Objects a world may hold: a flat table over their boxes answers that many rays in a
  * few microseconds; a hierarchy over the boxes is the next step if worlds need more. */
@@ -27,10 +28,12 @@
 /* A mesh and its tree in the mesh's own frame, shared by reference count. */
 typedef struct object_model {
     char key[TRIOCT_MAX_PATH_LEN]; /* what makes two objects share it: a file path, or "inline:NAME" */
+    char source[TRIOCT_MAX_PATH_LEN]; /* what a person is shown: the path as given, "inline", ... */
     mesh_data mesh;                /* the vertices answers are posed from */
     octree *tree;
     box3 bounds;                   /* of the mesh's vertices, in its frame */
     size_t bytes;                  /* the mesh and the tree */
+    mesh_load_report report;       /* what loading its file found (zero for inline meshes) */
     atomic_int refs;
 } object_model;
 
@@ -38,6 +41,10 @@ typedef struct object_model {
  * NULL when the mesh is empty or the tree cannot be built, with err saying why. */
 object_model *object_model_create(const char *key, mesh_data *mesh, const octree_def *def, char *err,
                                   size_t err_len);
+/* A model of a tree already built from *mesh (the world builder builds its own, for
+ * messages that name the file and triangle); takes both. NULL when out of memory, with
+ * neither taken. */
+object_model *object_model_adopt(const char *key, mesh_data *mesh, octree *tree);
 void object_model_retain(object_model *m);
 void object_model_release(object_model *m);
 
@@ -82,7 +89,8 @@ typedef enum object_edit_status {
     OBJECT_EDIT_BAD_NAME,  /* empty, too long, or not [A-Za-z0-9_.-] */
     OBJECT_EDIT_EXISTS,    /* ADD of a name the set holds */
     OBJECT_EDIT_UNKNOWN,   /* MOVE or REMOVE of a name it does not */
-    OBJECT_EDIT_BAD_POSE,  /* not a rotation (octree_pose_check), or not finite */
+    OBJECT_EDIT_BAD_POSE,  /* not a rotation (octree_pose_check), not finite, or placing
+                              a vertex at a coordinate that is not */
     OBJECT_EDIT_TOO_MANY,  /* past OBJECT_SET_MAX_OBJECTS */
     OBJECT_EDIT_BAD_EDIT,  /* an unknown kind, or ADD without a model */
     OBJECT_EDIT_NOMEM,

@@ -105,6 +105,29 @@ int registry_install(registry *r, world *w)
     return status;
 }
 
+int registry_replace(registry *r, const world *expected, world *w)
+{
+    if (!r || !w || !expected)
+        return -1;
+    world *old = NULL;
+    int found, status;
+    pthread_mutex_lock(&r->lock);
+    size_t at = find_slot(r, w->spec.name, &found);
+    if (!found) {
+        status = -1;
+    } else if (r->slots[at].w != expected) {
+        status = 1;
+    } else {
+        old = r->slots[at].w;
+        w->version = old->version + 1;
+        r->slots[at].w = w;
+        status = 0;
+    }
+    pthread_mutex_unlock(&r->lock);
+    world_release(old);
+    return status;
+}
+
 int registry_remove(registry *r, const char *name)
 {
     if (!r || !name)

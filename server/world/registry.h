@@ -28,6 +28,13 @@ world *registry_acquire(registry *r, const char *name);
  * other worlds (w is then not taken). */
 int registry_install(registry *r, world *w);
 
+/* Installs w (taking the caller's reference) in place of expected, the version it was
+ * made from, as one step: 0 with w->version = expected's + 1; 1 when another version has
+ * replaced expected meanwhile (w is not taken: the caller makes it again from the new
+ * one); -1 when the world is no longer held (w is not taken). The entry's last error, about
+ * the last rebuild, stays. */
+int registry_replace(registry *r, const world *expected, world *w);
+
 /* Removes the world; 0, or -1 when there is none of that name. */
 int registry_remove(registry *r, const char *name);
 

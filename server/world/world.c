@@ -103,7 +103,8 @@ typedef struct world_builder {
     size_t err_len;
     mesh_data merged;
     size_t triangle_start[SCENE_MAX_MESHES]; /* first merged triangle of each mesh file */
-    size_t object_start[SCENE_MAX_OBJECTS];  /* with objects: first merged triangle of each */
+    mesh_load_report merged_report;
+    int merging; /* building a section's merged meshes: a triangle index names a file */
     world *w;
 } world_builder;
 
@@ -199,57 +200,153 @@ static int merge_mesh(world_builder *b, const char *rel, mesh_data *mesh)
     return 0;
 }
 
-/* A world of objects: each file loaded once, each object a copy of its file's mesh with
- * every vertex posed (octree_pose_point, the one posing expression), merged in the
- * objects' (name) order. */
+/* The merged triangle index back to its file, for a message a user can act on. */
+static size_t mesh_of_triangle(const world_builder *b, size_t triangle)
+{
+    size_t file = 0;
+    while (file + 1 < b->spec->mesh_count && b->triangle_start[file + 1] <= triangle)
+        file++;
+    return file;
+}
+
+/* The build error of a tree, naming the file and the triangle in it. */
+static int tree_fail(world_builder *b, const octree_error *oerr, const char *rel, size_t first_triangle)
+{
+    if (oerr->status == OCTREE_ERR_NOMEM)
+        return build_fail(b, TRIOCT_ERR_NOMEM, "world '%s': %s: out of memory building the octree", b->spec->name,
+                          rel);
+    if (oerr->triangle != SIZE_MAX)
+        return build_fail(b, TRIOCT_ERR_LOAD_FAILED, "world '%s': %s: triangle %zu: %s: %s", b->spec->name, rel,
+                          oerr->triangle - first_triangle, octree_status_text(oerr->status), oerr->message);
+    return build_fail(b, TRIOCT_ERR_LOAD_FAILED, "world '%s': %s: %s: %s", b->spec->name, rel,
+                      octree_status_text(oerr->status), oerr->message);
+}
+
+/* The tree of a world's (or an object's) mesh, with what the effects need. */
+static octree_def world_tree_def(const world_spec *spec)
+{
+    octree_def def = spec->def;
+#ifdef OCTREE_HAS_TRIANGLE_BOXES
+    def.triangle_boxes = (spec->effects & (EFFECT_TRIANGLES | EFFECT_MESHES)) != 0;
+#endif
+    return def;
+}
+
+/* Builds mesh's tree and makes the model (taking the mesh); NULL after build_fail. */
+static object_model *make_model(world_builder *b, const char *key, mesh_data *mesh, const mesh_load_report *report,
+                                const char *rel)
+{
+    octree_def def = world_tree_def(b->spec);
+    mesh_view view = mesh_data_view(mesh);
+    octree_error oerr;
+    octree *tree = octree_build(&view, &def, &oerr);
+    if (!tree) {
+        if (b->merging && oerr.triangle != SIZE_MAX) {
+            size_t file = mesh_of_triangle(b, oerr.triangle);
+            tree_fail(b, &oerr, b->spec->meshes[file], b->triangle_start[file]);
+        } else {
+            tree_fail(b, &oerr, rel, 0);
+        }
+        return NULL;
+    }
+    object_model *m = object_model_adopt(key, mesh, tree);
+    if (!m) {
+        octree_free(tree);
+        build_fail(b, TRIOCT_ERR_NOMEM, "world '%s': out of memory for %s", b->spec->name, rel);
+        return NULL;
+    }
+    if (report)
+        m->report = *report;
+    snprintf(m->source, sizeof m->source, "%s", rel);
+    return m;
+}
+
+/* The trioct status of an edit list that did not apply. */
+static int edit_status(object_edit_status st)
+{
+    switch (st) {
+    case OBJECT_EDIT_OK:
+        return TRIOCT_OK;
+    case OBJECT_EDIT_EXISTS:
+        return TRIOCT_ERR_OBJECT_EXISTS;
+    case OBJECT_EDIT_UNKNOWN:
+        return TRIOCT_ERR_UNKNOWN_OBJECT;
+    case OBJECT_EDIT_BAD_POSE:
+        return TRIOCT_ERR_BAD_POSE;
+    case OBJECT_EDIT_TOO_MANY:
+        return TRIOCT_ERR_OVER_CAP;
+    case OBJECT_EDIT_NOMEM:
+        return TRIOCT_ERR_NOMEM;
+    case OBJECT_EDIT_BAD_NAME:
+    case OBJECT_EDIT_BAD_EDIT:
+        break;
+    }
+    return TRIOCT_ERR_BAD_REQUEST;
+}
+
+/* A first version of the objects: the adds applied to an empty set. */
+static object_edit_status first_set(const object_edit *adds, size_t count, object_set **out, size_t *failed,
+                                    char *why, size_t why_len)
+{
+    object_set *empty = object_set_create();
+    if (!empty) {
+        error_text(why, why_len, "out of memory");
+        return OBJECT_EDIT_NOMEM;
+    }
+    object_edit_status st = object_set_apply(empty, adds, count, out, failed, why, why_len);
+    object_set_release(empty);
+    return st;
+}
+
+/* A world of objects: each file loaded once into a model (its tree built once, in the
+ * file's frame), each object that model at its pose. */
 static int load_objects(world_builder *b)
 {
     const world_spec *spec = b->spec;
-    mesh_data files[SCENE_MAX_MESHES];
-    mesh_load_report reports[SCENE_MAX_MESHES];
-    memset(files, 0, sizeof files);
+    object_model *models[SCENE_MAX_MESHES] = {0};
+    object_edit edits[SCENE_MAX_OBJECTS];
     int status = 0;
-    for (size_t i = 0; i < spec->mesh_count && status == 0; i++)
-        status = load_file(b, spec->meshes[i], &files[i], &reports[i]);
-    for (size_t k = 0; k < spec->object_count && status == 0; k++) {
-        const world_object_spec *o = &spec->objects[k];
-        const mesh_data *src = &files[o->mesh];
-        mesh_data posed = {0};
-        if (mesh_data_append(&posed, src) != 0) {
-            status = build_fail(b, TRIOCT_ERR_NOMEM, "world '%s': out of memory placing object %s", spec->name, o->name);
+    for (size_t i = 0; i < spec->mesh_count && status == 0; i++) {
+        mesh_data mesh = {0};
+        mesh_load_report report;
+        char path[TRIOCT_MAX_PATH_LEN];
+        char why[TRIOCT_MAX_MESSAGE_LEN];
+        if (world_resolve_path(b->world_dir, spec->meshes[i], path, sizeof path, why, sizeof why) != 0) {
+            status = build_fail(b, TRIOCT_ERR_BAD_PATH, "world '%s': %s", spec->name, why);
             break;
         }
-        for (size_t v = 0; v < posed.vertex_count; v++)
-            posed.vertices[v] = octree_pose_point(&o->at, posed.vertices[v]);
-        size_t bad = first_nonfinite_triangle(&posed);
-        if (bad != SIZE_MAX) {
-            mesh_data_free(&posed);
-            status = build_fail(b, TRIOCT_ERR_LOAD_FAILED,
-                                "world '%s': object %s (%s): triangle %zu has a coordinate that is not finite at its pose",
-                                spec->name, o->name, spec->meshes[o->mesh], bad);
-            break;
-        }
-        mesh_load_report report = reports[o->mesh];
-        box3 bounds = mesh_data_bounds(&posed);
-        report.bbox_lo = bounds.lo;
-        report.bbox_hi = bounds.hi;
-        b->object_start[k] = b->merged.triangle_count;
-        if (merge_mesh(b, spec->meshes[o->mesh], &posed) != 0) {
-            mesh_data_free(&posed);
+        if (load_file(b, spec->meshes[i], &mesh, &report) != 0) {
             status = -1;
             break;
         }
-        add_report(&b->w->report, &report, k == 0);
+        models[i] = make_model(b, path, &mesh, &report, spec->meshes[i]);
+        mesh_data_free(&mesh);
+        if (!models[i])
+            status = -1;
+    }
+    for (size_t k = 0; k < spec->object_count && status == 0; k++)
+        edits[k] = (object_edit){OBJECT_EDIT_ADD, spec->objects[k].name, models[spec->objects[k].mesh],
+                                 spec->objects[k].at};
+    if (status == 0) {
+        char why[TRIOCT_MAX_MESSAGE_LEN];
+        size_t failed = 0;
+        object_edit_status st = first_set(edits, spec->object_count, &b->w->objects, &failed, why, sizeof why);
+        /* A pose the scene parser accepted can still throw a vertex past the doubles. */
+        if (st != OBJECT_EDIT_OK)
+            status = build_fail(b, st == OBJECT_EDIT_BAD_POSE ? TRIOCT_ERR_LOAD_FAILED : edit_status(st),
+                                "world '%s': object %s (%s): %s", spec->name, spec->objects[failed].name,
+                                spec->meshes[spec->objects[failed].mesh], why);
     }
     for (size_t i = 0; i < spec->mesh_count; i++)
-        mesh_data_free(&files[i]);
+        object_model_release(models[i]); /* the set holds its own references */
     return status;
 }
 
-static int load_meshes(world_builder *b)
+/* A section without objects: its meshes under the transform, merged, as one object named
+ * after the world at the identity. */
+static int load_merged(world_builder *b)
 {
-    if (b->spec->object_count > 0)
-        return load_objects(b);
+    b->merging = 1;
     for (size_t i = 0; i < b->spec->mesh_count; i++) {
         const char *rel = b->spec->meshes[i];
         mesh_data mesh;
@@ -261,27 +358,58 @@ static int load_meshes(world_builder *b)
             mesh_data_free(&mesh);
             return -1;
         }
-        add_report(&b->w->report, &report, i == 0);
+        add_report(&b->merged_report, &report, i == 0);
     }
+    char key[TRIOCT_MAX_PATH_LEN];
+    snprintf(key, sizeof key, "section:%s", b->spec->name);
+    object_model *model = make_model(b, key, &b->merged, &b->merged_report, b->spec->meshes[0]);
+    if (!model)
+        return -1;
+    snprintf(model->source, sizeof model->source, "%s", key);
+    object_edit add = {OBJECT_EDIT_ADD, b->spec->name, model, octree_pose_identity()};
+    char why[TRIOCT_MAX_MESSAGE_LEN];
+    object_edit_status st = first_set(&add, 1, &b->w->objects, NULL, why, sizeof why);
+    object_model_release(model);
+    if (st != OBJECT_EDIT_OK)
+        return build_fail(b, edit_status(st), "world '%s': %s", b->spec->name, why);
     return 0;
+}
+
+static int load_meshes(world_builder *b)
+{
+    return b->spec->object_count > 0 ? load_objects(b) : load_merged(b);
 }
 
 /* A shape's tree, in the shape's frame, at the heuristic resolution: built once here so
  * that no mesh query pays for it. */
-static int build_shape_tree(world_builder *b, const world_shape_spec *spec, world_shape *shape)
+static int load_shape(world_builder *b, const world_shape_spec *spec, world_shape *shape)
 {
+    mesh_data mesh = {0};
+    if (load_file(b, spec->path, &mesh, NULL) != 0)
+        return -1;
     octree_def def = octree_default_def();
     def.node_bounds = 1;
-    mesh_view view = mesh_data_view(&shape->mesh);
+    mesh_view view = mesh_data_view(&mesh);
     octree_error oerr;
-    shape->tree = octree_build(&view, &def, &oerr);
-    if (shape->tree)
-        return 0;
-    if (oerr.status == OCTREE_ERR_NOMEM)
-        return build_fail(b, TRIOCT_ERR_NOMEM, "world '%s': shape '%s' (%s): out of memory building its octree",
-                          b->spec->name, spec->name, spec->path);
-    return build_fail(b, TRIOCT_ERR_LOAD_FAILED, "world '%s': shape '%s' (%s): building its octree: %s: %s",
-                      b->spec->name, spec->name, spec->path, octree_status_text(oerr.status), oerr.message);
+    octree *tree = octree_build(&view, &def, &oerr);
+    if (!tree) {
+        mesh_data_free(&mesh);
+        if (oerr.status == OCTREE_ERR_NOMEM)
+            return build_fail(b, TRIOCT_ERR_NOMEM, "world '%s': shape '%s' (%s): out of memory building its octree",
+                              b->spec->name, spec->name, spec->path);
+        return build_fail(b, TRIOCT_ERR_LOAD_FAILED, "world '%s': shape '%s' (%s): building its octree: %s: %s",
+                          b->spec->name, spec->name, spec->path, octree_status_text(oerr.status), oerr.message);
+    }
+    char key[TRIOCT_MAX_PATH_LEN];
+    snprintf(key, sizeof key, "shape:%s", spec->name);
+    shape->model = object_model_adopt(key, &mesh, tree);
+    if (!shape->model) {
+        octree_free(tree);
+        mesh_data_free(&mesh);
+        return build_fail(b, TRIOCT_ERR_NOMEM, "world '%s': out of memory for shape '%s'", b->spec->name, spec->name);
+    }
+    memcpy(shape->name, spec->name, sizeof shape->name);
+    return 0;
 }
 
 /* Query shapes stay in their own frame: a mesh query places them with its pose. */
@@ -294,62 +422,31 @@ static int load_shapes(world_builder *b)
     if (!w->shapes)
         return build_fail(b, TRIOCT_ERR_NOMEM, "world '%s': out of memory for shapes", b->spec->name);
     for (size_t i = 0; i < b->spec->shape_count; i++) {
-        const world_shape_spec *shape = &b->spec->shapes[i];
-        world_shape *loaded = &w->shapes[w->shape_count];
-        if (load_file(b, shape->path, &loaded->mesh, NULL) != 0)
+        if (load_shape(b, &b->spec->shapes[i], &w->shapes[w->shape_count]) != 0)
             return -1;
-        memcpy(loaded->name, shape->name, sizeof loaded->name);
+        w->bytes_shapes += w->shapes[w->shape_count].model->bytes;
         w->shape_count++;
-        if (build_shape_tree(b, shape, loaded) != 0)
-            return -1;
-        octree_info info;
-        octree_get_info(loaded->tree, &info);
-        w->bytes_shapes += loaded->mesh.vertex_count * sizeof(vec3) +
-                           3 * loaded->mesh.triangle_count * sizeof(uint32_t) + info.bytes_total;
     }
     return 0;
 }
 
-/* The merged triangle index back to its file, for a message a user can act on. */
-static size_t mesh_of_triangle(const world_builder *b, size_t triangle)
+/* What a version's answers and info come from: the single tree when there is one, and
+ * the report summed over the objects (each instance counts its triangles; the box is the
+ * union of the objects' posed boxes, exact at the identity). */
+static void derive_from_objects(world *w)
 {
-    size_t file = 0;
-    while (file + 1 < b->spec->mesh_count && b->triangle_start[file + 1] <= triangle)
-        file++;
-    return file;
-}
-
-static int build_tree(world_builder *b)
-{
-    octree_def def = b->spec->def;
-#ifdef OCTREE_HAS_TRIANGLE_BOXES
-    def.triangle_boxes = (b->spec->effects & (EFFECT_TRIANGLES | EFFECT_MESHES)) != 0;
-#endif
-    mesh_view view = mesh_data_view(&b->merged);
-    octree_error oerr;
-    b->w->tree = octree_build(&view, &def, &oerr);
-    if (b->w->tree)
-        return 0;
-    if (oerr.status == OCTREE_ERR_NOMEM)
-        return build_fail(b, TRIOCT_ERR_NOMEM, "world '%s': out of memory building the octree",
-                          b->spec->name);
-    if (oerr.triangle != SIZE_MAX && b->spec->object_count > 0) {
-        size_t k = 0;
-        while (k + 1 < b->spec->object_count && b->object_start[k + 1] <= oerr.triangle)
-            k++;
-        const world_object_spec *o = &b->spec->objects[k];
-        return build_fail(b, TRIOCT_ERR_LOAD_FAILED, "world '%s': object %s (%s): triangle %zu: %s: %s", b->spec->name,
-                          o->name, b->spec->meshes[o->mesh], oerr.triangle - b->object_start[k],
-                          octree_status_text(oerr.status), oerr.message);
+    const object_set *s = w->objects;
+    w->tree = NULL;
+    if (s->count == 1 && octree_pose_is_identity(&s->objects[0].at))
+        w->tree = s->objects[0].model->tree;
+    memset(&w->report, 0, sizeof w->report);
+    for (size_t i = 0; i < s->count; i++) {
+        mesh_load_report one = s->objects[i].model->report;
+        one.triangles = s->objects[i].model->mesh.triangle_count;
+        one.bbox_lo = s->objects[i].bounds.lo;
+        one.bbox_hi = s->objects[i].bounds.hi;
+        add_report(&w->report, &one, i == 0);
     }
-    if (oerr.triangle != SIZE_MAX) {
-        size_t file = mesh_of_triangle(b, oerr.triangle);
-        return build_fail(b, TRIOCT_ERR_LOAD_FAILED, "world '%s': %s: triangle %zu: %s: %s", b->spec->name,
-                          b->spec->meshes[file], oerr.triangle - b->triangle_start[file],
-                          octree_status_text(oerr.status), oerr.message);
-    }
-    return build_fail(b, TRIOCT_ERR_LOAD_FAILED, "world '%s': %s: %s", b->spec->name,
-                      octree_status_text(oerr.status), oerr.message);
 }
 
 /* A spec from an admin request has not been through the scene parser. */
@@ -382,11 +479,9 @@ static int check_spec(world_builder *b)
 static void world_destroy(world *w)
 {
     atomic_fetch_sub(&live_worlds, 1);
-    octree_free(w->tree);
-    for (size_t i = 0; i < w->shape_count; i++) {
-        mesh_data_free(&w->shapes[i].mesh);
-        octree_free(w->shapes[i].tree);
-    }
+    object_set_release(w->objects);
+    for (size_t i = 0; i < w->shape_count; i++)
+        object_model_release(w->shapes[i].model);
     free(w->shapes);
     free(w);
 }
@@ -416,10 +511,11 @@ world *world_build(const world_spec *spec, const char *world_dir, int *status, c
         b.w->spec = *spec;
         atomic_init(&b.w->queries, 0);
         atomic_init(&b.w->refs, 1);
-        failed = load_meshes(&b) || load_shapes(&b) || build_tree(&b);
+        failed = load_meshes(&b) || load_shapes(&b);
+        if (!failed)
+            derive_from_objects(b.w);
     }
-    /* The octree holds its own copy of the triangles. */
-    mesh_data_free(&b.merged);
+    mesh_data_free(&b.merged); /* moved into the model unless a step failed */
     if (failed && b.w) {
         world_destroy(b.w);
         b.w = NULL;
@@ -427,6 +523,114 @@ world *world_build(const world_spec *spec, const char *world_dir, int *status, c
     if (status)
         *status = b.status;
     return b.w;
+}
+
+world *world_edit(const world *from, const object_edit *edits, size_t count, int *status, size_t *failed,
+                  char *err, size_t err_len)
+{
+    if (failed)
+        *failed = 0;
+    if (from->spec.def.mode != ACCURACY_EXACT) {
+        if (failed)
+            *failed = SIZE_MAX;
+        *status = TRIOCT_ERR_BAD_REQUEST;
+        error_text(err, err_len,
+                   "world %s serves %s accuracy; objects are edited only in exact worlds (a posed object is "
+                   "answered exactly)",
+                   from->spec.name, accuracy_mode_name(from->spec.def.mode));
+        return NULL;
+    }
+    world *w = calloc(1, sizeof *w);
+    world_shape *shapes = from->shape_count ? calloc(from->shape_count, sizeof *shapes) : NULL;
+    if (!w || (from->shape_count && !shapes)) {
+        free(w);
+        free(shapes);
+        if (failed)
+            *failed = SIZE_MAX;
+        *status = TRIOCT_ERR_NOMEM;
+        error_text(err, err_len, "out of memory");
+        return NULL;
+    }
+    object_edit_status st = object_set_apply(from->objects, edits, count, &w->objects, failed, err, err_len);
+    if (st != OBJECT_EDIT_OK) {
+        free(w);
+        free(shapes);
+        *status = edit_status(st);
+        return NULL;
+    }
+    w->spec = from->spec;
+    w->shapes = shapes;
+    w->shape_count = from->shape_count;
+    for (size_t i = 0; i < from->shape_count; i++) {
+        shapes[i] = from->shapes[i];
+        object_model_retain(shapes[i].model);
+    }
+    w->bytes_shapes = from->bytes_shapes;
+    atomic_init(&w->queries, 0);
+    atomic_init(&w->refs, 1);
+    atomic_fetch_add(&live_worlds, 1);
+    derive_from_objects(w);
+    *status = TRIOCT_OK;
+    return w;
+}
+
+object_model *world_model_from_file(const world *w, const char *world_dir, const char *rel, int *status, char *err,
+                                    size_t err_len)
+{
+    world_builder b = {.spec = &w->spec, .world_dir = world_dir, .status = TRIOCT_OK, .err = err, .err_len = err_len};
+    char path[TRIOCT_MAX_PATH_LEN];
+    char why[TRIOCT_MAX_MESSAGE_LEN];
+    if (world_resolve_path(world_dir, rel, path, sizeof path, why, sizeof why) != 0) {
+        build_fail(&b, TRIOCT_ERR_BAD_PATH, "%s", why);
+        *status = b.status;
+        return NULL;
+    }
+    for (size_t i = 0; i < w->objects->count; i++) {
+        object_model *m = w->objects->objects[i].model;
+        if (strcmp(m->key, path) == 0) {
+            object_model_retain(m);
+            *status = TRIOCT_OK;
+            return m;
+        }
+    }
+    mesh_data mesh = {0};
+    mesh_load_report report;
+    object_model *m = NULL;
+    if (load_file(&b, rel, &mesh, &report) == 0)
+        m = make_model(&b, path, &mesh, &report, rel);
+    mesh_data_free(&mesh);
+    *status = m ? TRIOCT_OK : b.status;
+    return m;
+}
+
+object_model *world_model_from_triangles(const world *w, const char *name, const vec3 (*tris)[3], size_t count,
+                                         int *status, char *err, size_t err_len)
+{
+    world_builder b = {.spec = &w->spec, .status = TRIOCT_OK, .err = err, .err_len = err_len};
+    mesh_data mesh = {0};
+    size_t corners = count > 0 ? 3 * count : 1;
+    mesh.vertices = malloc(corners * sizeof *mesh.vertices);
+    mesh.indices = malloc(corners * sizeof *mesh.indices);
+    if (!mesh.vertices || !mesh.indices) {
+        mesh_data_free(&mesh);
+        *status = TRIOCT_ERR_NOMEM;
+        error_text(err, err_len, "object %s: out of memory", name);
+        return NULL;
+    }
+    for (size_t t = 0; t < count; t++)
+        for (uint32_t k = 0; k < 3; k++) {
+            mesh.vertices[3 * t + k] = tris[t][k];
+            mesh.indices[3 * t + k] = (uint32_t)(3 * t + k);
+        }
+    mesh.vertex_count = 3 * count;
+    mesh.triangle_count = count;
+    mesh_load_report report = {.meshes = 1, .triangles = count};
+    char key[TRIOCT_MAX_PATH_LEN];
+    snprintf(key, sizeof key, "inline:%s", name);
+    object_model *m = make_model(&b, key, &mesh, &report, "inline");
+    mesh_data_free(&mesh);
+    *status = m ? TRIOCT_OK : b.status;
+    return m;
 }
 
 void world_retain(world *w)
@@ -440,6 +644,41 @@ void world_release(world *w)
 {
     if (w && atomic_fetch_sub_explicit(&w->refs, 1, memory_order_acq_rel) == 1)
         world_destroy(w);
+}
+
+void world_tree_info(const world *w, octree_info *out)
+{
+    memset(out, 0, sizeof *out);
+    const object_set *s = w->objects;
+    for (size_t i = 0; i < s->count; i++) {
+        const object_model *m = s->objects[i].model;
+        octree_info one;
+        octree_get_info(m->tree, &one);
+        if (i == 0) {
+            *out = one;
+            continue;
+        }
+        out->triangle_count += one.triangle_count;
+        out->vertex_count += one.vertex_count;
+        int seen = 0;
+        for (size_t k = 0; k < i && !seen; k++)
+            seen = s->objects[k].model == m;
+        if (seen)
+            continue;
+        out->node_count += one.node_count;
+        out->leaf_count += one.leaf_count;
+        out->nonempty_leaf_count += one.nonempty_leaf_count;
+        out->leaf_refs += one.leaf_refs;
+        out->depth_clamped |= one.depth_clamped;
+        out->bytes_nodes += one.bytes_nodes;
+        out->bytes_leaf_lists += one.bytes_leaf_lists;
+        out->bytes_triangles += one.bytes_triangles;
+        out->bytes_total += one.bytes_total;
+        out->bytes_triangle_boxes += one.bytes_triangle_boxes;
+        out->bytes_traversal += one.bytes_traversal;
+        out->bytes_node_bounds += one.bytes_node_bounds;
+        out->build_seconds += one.build_seconds;
+    }
 }
 
 const world_shape *world_find_shape(const world *w, const char *name)

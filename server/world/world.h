@@ -1,6 +1,7 @@
-/* A world: the octree over a scene section's meshes plus what its effects precompute.
- * Immutable once built and shared by reference count, so a reload can swap in a new
- * version while queries finish on the old one. */
+/* A world: a version of a scene section's named objects (object_set.h), each a mesh with
+ * its octree at a pose, plus what its effects precompute. Immutable once built and shared
+ * by reference count, so a reload or an edit can swap in a new version while queries
+ * finish on the old one. */
 #ifndef TRIOCT_WORLD_WORLD_H
 #define TRIOCT_WORLD_WORLD_H
 
@@ -10,21 +11,28 @@
 
 #include "mesh_data.h"
 #include "mesh_load.h"
+#include "object_set.h"
 #include "scene.h"
 
 typedef struct world_shape {
     char name[TRIOCT_MAX_NAME_LEN + 1];
-    mesh_data mesh;
-    /* The shape's own octree in its local frame (with node bounds), built at load:
-     * mesh queries descend it with the world's (octree_mesh_tree). */
-    octree *tree;
+    /* The shape's mesh and its own octree in its local frame (with node bounds), built at
+     * load and shared by the world's edited versions: mesh queries descend it with the
+     * world's (octree_mesh_tree). */
+    object_model *model;
 } world_shape;
 
 typedef struct world {
     world_spec spec;          /* what it was built from (name, effects, mode, ...) */
-    uint64_t version;         /* set by registry_install: 1, then +1 per rebuild */
-    octree *tree;
-    mesh_load_report report;  /* summed over the meshes, after the transform */
+    uint64_t version;         /* set by registry_install: 1, then +1 per rebuild or edit */
+    /* This version's objects, one reference. A section without objects is one object
+     * named after the world, at the identity. */
+    object_set *objects;
+    /* When the world is one object at the identity pose, that object's tree: queries use
+     * it directly, in every accuracy mode, with every batch path. Else NULL, and queries
+     * go through the objects (exact mode). */
+    const octree *tree;
+    mesh_load_report report;  /* summed over the objects; bbox: their posed boxes */
     world_shape *shapes;      /* loaded only when the world serves EFFECT_MESHES */
     size_t shape_count;
     size_t bytes_shapes;      /* the shapes' meshes and their trees */
@@ -47,11 +55,37 @@ int world_resolve_path(const char *world_dir, const char *rel, char *out, size_t
 world *world_build(const world_spec *spec, const char *world_dir, int *status, char *err,
                    size_t err_len);
 
+/* A new world of from's spec and shapes whose objects are from's with the edits applied,
+ * all or none (object_set_apply), or NULL with *status (TRIOCT_ERR_UNKNOWN_OBJECT,
+ * _OBJECT_EXISTS, _BAD_POSE, _BAD_REQUEST, _OVER_CAP, _NOMEM), *failed the index of the
+ * failing edit (SIZE_MAX when the list as a whole was refused: a world not in exact
+ * mode, no memory) and err naming it. Costs a copy of the object table, nothing per triangle.
+ * The caller installs it (registry_replace). */
+world *world_edit(const world *from, const object_edit *edits, size_t count, int *status, size_t *failed,
+                  char *err, size_t err_len);
+
+/* A model for an object added to w: the mesh file rel (inside world_dir, resolved as
+ * world_build does) loaded and its tree built as the world's own are, or the model w's
+ * objects already use for that file (instances share it). One reference, or NULL with
+ * *status (TRIOCT_ERR_BAD_PATH, _LOAD_FAILED, _NOMEM) and err. Any thread. */
+object_model *world_model_from_file(const world *w, const char *world_dir, const char *rel, int *status, char *err,
+                                    size_t err_len);
+/* The same for count inline triangles (finite, checked by the caller), keyed by the
+ * object's name: never shared. */
+object_model *world_model_from_triangles(const world *w, const char *name, const vec3 (*tris)[3], size_t count,
+                                         int *status, char *err, size_t err_len);
+
 void world_retain(world *w);
 /* Drops one reference; the last frees the world. */
 void world_release(world *w);
 
 const world_shape *world_find_shape(const world *w, const char *name);
+
+/* The trees' figures for a world's info: counts and bytes summed over the objects' models,
+ * each shared tree once (triangle and vertex counts: per object, as the answers see them);
+ * the level, resolution and cube of the first object's tree (the world's only tree when
+ * it has one); zeros for a world with no objects. */
+void world_tree_info(const world *w, octree_info *out);
 
 /* Worlds built and not yet freed, in the whole process: lets tests (and a leak check at
  * shutdown) see that the last release of a replaced version really freed it. */

@@ -242,7 +242,7 @@ static void test_answers_equal_the_engine(void **state)
     assert_int_equal(trioct_mesh(c, &mq, TIMEOUT_MS, &mres), TRIOCT_OK);
     const world_shape *cube = world_find_shape(ground, "cube");
     assert_non_null(cube);
-    mesh_view shape = mesh_data_view(&cube->mesh);
+    mesh_view shape = mesh_data_view(&cube->model->mesh);
     for (int p = 0; p < 2; p++) {
         pose at;
         memcpy(at.r, poses[p].r, sizeof at.r);

@@ -14,7 +14,9 @@
  *   hostile   bytes that are no request, interleaved with requests that must be answered
  *   stopping  the ordered daemon's stop mark in the middle: STOPPING for what follows it
  *   touch     the contact rule: grazing rays as CROSSING (old and new request types) and
- *             as TOUCH, and the touch requests refused */
+ *             as TOUCH, and the touch requests refused
+ *   objects   object edits interleaved with queries: moves, adds (a file shared, inline
+ *             triangles), removes, every edit error, and lists all or none */
 #ifndef TRIOCT_LOGS_CASES_H
 #define TRIOCT_LOGS_CASES_H
 
@@ -29,6 +31,7 @@ int logs_write_overcap(const char *dir);
 int logs_write_hostile(const char *dir);
 int logs_write_stopping(const char *dir);
 int logs_write_touch(const char *dir);
+int logs_write_objects(const char *dir);
 
 /* The seed every log draws its geometry from. */
 #define LOGS_SEED UINT64_C(0x7472696f63740006)

@@ -100,6 +100,17 @@ void lr_mesh(logs_writer *w, const lr_req *q, int8_t detail, int8_t accuracy, co
     lw_mesh(w, channel_of(q, TRIOCT_CHANNEL_MESH), &m);
 }
 
+void lr_objects(logs_writer *w, const lr_req *q, int list, int n, const trioct_object_edit_t *edits)
+{
+    trioct_object_edit_request_t m;
+    memset(&m, 0, sizeof m);
+    m.header = header_of(q);
+    m.list = (int8_t)list;
+    m.num_edits = n;
+    m.edits = (trioct_object_edit_t *)edits;
+    lw_objects(w, channel_of(q, TRIOCT_CHANNEL_OBJECTS), &m);
+}
+
 void lr_load(logs_writer *w, const lr_req *q, const char *mesh_path, double resolution, int8_t accuracy,
              double seed_epsilon, int32_t effects)
 {

@@ -30,6 +30,9 @@ void lr_mesh(logs_writer *w, const lr_req *q, int8_t detail, int8_t accuracy, co
              int n_shape, const trioct_triangle_t *shape_triangles, int n_poses, const trioct_pose_t *poses);
 /* LIST, INFO, UNLOAD, or LOAD of mesh_path ("" for the scene's section) with the defaults. */
 void lr_admin(logs_writer *w, const lr_req *q, int8_t op, const char *mesh_path);
+/* An object edit list (n edits, maybe none) on the world's OBJECTS channel; list: the
+ * reply lists the objects. */
+void lr_objects(logs_writer *w, const lr_req *q, int list, int n, const trioct_object_edit_t *edits);
 /* A LOAD with every option. */
 void lr_load(logs_writer *w, const lr_req *q, const char *mesh_path, double resolution, int8_t accuracy,
              double seed_epsilon, int32_t effects);

@@ -79,7 +79,16 @@ static const char scene_worlds[] =
     "[spare]\n"
     "mesh = crates.obj\n"
     "accuracy = fast\n"
-    "effects = rays\n";
+    "effects = rays\n"
+    "\n"
+    "[shop]\n"
+    "object.floor = terrain.obj\n"
+    "object.crate_a = crates.obj\n"
+    "pose.crate_a = 0 0 0.5 1 0 0 0\n"
+    "object.crate_b = crates.obj\n"
+    "pose.crate_b = 0 0 4 0.7071067811865476 0 0 0.7071067811865476\n"
+    "effects = rays triangles meshes\n"
+    "shape.probe = probe.obj\n";
 
 int logs_write_world(const char *dir)
 {
@@ -92,7 +101,7 @@ int logs_write_world(const char *dir)
     rc |= write_mesh(dir, "probe.obj", meshgen_box((box3){{-0.25, -0.25, -0.25}, {0.25, 0.25, 0.25}}));
     rc |= write_mesh(dir, "ring.obj", meshgen_torus(vec3_make(0, 0, 0), 0.6, 0.15, 12, 6));
 
-    char scene[2048];
+    char scene[4096];
     snprintf(scene, sizeof scene, "%s%s", scene_head, scene_worlds);
     rc |= write_text(dir, "scene.ini", scene);
     snprintf(scene, sizeof scene,

@@ -86,6 +86,11 @@ static uint8_t *encode_admin(const trioct_admin_request_t *m, size_t *size)
     ENCODE(trioct_admin_request_t, m, size);
 }
 
+static uint8_t *encode_objects(const trioct_object_edit_request_t *m, size_t *size)
+{
+    ENCODE(trioct_object_edit_request_t, m, size);
+}
+
 void lw_ray(logs_writer *w, const char *channel, const trioct_ray_request_t *m)
 {
     size_t n;
@@ -118,6 +123,13 @@ void lw_admin(logs_writer *w, const char *channel, const trioct_admin_request_t 
 {
     size_t n;
     uint8_t *b = encode_admin(m, &n);
+    push(w, channel, b, n);
+}
+
+void lw_objects(logs_writer *w, const char *channel, const trioct_object_edit_request_t *m)
+{
+    size_t n;
+    uint8_t *b = encode_objects(m, &n);
     push(w, channel, b, n);
 }
 

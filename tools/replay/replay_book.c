@@ -6,6 +6,7 @@
 
 #include "trioct_admin_reply_t.h"
 #include "trioct_mesh_reply_t.h"
+#include "trioct_object_reply_t.h"
 #include "trioct_ray_reply_t.h"
 #include "trioct_triangle_reply_t.h"
 
@@ -20,6 +21,8 @@ size_t replay_reply_struct_size(wire_type type)
         return sizeof(trioct_mesh_reply_t);
     case WIRE_ADMIN_REPLY:
         return sizeof(trioct_admin_reply_t);
+    case WIRE_OBJECT_REPLY:
+        return sizeof(trioct_object_reply_t);
     default:
         return 0;
     }
@@ -38,6 +41,8 @@ int replay_reply_decode(wire_type type, const void *bytes, size_t size, void *ms
         return trioct_mesh_reply_t_decode(bytes, 0, n, msg) == n ? 0 : -1;
     case WIRE_ADMIN_REPLY:
         return trioct_admin_reply_t_decode(bytes, 0, n, msg) == n ? 0 : -1;
+    case WIRE_OBJECT_REPLY:
+        return trioct_object_reply_t_decode(bytes, 0, n, msg) == n ? 0 : -1;
     default:
         return -1;
     }
@@ -57,6 +62,9 @@ void replay_reply_cleanup(wire_type type, void *msg)
         break;
     case WIRE_ADMIN_REPLY:
         trioct_admin_reply_t_decode_cleanup(msg);
+        break;
+    case WIRE_OBJECT_REPLY:
+        trioct_object_reply_t_decode_cleanup(msg);
         break;
     default:
         break;
@@ -112,6 +120,25 @@ static int same_header(const trioct_reply_header_t *a, const trioct_reply_header
 }
 
 /* Sizes of the per-chunk record arrays, and pointers to them. */
+/* A chunk's table of object names (query replies; none in the others). */
+static int32_t chunk_names(wire_type type, void *m, char ***names)
+{
+    switch (type) {
+    case WIRE_RAY_REPLY:
+        *names = ((trioct_ray_reply_t *)m)->objects;
+        return ((trioct_ray_reply_t *)m)->num_objects;
+    case WIRE_TRIANGLE_REPLY:
+        *names = ((trioct_triangle_reply_t *)m)->objects;
+        return ((trioct_triangle_reply_t *)m)->num_objects;
+    case WIRE_MESH_REPLY:
+        *names = ((trioct_mesh_reply_t *)m)->objects;
+        return ((trioct_mesh_reply_t *)m)->num_objects;
+    default:
+        *names = NULL;
+        return 0;
+    }
+}
+
 static size_t chunk_records(wire_type type, void *m, const void **base, size_t *stride,
                             const trioct_segment_t **segs, size_t *nsegs, int32_t *items,
                             const int32_t **found, int8_t *detail)
@@ -119,6 +146,15 @@ static size_t chunk_records(wire_type type, void *m, const void **base, size_t *
     *segs = NULL;
     *nsegs = 0;
     switch (type) {
+    case WIRE_OBJECT_REPLY: {
+        trioct_object_reply_t *r = m;
+        *base = r->list;
+        *stride = sizeof *r->list;
+        *items = 0;
+        *found = NULL;
+        *detail = 0;
+        return (size_t)r->num_objects;
+    }
     case WIRE_RAY_REPLY: {
         trioct_ray_reply_t *r = m;
         *base = r->hits;
@@ -186,10 +222,16 @@ static int flatten(replay_reply *r)
         int8_t detail;
         records += chunk_records(r->type, r->chunk[i], &base, &stride, &segs, &nsegs, &items, &found, &detail);
         segments += nsegs;
+        char **names;
+        int32_t named = chunk_names(r->type, r->chunk[i], &names);
         if (i == 0) {
             r->num_items = items;
             r->found = found;
             r->detail = detail;
+            r->num_names = named;
+            r->names = (const char *const *)names;
+        } else if (named != 0 && r->problem[0] == '\0') {
+            snprintf(r->problem, sizeof r->problem, "chunk %d carries object names; only chunk 0 may", i);
         } else if (items != 0 && r->problem[0] == '\0') {
             snprintf(r->problem, sizeof r->problem, "chunk %d carries found[] (%d items); only chunk 0 may", i,
                      items);

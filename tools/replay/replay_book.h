@@ -48,6 +48,8 @@ typedef struct replay_reply {
     const void **records;
     size_t num_segments; /* triangle SEGMENTS only */
     const trioct_segment_t **segments;
+    int32_t num_names;   /* query replies: the object names of chunk 0 */
+    const char *const *names;
 } replay_reply;
 
 typedef struct replay_book {

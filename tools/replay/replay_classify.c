@@ -60,6 +60,9 @@ static int request_type_of(trioct_channel_kind kind, wire_type *type)
     case TRIOCT_CHANNEL_LIST:
         *type = WIRE_ADMIN_REQUEST;
         return 1;
+    case TRIOCT_CHANNEL_OBJECTS:
+        *type = WIRE_OBJECT_EDIT_REQUEST;
+        return 1;
     default:
         return 0;
     }
@@ -68,8 +71,8 @@ static int request_type_of(trioct_channel_kind kind, wire_type *type)
 /* The reply type whose fingerprint the bytes start with, if any. */
 static int reply_type_of(const replay_event *ev, wire_type *type)
 {
-    static const wire_type replies[] = {WIRE_RAY_REPLY, WIRE_TRIANGLE_REPLY, WIRE_MESH_REPLY,
-                                        WIRE_ADMIN_REPLY};
+    static const wire_type replies[] = {WIRE_RAY_REPLY, WIRE_TRIANGLE_REPLY, WIRE_MESH_REPLY, WIRE_ADMIN_REPLY,
+                                        WIRE_OBJECT_REPLY};
     if (ev->size < 8)
         return 0;
     uint64_t fp = 0;

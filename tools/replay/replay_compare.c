@@ -8,6 +8,7 @@
 #include "trioct_admin_reply_t.h"
 #include "trioct_contact_t.h"
 #include "trioct_mesh_pair_t.h"
+#include "trioct_object_reply_t.h"
 #include "trioct_ray_hit_t.h"
 #include "trioct_ray_request_t.h"
 #include "trioct_status.h"
@@ -186,6 +187,22 @@ static void groups_free(groups *g)
 typedef void (*record_cmp_fn)(diff *d, const char *where, const replay_reply *e, size_t ke,
                               const replay_reply *g, size_t kg);
 
+/* The name a record's object index gives in its reply's table; "(index N: none)" when the
+ * index names no entry. Answers are compared by name: indexes are the reply's own. */
+static const char *object_name(const replay_reply *r, int32_t object, char *buf, size_t len)
+{
+    if (object >= 0 && object < r->num_names)
+        return r->names[object];
+    snprintf(buf, len, "(index %d: none)", object);
+    return buf;
+}
+
+static void cmp_object(diff *d, const char *where, const replay_reply *e, int32_t a, const replay_reply *g, int32_t b)
+{
+    char na[32], nb[32];
+    cmp_str(d, where, "object", object_name(e, a, na, sizeof na), object_name(g, b, nb, sizeof nb));
+}
+
 static void hit_cmp(diff *d, const char *where, const replay_reply *e, size_t ke, const replay_reply *g,
                     size_t kg)
 {
@@ -196,6 +213,7 @@ static void hit_cmp(diff *d, const char *where, const replay_reply *e, size_t ke
     if (e->detail == TRIOCT_RAY_REQUEST_T_ANY)
         return;
     cmp_f64(d, where, "t", a->t, b->t);
+    cmp_object(d, where, e, a->object, g, b->object);
     cmp_i64(d, where, "triangle", a->triangle, b->triangle);
     cmp_f64(d, where, "u", a->u, b->u);
     cmp_f64(d, where, "v", a->v, b->v);
@@ -206,6 +224,7 @@ static void contact_cmp(diff *d, const char *where, const replay_reply *e, size_
                         size_t kg)
 {
     const trioct_contact_t *a = e->records[ke], *b = g->records[kg];
+    cmp_object(d, where, e, a->object, g, b->object);
     cmp_i64(d, where, "world triangle", a->triangle, b->triangle);
     /* SEGMENTS: the segment of contact k is segment k. */
     if (ke < e->num_segments && kg < g->num_segments) {
@@ -219,6 +238,7 @@ static void pair_cmp(diff *d, const char *where, const replay_reply *e, size_t k
 {
     const trioct_mesh_pair_t *a = e->records[ke], *b = g->records[kg];
     cmp_i64(d, where, "shape triangle", a->shape_triangle, b->shape_triangle);
+    cmp_object(d, where, e, a->object, g, b->object);
     cmp_i64(d, where, "world triangle", a->world_triangle, b->world_triangle);
 }
 
@@ -354,6 +374,39 @@ static void cmp_worlds(diff *d, const replay_reply *e, const replay_reply *g, co
     }
 }
 
+/* Object replies: the edit that failed, the version's counts and the listing, in order. */
+static void cmp_objects(diff *d, const replay_reply *e, const replay_reply *g)
+{
+    const trioct_object_reply_t *a = e->chunk[0], *b = g->chunk[0];
+    if (a != NULL && b != NULL) {
+        cmp_i64(d, "", "failed_edit", a->failed_edit, b->failed_edit);
+        cmp_i64(d, "", "objects", a->objects, b->objects);
+        cmp_i64(d, "", "triangles", a->triangles, b->triangles);
+    }
+    if (e->num_records != g->num_records) {
+        say(d, "objects listed expected %zu got %zu", e->num_records, g->num_records);
+        return;
+    }
+    for (size_t k = 0; k < e->num_records; k++) {
+        const trioct_object_info_t *x = e->records[k], *y = g->records[k];
+        char where[96];
+        snprintf(where, sizeof where, "object %zu (%s): ", k, x->name);
+        cmp_str(d, where, "name", x->name, y->name);
+        cmp_str(d, where, "mesh", x->mesh, y->mesh);
+        cmp_i64(d, where, "triangles", x->triangles, y->triangles);
+        for (int i = 0; i < 9; i++) {
+            char field[16];
+            snprintf(field, sizeof field, "pose.r[%d]", i);
+            cmp_f64(d, where, field, x->pose.r[i], y->pose.r[i]);
+        }
+        cmp_vec(d, where, "pose.t", &x->pose.t, &y->pose.t);
+        cmp_vec(d, where, "bbox_min", &x->bbox_min, &y->bbox_min);
+        cmp_vec(d, where, "bbox_max", &x->bbox_max, &y->bbox_max);
+        cmp_i64(d, where, "bytes", x->bytes, y->bytes);
+        cmp_i64(d, where, "shared", x->shared, y->shared);
+    }
+}
+
 size_t replay_compare(const replay_reply *expected, const replay_reply *got, const replay_rules *rules,
                       const char *what, FILE *out, size_t max_lines)
 {
@@ -401,6 +454,9 @@ size_t replay_compare(const replay_reply *expected, const replay_reply *got, con
         break;
     case WIRE_MESH_REPLY:
         cmp_items(&d, e, g, &mesh_kind);
+        break;
+    case WIRE_OBJECT_REPLY:
+        cmp_objects(&d, e, g);
         break;
     default:
         cmp_worlds(&d, e, g, rules);

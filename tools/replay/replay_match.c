@@ -41,6 +41,9 @@ static void summary(const replay_reply *r, char *buf, size_t len)
                  r->channel);
     else if (r->type == WIRE_ADMIN_REPLY)
         snprintf(buf, len, "OK, %zu world%s, on %s", r->num_records, r->num_records == 1 ? "" : "s", r->channel);
+    else if (r->type == WIRE_OBJECT_REPLY)
+        snprintf(buf, len, "OK, %zu object%s listed, on %s", r->num_records, r->num_records == 1 ? "" : "s",
+                 r->channel);
     else
         snprintf(buf, len, "OK, %d items, %zu records in %d chunk%s, on %s", r->num_items, r->num_records,
                  r->chunk_count, r->chunk_count == 1 ? "" : "s", r->channel);

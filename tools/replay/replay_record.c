@@ -17,6 +17,7 @@
 #include "trioct_mesh_reply_t.h"
 #include "trioct_ray_reply_t.h"
 #include "trioct_status.h"
+#include "trioct_object_reply_t.h"
 #include "trioct_triangle_reply_t.h"
 
 static int encode(wire_type type, const void *m, uint8_t **out, size_t *size)
@@ -31,6 +32,9 @@ static int encode(wire_type type, const void *m, uint8_t **out, size_t *size)
         break;
     case WIRE_MESH_REPLY:
         n = trioct_mesh_reply_t_encoded_size(m);
+        break;
+    case WIRE_OBJECT_REPLY:
+        n = trioct_object_reply_t_encoded_size(m);
         break;
     default:
         n = trioct_admin_reply_t_encoded_size(m);
@@ -49,6 +53,9 @@ static int encode(wire_type type, const void *m, uint8_t **out, size_t *size)
         break;
     case WIRE_MESH_REPLY:
         w = trioct_mesh_reply_t_encode(*out, 0, n, m);
+        break;
+    case WIRE_OBJECT_REPLY:
+        w = trioct_object_reply_t_encode(*out, 0, n, m);
         break;
     default:
         w = trioct_admin_reply_t_encode(*out, 0, n, m);
