@@ -7,6 +7,7 @@
 
 #include "array_reserve.h"
 #include "cli.h"
+#include "cli_object_names.h"
 #include "cli_batch.h"
 #include "cli_pose.h"
 #include "cli_progress.h"
@@ -72,13 +73,15 @@ typedef struct mesh_answer {
     size_t num_poses;
     int32_t *found;
     size_t num_pairs, cap_pairs;
-    trioct_mesh_pair *pairs;
+    trioct_mesh_pair *pairs; /* object: an index into names */
+    cli_names names;
 } mesh_answer;
 
 static void mesh_answer_free(mesh_answer *a)
 {
     free(a->found);
     free(a->pairs);
+    cli_names_free(&a->names);
     memset(a, 0, sizeof *a);
 }
 
@@ -91,6 +94,8 @@ static int mesh_answer_add(mesh_answer *a, const trioct_mesh_result *res, size_t
     for (size_t i = 0; i < res->num_pairs; i++) {
         trioct_mesh_pair p = res->pairs[i];
         p.pose += (int32_t)offset;
+        if (cli_names_map(&a->names, &res->objects, &p.object) != 0)
+            return -1;
         a->pairs[a->num_pairs++] = p;
     }
     cli_batch_note(&a->batch, &res->reply);
@@ -170,6 +175,7 @@ static void mesh_json(cli_context *ctx, const mesh_answer *a, const char *shape,
         cli_json_object_begin(&j);
         cli_json_key_int(&j, "pose", a->pairs[i].pose);
         cli_json_key_int(&j, "shape_triangle", a->pairs[i].shape_triangle);
+        cli_json_key_string(&j, "object", cli_names_get(&a->names, a->pairs[i].object));
         cli_json_key_int(&j, "world_triangle", a->pairs[i].world_triangle);
         cli_json_object_end(&j);
     }
@@ -188,13 +194,15 @@ static int mesh_print(cli_context *ctx, const mesh_answer *a, const char *shape)
     cli_table t;
     int pairs = a->detail == TRIOCT_MESH_PAIRS;
     if (pairs) {
-        cli_table_init(&t, 3, 0x7);
+        cli_table_init(&t, 4, 0xB);
         cli_table_cell(&t, "POSE");
         cli_table_cell(&t, "SHAPE TRIANGLE");
+        cli_table_cell(&t, "OBJECT");
         cli_table_cell(&t, "WORLD TRIANGLE");
         for (size_t i = 0; i < a->num_pairs; i++) {
             cli_table_cell(&t, "%" PRId32, a->pairs[i].pose);
             cli_table_cell(&t, "%" PRId32, a->pairs[i].shape_triangle);
+            cli_table_cell(&t, "%s", cli_names_get(&a->names, a->pairs[i].object));
             cli_table_cell(&t, "%" PRId32, a->pairs[i].world_triangle);
         }
     } else {

@@ -8,6 +8,7 @@
 
 #include "array_reserve.h"
 #include "cli.h"
+#include "cli_object_names.h"
 #include "cli_batch.h"
 #include "cli_csv.h"
 #include "cli_progress.h"
@@ -106,13 +107,15 @@ typedef struct ray_answer {
     size_t num_rays;
     int32_t *found;
     size_t num_hits, cap_hits;
-    trioct_ray_hit *hits;
+    trioct_ray_hit *hits; /* object: an index into names */
+    cli_names names;
 } ray_answer;
 
 static void ray_answer_free(ray_answer *a)
 {
     free(a->found);
     free(a->hits);
+    cli_names_free(&a->names);
     memset(a, 0, sizeof *a);
 }
 
@@ -126,6 +129,8 @@ static int ray_answer_add(ray_answer *a, const trioct_ray_result *res, size_t of
     for (size_t i = 0; i < res->num_hits; i++) {
         trioct_ray_hit h = res->hits[i];
         h.ray += (int32_t)offset;
+        if (cli_names_map(&a->names, &res->objects, &h.object) != 0)
+            return -1;
         a->hits[a->num_hits++] = h;
     }
     cli_batch_note(&a->batch, &res->reply);
@@ -212,6 +217,7 @@ static void ray_json(cli_context *ctx, const ray_answer *a, const ray_args *args
         cli_json_object_begin(&j);
         cli_json_key_int(&j, "ray", h->ray);
         cli_json_key_double(&j, "t", h->t);
+        cli_json_key_string(&j, "object", cli_names_get(&a->names, h->object));
         cli_json_key_int(&j, "triangle", h->triangle);
         cli_json_key_double(&j, "u", h->u);
         cli_json_key_double(&j, "v", h->v);
@@ -226,9 +232,9 @@ static void ray_json(cli_context *ctx, const ray_answer *a, const ray_args *args
 static int ray_table(cli_context *ctx, const ray_answer *a)
 {
     cli_table t;
-    cli_table_init(&t, 7, 0x3F); /* all but the normal right-aligned */
-    const char *head[] = {"RAY", "FOUND", "T", "TRIANGLE", "U", "V", "NORMAL"};
-    for (size_t i = 0; i < 7; i++)
+    cli_table_init(&t, 8, 0x77); /* all but the object and the normal right-aligned */
+    const char *head[] = {"RAY", "FOUND", "T", "OBJECT", "TRIANGLE", "U", "V", "NORMAL"};
+    for (size_t i = 0; i < 8; i++)
         cli_table_cell(&t, "%s", head[i]);
     size_t h = 0;
     for (size_t ray = 0; ray < a->num_rays; ray++) {
@@ -240,6 +246,7 @@ static int ray_table(cli_context *ctx, const ray_answer *a)
             cli_table_cell(&t, "%zu", ray);
             cli_table_cell(&t, "%" PRId32, a->found[ray]);
             cli_table_cell(&t, "%s", cli_format_double(hit->t, tt));
+            cli_table_cell(&t, "%s", cli_names_get(&a->names, hit->object));
             cli_table_cell(&t, "%" PRId32, hit->triangle);
             cli_table_cell(&t, "%s", cli_format_double(hit->u, u));
             cli_table_cell(&t, "%s", cli_format_double(hit->v, v));
@@ -250,7 +257,7 @@ static int ray_table(cli_context *ctx, const ray_answer *a)
         if (rows == 0) {
             cli_table_cell(&t, "%zu", ray);
             cli_table_cell(&t, "%" PRId32, a->found[ray]);
-            for (int c = 0; c < 5; c++)
+            for (int c = 0; c < 6; c++)
                 cli_table_cell(&t, "-");
         }
     }

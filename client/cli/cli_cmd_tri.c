@@ -64,6 +64,7 @@ static void tri_json(cli_context *ctx, const trioct_triangle_result *res, int ac
     for (size_t i = 0; i < res->num_contacts; i++) {
         cli_json_object_begin(&j);
         cli_json_key_int(&j, "query", res->contacts[i].query);
+        cli_json_key_string(&j, "object", res->objects.names[res->contacts[i].object]);
         cli_json_key_int(&j, "triangle", res->contacts[i].triangle);
         if (res->segments != NULL) {
             cli_json_key(&j, "segment");
@@ -99,13 +100,15 @@ static int tri_print(cli_context *ctx, const trioct_triangle_result *res)
         return CLI_EXIT_OK;
     int segments = res->segments != NULL;
     cli_table t;
-    cli_table_init(&t, segments ? 3 : 1, 1u);
+    cli_table_init(&t, segments ? 4 : 2, 2u);
+    cli_table_cell(&t, "OBJECT");
     cli_table_cell(&t, "TRIANGLE");
     if (segments) {
         cli_table_cell(&t, "FROM");
         cli_table_cell(&t, "TO");
     }
     for (size_t i = 0; i < res->num_contacts; i++) {
+        cli_table_cell(&t, "%s", res->objects.names[res->contacts[i].object]);
         cli_table_cell(&t, "%" PRId32, res->contacts[i].triangle);
         if (segments) {
             point_cell(&t, res->segments[i].p);

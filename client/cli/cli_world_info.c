@@ -81,6 +81,7 @@ void cli_world_info_json(cli_json *j, const trioct_world_info *w)
     cli_json_key_int(j, "total", w->bytes_total);
     cli_json_object_end(j);
     cli_json_key_double(j, "build_seconds", w->build_seconds);
+    cli_json_key_int(j, "objects", w->objects);
     cli_json_key_int(j, "queries", w->queries);
     cli_json_key_string(j, "last_error", w->last_error);
     cli_json_key(j, "shapes");
@@ -129,6 +130,7 @@ void cli_world_info_print(FILE *out, const trioct_world_info *w, const char *ind
             cli_format_bytes(w->bytes_leaf_lists, c), cli_format_bytes(w->bytes_triangles, d),
             cli_format_bytes(w->bytes_effects, e));
     fprintf(out, "%sbuild       %.3f s\n", indent, w->build_seconds);
+    fprintf(out, "%sobjects     %" PRId64 " (trioct objects %s lists them)\n", indent, w->objects, w->name);
     fprintf(out, "%squeries     %" PRId64 "\n", indent, w->queries);
     fprintf(out, "%sshapes      ", indent);
     for (int i = 0; i < w->num_shapes && i < TRIOCT_MAX_SHAPES; i++)

@@ -779,9 +779,9 @@ static void test_ray(void **state)
     cli_run r = CLI("--timeout", "3000", "ray", "box", "1", "3", "10", "0", "0", "-1", "--all");
     expect_code(&r, 0);
     expect_text(r.out, "world box (version 1, daemon " DAEMON "), all hit: 1 of 1 ray hit");
-    expect_text(r.out, "RAY  FOUND   T  TRIANGLE     U     V  NORMAL\n"
-                       "  0      2   8         1  0.25   0.5  0 0 1\n"
-                       "  0      2  10         3   0.5  0.25  0 0 -1\n");
+    expect_text(r.out, "RAY  FOUND   T  OBJECT  TRIANGLE     U     V  NORMAL\n"
+                       "  0      2   8  box            1  0.25   0.5  0 0 1\n"
+                       "  0      2  10  box            3   0.5  0.25  0 0 -1\n");
     run_free(&r);
 }
 
@@ -851,8 +851,8 @@ static void test_ray_touch(void **state)
     r = CLI("ray", "box", "-1", "1", "2", "1", "0", "0", "--touch");
     expect_code(&r, 0);
     expect_text(r.out, "world box (version 1, daemon " DAEMON "), closest hit: 1 of 1 ray hit");
-    expect_text(r.out, "RAY  FOUND  T  TRIANGLE  U     V  NORMAL\n"
-                       "  0      1  1         1  0  0.25  0 0 1\n");
+    expect_text(r.out, "RAY  FOUND  T  OBJECT  TRIANGLE  U     V  NORMAL\n"
+                       "  0      1  1  box            1  0  0.25  0 0 1\n");
     run_free(&r);
 
     /* Touch is exact-only: seed or fast with it is a usage error. */
@@ -1048,6 +1048,75 @@ static void test_mesh(void **state)
     expect_text(r.out, "shape cube: 1 of 2 poses touching");
     expect_text(r.out, "POSE  TOUCHING\n   0  yes\n   1  no\n");
     run_free(&r);
+}
+
+/* Objects of box_rays: the section is one object named after it; the cube added as `lid`
+ * above the box, moved (a quarter turn about z, which keeps its top at exactly z = 5.5),
+ * and removed, with a ray straight down at (2, 2) naming what it meets at each step. */
+static void test_objects(void **state)
+{
+    (void)state;
+    jv *v = JSON(0, "objects", "box_rays");
+    assert_int_equal((int)jnum(v, "objects"), 1);
+    assert_int_equal(jlen(v, "list"), 1);
+    assert_string_equal(jstr(v, "list.0.name"), "box_rays");
+    assert_string_equal(jstr(v, "list.0.mesh"), "section:box_rays");
+    assert_int_equal((int)jnum(v, "list.0.triangles"), 12);
+    int version = (int)jnum(v, "world_version");
+    jfree(v);
+
+    v = JSON(0, "object", "add", "box_rays", "lid", "--mesh", "cube.obj", "--pose", "2", "2", "3", "1", "0", "0", "0");
+    assert_string_equal(jstr(v, "action"), "added");
+    assert_string_equal(jstr(v, "object"), "lid");
+    assert_int_equal((int)jnum(v, "objects"), 2);
+    assert_int_equal((int)jnum(v, "world_version"), version + 1);
+    jfree(v);
+    v = JSON(0, "ray", "box_rays", "2", "2", "10", "0", "0", "-1");
+    assert_true(jnum(v, "hits.0.t") == 6.5); /* the lid's top, z = 3.5 */
+    assert_string_equal(jstr(v, "hits.0.object"), "lid");
+    jfree(v);
+
+    v = JSON(0, "object", "move", "box_rays", "lid", "--pose", "2", "2", "5", "0.7071067811865476", "0", "0",
+             "0.7071067811865476");
+    assert_string_equal(jstr(v, "action"), "moved");
+    jfree(v);
+    v = JSON(0, "ray", "box_rays", "2", "2", "10", "0", "0", "-1", "--all");
+    assert_true(jnum(v, "hits.0.t") == 4.5);
+    assert_string_equal(jstr(v, "hits.0.object"), "lid");
+    assert_true(jnum(v, "hits.2.t") == 8); /* then the box's top */
+    assert_string_equal(jstr(v, "hits.2.object"), "box_rays");
+    jfree(v);
+    v = JSON(0, "objects", "box_rays");
+    assert_string_equal(jstr(v, "list.1.name"), "lid");
+    assert_true(jnum(v, "list.1.position.2") == 5);
+    assert_true(fabs(jnum(v, "list.1.quaternion.3") - 0.7071067811865476) < 1e-12);
+    jfree(v);
+    cli_run r = CLI("objects", "box_rays");
+    expect_code(&r, 0);
+    expect_text(r.out, "2 objects");
+    expect_text(r.out, "lid");
+    run_free(&r);
+
+    /* Errors: a name the world does not hold (the daemon's), a quaternion far from unit
+     * length and an add without a mesh (trioct's own: nothing is sent). */
+    v = JSON(1, "object", "move", "box_rays", "nothing", "--pose", "0", "0", "0", "1", "0", "0", "0");
+    assert_string_equal(jstr(v, "status"), "ERR_UNKNOWN_OBJECT");
+    expect_text(jstr(v, "message"), "nothing");
+    jfree(v);
+    r = CLI("object", "add", "box_rays", "lid2", "--mesh", "cube.obj", "--pose", "0", "0", "0", "2", "0", "0", "0");
+    expect_code(&r, 2);
+    run_free(&r);
+    r = CLI("object", "add", "box_rays", "lid2");
+    expect_code(&r, 2);
+    run_free(&r);
+
+    v = JSON(0, "object", "remove", "box_rays", "lid");
+    assert_int_equal((int)jnum(v, "objects"), 1);
+    jfree(v);
+    v = JSON(0, "ray", "box_rays", "2", "2", "10", "0", "0", "-1");
+    assert_true(jnum(v, "hits.0.t") == 8);
+    assert_string_equal(jstr(v, "hits.0.object"), "box_rays");
+    jfree(v);
 }
 
 static void test_load_and_unload(void **state)
@@ -1368,6 +1437,7 @@ int main(int argc, char **argv)
         cmocka_unit_test(test_exit_transport),
         cmocka_unit_test(test_exit_bad_reply),
         cmocka_unit_test(test_status),
+        cmocka_unit_test(test_objects),
     };
     return cmocka_run_group_tests(tests, group_setup, group_teardown);
 }
