@@ -199,7 +199,7 @@ static const char *object_name(const replay_reply *r, int32_t object, char *buf,
 
 static void cmp_object(diff *d, const char *where, const replay_reply *e, int32_t a, const replay_reply *g, int32_t b)
 {
-    char na[32], nb[32];
+    char na[40], nb[40];
     cmp_str(d, where, "object", object_name(e, a, na, sizeof na), object_name(g, b, nb, sizeof nb));
 }
 
@@ -395,7 +395,7 @@ static void cmp_objects(diff *d, const replay_reply *e, const replay_reply *g)
         cmp_str(d, where, "mesh", x->mesh, y->mesh);
         cmp_i64(d, where, "triangles", x->triangles, y->triangles);
         for (int i = 0; i < 9; i++) {
-            char field[16];
+            char field[24];
             snprintf(field, sizeof field, "pose.r[%d]", i);
             cmp_f64(d, where, field, x->pose.r[i], y->pose.r[i]);
         }
