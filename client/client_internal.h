@@ -68,7 +68,8 @@ struct pending {
 
     int64_t deadline;       /* monotonic ns (client_deadline); INT64_MAX: none */
     int timeout_ms;         /* as asked (LIST: the gather window), for messages */
-    size_t count;           /* rays, triangles or poses asked about, to check answers by */
+    size_t count;           /* rays, triangles, poses or states asked about, to check answers by */
+    size_t count2;          /* states: the links of each */
     char no_daemon[TRIOCT_MAX_MESSAGE_LEN + 1]; /* the message of an unanswered request */
 
     int is_async;

@@ -363,6 +363,57 @@ TRIOCT_API int trioct_objects_edit(trioct_client *c, const char *world, const tr
                                    size_t count, int list, int timeout_ms, trioct_object_result *out);
 TRIOCT_API void trioct_object_result_free(trioct_object_result *r);
 
+/* ---- Robot states -------------------------------------------------------------------- */
+
+/* A robot state is its links at their poses, checked against the world's objects and, with
+ * self_collision, against each other; allowed pairs (a link and an object, or two links, by
+ * name, either way round) are left out. The world must serve meshes. */
+enum { TRIOCT_STATE_VALID = 0, TRIOCT_STATE_CONTACTS = 1 };
+
+typedef struct trioct_state_link {
+    const char *name;  /* 1..32 characters of [A-Za-z0-9_.-], unique in the query */
+    const char *shape; /* a query shape the world's scene names; NULL or "": the triangles */
+    size_t num_triangles; /* inline: all links' together at most TRIOCT_MAX_INLINE_SHAPE_TRIANGLES */
+    const trioct_triangle *triangles;
+} trioct_state_link;
+
+typedef struct trioct_allowed_pair {
+    const char *a, *b;
+} trioct_allowed_pair;
+
+typedef struct trioct_state_query {
+    const char *world;
+    int detail;         /* TRIOCT_STATE_VALID (each state's first contact) or _CONTACTS (all) */
+    int self_collision; /* 1: the links against each other too */
+    size_t num_links;   /* 1..64 */
+    const trioct_state_link *links;
+    size_t num_allowed;
+    const trioct_allowed_pair *allowed;
+    size_t num_states;  /* num_states x num_links at most TRIOCT_MAX_POSES */
+    const trioct_pose *poses; /* num_links per state, state after state */
+} trioct_state_query;
+
+typedef struct trioct_state_contact {
+    int32_t state, link;   /* indexes in the query */
+    int with_link;         /* 0: other indexes the result's objects.names; 1: the query's links */
+    int32_t other;
+    int32_t link_triangle, other_triangle;
+} trioct_state_contact;
+
+typedef struct trioct_state_result {
+    trioct_reply reply;
+    int detail;
+    size_t num_states;
+    uint8_t *valid;   /* per state: 1 when no contact outside the allowed pairs */
+    int32_t *found;   /* per state: contacts listed (VALID: 0 or 1, the first found) */
+    size_t num_contacts;
+    trioct_state_contact *contacts; /* by state, link, objects before links, other, triangles */
+    trioct_object_names objects;
+} trioct_state_result;
+
+TRIOCT_API int trioct_states(trioct_client *c, const trioct_state_query *q, int timeout_ms, trioct_state_result *out);
+TRIOCT_API void trioct_state_result_free(trioct_state_result *r);
+
 /* ---- Worlds -------------------------------------------------------------------------- */
 
 typedef struct trioct_world_info {
@@ -462,7 +513,7 @@ typedef struct trioct_daemon_status {
     int64_t uptime_us;
     int state; /* TRIOCT_DAEMON_* */
     int threads, queue_depth, queue_capacity;
-    int64_t served[5]; /* answered requests: ray, triangle, mesh, admin, objects */
+    int64_t served[6]; /* answered requests: ray, triangle, mesh, admin, objects, state */
     int64_t malformed; /* messages the daemon dropped before decoding */
     size_t num_status_codes;
     int64_t *replies_by_status; /* indexed by status code */
@@ -513,6 +564,7 @@ typedef void (*trioct_mesh_done)(trioct_client *c, trioct_mesh_result *res, void
 typedef void (*trioct_admin_done)(trioct_client *c, trioct_admin_result *res, void *user);
 typedef void (*trioct_list_done)(trioct_client *c, trioct_list_result *res, void *user);
 typedef void (*trioct_object_done)(trioct_client *c, trioct_object_result *res, void *user);
+typedef void (*trioct_state_done)(trioct_client *c, trioct_state_result *res, void *user);
 
 TRIOCT_API int trioct_rays_async(trioct_client *c, const trioct_ray_query *q, int timeout_ms,
                                  trioct_ray_done cb, void *user, int64_t *request_id);
@@ -534,6 +586,8 @@ TRIOCT_API int trioct_info_async(trioct_client *c, const char *world, int timeou
 TRIOCT_API int trioct_objects_edit_async(trioct_client *c, const char *world, const trioct_object_edit *edits,
                                          size_t count, int list, int timeout_ms, trioct_object_done cb, void *user,
                                          int64_t *request_id);
+TRIOCT_API int trioct_states_async(trioct_client *c, const trioct_state_query *q, int timeout_ms,
+                                   trioct_state_done cb, void *user, int64_t *request_id);
 /* Gathers until the timeout, the gather window or the expected count, as trioct_list. */
 TRIOCT_API int trioct_list_async(trioct_client *c, const trioct_list_options *opt,
                                  int timeout_ms, trioct_list_done cb, void *user,

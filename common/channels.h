@@ -3,6 +3,7 @@
  *       the daemon that holds the world, so a fleet of daemons on one bus never answers twice;
  *   <prefix>_ADMIN_<world>: INFO and UNLOAD, heard by the holder;
  *   <prefix>_OBJECTS_<world>: object edits and listings, heard by the holder;
+ *   <prefix>_STATE_<world>: robot state checks, heard by the holder;
  *   <prefix>_LOAD_<daemon>: LOAD, heard by the named daemon;
  *   <prefix>_LIST: every daemon answers with the worlds it holds;
  *   <prefix>_STATUS: every daemon's heartbeat. */
@@ -25,6 +26,7 @@ typedef enum trioct_channel_kind {
     TRIOCT_CHANNEL_LIST,
     TRIOCT_CHANNEL_STATUS,
     TRIOCT_CHANNEL_OBJECTS,
+    TRIOCT_CHANNEL_STATE,
     TRIOCT_CHANNEL_KIND_COUNT
 } trioct_channel_kind;
 

@@ -12,6 +12,8 @@
 #include "trioct_mesh_reply_t.h"
 #include "trioct_object_edit_request_t.h"
 #include "trioct_object_reply_t.h"
+#include "trioct_state_reply_t.h"
+#include "trioct_state_request_t.h"
 #include "trioct_mesh_request_t.h"
 #include "trioct_ray_reply_t.h"
 #include "trioct_ray_request_t.h"
@@ -406,6 +408,45 @@ static void walk_object_reply(wire_cursor *c)
     c->scope = "";
 }
 
+/* The shortest state_link_t: two empty strings and no triangles. */
+enum { MIN_STATE_LINK_BYTES = 2 * MIN_STRING_BYTES + 4, STATE_CONTACT_BYTES = 4 + 4 + 1 + 3 * 4 };
+
+static void walk_state_request(wire_cursor *c)
+{
+    walk_request_header(c);
+    cursor_int8(c, "detail");
+    cursor_int8(c, "self_collision");
+    int32_t num_links = cursor_count(c, "num_links", MIN_STATE_LINK_BYTES);
+    c->scope = "links";
+    for (int32_t i = 0; i < num_links && !c->failed; i++) {
+        c->scope_index = i;
+        cursor_string(c, "name");
+        cursor_string(c, "shape");
+        int32_t num_triangles = cursor_count(c, "num_triangles", TRIANGLE_BYTES);
+        cursor_fixed_array(c, num_triangles, TRIANGLE_BYTES, "triangles");
+    }
+    c->scope = "";
+    int32_t num_allowed = cursor_count(c, "num_allowed", 2 * MIN_STRING_BYTES);
+    for (int32_t i = 0; i < num_allowed && !c->failed; i++)
+        cursor_string_element(c, "allowed_a", i);
+    for (int32_t i = 0; i < num_allowed && !c->failed; i++)
+        cursor_string_element(c, "allowed_b", i);
+    int32_t num_poses = cursor_count(c, "num_poses", POSE_BYTES);
+    cursor_fixed_array(c, num_poses, POSE_BYTES, "poses");
+}
+
+static void walk_state_reply(wire_cursor *c)
+{
+    walk_reply_header(c);
+    cursor_int8(c, "detail");
+    int32_t num_states = cursor_count(c, "num_states", 1 + 4);
+    cursor_fixed_array(c, num_states, 1, "valid");
+    cursor_fixed_array(c, num_states, 4, "found");
+    walk_object_names(c);
+    int32_t num_contacts = cursor_count(c, "num_contacts", STATE_CONTACT_BYTES);
+    cursor_fixed_array(c, num_contacts, STATE_CONTACT_BYTES, "contacts");
+}
+
 static void walk_ray_reply(wire_cursor *c)
 {
     walk_reply_header(c);
@@ -458,7 +499,7 @@ static void walk_status(wire_cursor *c)
     cursor_int32(c, "threads");
     cursor_int32(c, "queue_depth");
     cursor_int32(c, "queue_capacity");
-    cursor_skip(c, 5 * 8, "served");
+    cursor_skip(c, 6 * 8, "served");
     cursor_int64(c, "malformed");
     int32_t num_status_codes = cursor_count(c, "num_status_codes", 8);
     cursor_fixed_array(c, num_status_codes, 8, "replies_by_status");
@@ -489,6 +530,8 @@ static const wire_type_info type_table[WIRE_TYPE_COUNT] = {
     [WIRE_OBJECT_EDIT_REQUEST] = {"object_edit_request_t", __trioct_object_edit_request_t_get_hash,
                                   walk_object_edit_request},
     [WIRE_OBJECT_REPLY] = {"object_reply_t", __trioct_object_reply_t_get_hash, walk_object_reply},
+    [WIRE_STATE_REQUEST] = {"state_request_t", __trioct_state_request_t_get_hash, walk_state_request},
+    [WIRE_STATE_REPLY] = {"state_reply_t", __trioct_state_reply_t_get_hash, walk_state_reply},
 };
 
 static int wire_type_valid(wire_type type)

@@ -26,6 +26,8 @@ typedef enum wire_type {
     WIRE_RAY_REQUEST_V1, /* ray_request_t before its contact field, still taken on RAY */
     WIRE_OBJECT_EDIT_REQUEST,
     WIRE_OBJECT_REPLY,
+    WIRE_STATE_REQUEST,
+    WIRE_STATE_REPLY,
     WIRE_TYPE_COUNT
 } wire_type;
 

@@ -409,6 +409,29 @@ static void test_parse_pose(void **state)
                              "field 3 'z' is not a finite number");
 }
 
+/* x y z qw qx qy qz: a quarter turn about z is exact in the rows that do not involve it,
+ * a quaternion off unit length by more than 1e-3 is refused, as is a word. */
+static void test_parse_quaternion_pose(void **state)
+{
+    (void)state;
+    trioct_pose p;
+    char err[160];
+    char *quarter[7] = {"1", "2", "3", "0.7071067811865476", "0", "0", "0.7071067811865476"};
+    assert_int_equal(cli_parse_quaternion_pose(quarter, "--pose", &p, err, sizeof err), 0);
+    assert_true(p.t.x == 1 && p.t.y == 2 && p.t.z == 3);
+    assert_true(fabs(p.r[0]) < 1e-15 && fabs(p.r[1] + 1) < 1e-15 && fabs(p.r[3] - 1) < 1e-15);
+    assert_true(p.r[8] == 1 && p.r[2] == 0 && p.r[6] == 0);
+    char *unnormalised[7] = {"0", "0", "0", "1.0005", "0", "0", "0"};
+    assert_int_equal(cli_parse_quaternion_pose(unnormalised, "--pose", &p, err, sizeof err), 0);
+    assert_true(p.r[0] == 1 && p.r[4] == 1);
+    char *long_one[7] = {"0", "0", "0", "2", "0", "0", "0"};
+    assert_int_equal(cli_parse_quaternion_pose(long_one, "--pose", &p, err, sizeof err), -1);
+    assert_non_null(strstr(err, "not of length 1"));
+    char *word[7] = {"0", "zero", "0", "1", "0", "0", "0"};
+    assert_int_equal(cli_parse_quaternion_pose(word, "--link", &p, err, sizeof err), -1);
+    assert_non_null(strstr(err, "--link: 'zero'"));
+}
+
 static void test_read_poses(void **state)
 {
     (void)state;
@@ -640,6 +663,7 @@ int main(void)
         cmocka_unit_test(test_scan_negative_numbers_are_positional),
         cmocka_unit_test(test_scan_values_aliases_and_terminator),
         cmocka_unit_test(test_scan_errors),
+        cmocka_unit_test(test_parse_quaternion_pose),
         cmocka_unit_test(test_scan_stops_at_the_command),
         cmocka_unit_test(test_parse_double),
         cmocka_unit_test(test_parse_int),

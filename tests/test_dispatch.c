@@ -25,6 +25,7 @@
 #include "trioct_status.h"
 #include "wire_check.h"
 #include "world/mesh_load.h"
+#include "world/object_state.h"
 #include "world/registry.h"
 #include "world/scene.h"
 #include "world/world.h"
@@ -369,6 +370,7 @@ static const wire_type reply_wire[REQUEST_TYPE_COUNT] = {
     [REQUEST_MESH] = WIRE_MESH_REPLY,
     [REQUEST_ADMIN] = WIRE_ADMIN_REPLY,
     [REQUEST_OBJECTS] = WIRE_OBJECT_REPLY,
+    [REQUEST_STATE] = WIRE_STATE_REPLY,
 };
 
 static void keep_names(answer *a, int32_t count, char **names)
@@ -1598,6 +1600,119 @@ static void test_object_edits_answer_as_posed_trees(void **state)
     assert_int_equal(registry_remove(F.reg, "edited"), 0);
 }
 
+/* ---------- robot states ---------- */
+
+DEFINE_ENCODER(trioct_state_request_t)
+
+/* A state request's one-chunk reply, decoded (the caller cleans it up). */
+static trioct_state_reply_t ask_state(const char *world, const trioct_state_request_t *q)
+{
+    msg m = ENCODE(trioct_state_request_t, q);
+    dispatch_reply rep;
+    assert_int_equal(dispatch_handle(&F.ctx, channel_of(TRIOCT_CHANNEL_STATE, world), m.data, m.size, NOW, &rep), 0);
+    assert_int_equal(rep.chunk_count, 1);
+    wire_error err;
+    if (wire_check(WIRE_STATE_REPLY, rep.chunks[0].data, rep.chunks[0].size, &err) != 0)
+        fail_msg("state reply: %s", err.what);
+    trioct_state_reply_t r;
+    int len = (int)rep.chunks[0].size;
+    assert_int_equal(trioct_state_reply_t_decode(rep.chunks[0].data, 0, len, &r), len);
+    dispatch_reply_free(&rep);
+    free(m.data);
+    return r;
+}
+
+/* The state request answers what object_set_state answers on the world's objects: the
+ * verdicts, every contact with its object named, allowed pairs and self-collision; a link
+ * given inline is the registered shape's own triangles and answers alike. */
+static void test_states_answer_as_the_object_set(void **state)
+{
+    (void)state;
+    install_from_scene("edited");
+    trioct_pose_t at_b = {{0, -1, 0, 1, 0, 0, 0, 0, 1}, {3, 0.5, 0.25}};
+    /* "a_far" first in name order and never touched: the reply's names are its own table,
+     * not the world's indexes. */
+    trioct_object_edit_t adds[2] = {wire_edit(TRIOCT_OBJECT_EDIT_T_ADD, "b", "box.obj", at_b),
+                                    wire_edit(TRIOCT_OBJECT_EDIT_T_ADD, "a_far", "box.obj", identity_pose)};
+    adds[1].pose.t.x = 100;
+    answer a = ask_objects("edited", 0, 2, adds);
+    assert_int_equal(a.status, TRIOCT_OK);
+    answer_free(&a);
+    world *w = registry_acquire(F.reg, "edited");
+    const world_shape *cube = world_find_shape(w, "cube");
+
+    enum { STATES = 24 };
+    rng r = rng_seeded(base_seed + 41);
+    trioct_pose_t poses[2 * STATES];
+    for (int i = 0; i < 2 * STATES; i++) {
+        vec3 t = {rng_uniform(&r, -0.5, 3.5), rng_uniform(&r, -0.5, 2), rng_uniform(&r, -0.2, 1.5)};
+        poses[i] = pose_at(rng_uniform(&r, 0, 6.28), t);
+    }
+    const mesh_data *cm = &cube->model->mesh;
+    trioct_triangle_t *tris = calloc(cm->triangle_count, sizeof *tris);
+    for (size_t t = 0; t < cm->triangle_count; t++)
+        tris[t] = (trioct_triangle_t){tv(mesh_data_corner(cm, t, 0)), tv(mesh_data_corner(cm, t, 1)),
+                                      tv(mesh_data_corner(cm, t, 2))};
+    trioct_state_link_t links[2] = {{"left", "cube", 0, NULL}, {"right", "", (int32_t)cm->triangle_count, tris}};
+    char *allow_a[1] = {"b"}, *allow_b[1] = {"right"};
+    for (int variant = 0; variant < 3; variant++) {
+        int contacts = variant > 0, self = variant == 2, allowed = variant == 2 ? 1 : 0;
+        trioct_state_request_t q = {header("edited"), (int8_t)contacts, (int8_t)self, 2, links, allowed,
+                                    allow_a, allow_b, 2 * STATES, poses};
+        trioct_state_reply_t rep = ask_state("edited", &q);
+        assert_int_equal(rep.header.status, TRIOCT_OK);
+        assert_int_equal(rep.num_states, STATES);
+        size_t k = 0;
+        int invalid = 0;
+        for (int s = 0; s < STATES; s++) {
+            state_link l[2] = {{"left", cube->model->tree, cube->model->bounds, {{0}, {0, 0, 0}}},
+                               {"right", cube->model->tree, cube->model->bounds, {{0}, {0, 0, 0}}}};
+            for (int i = 0; i < 2; i++) {
+                memcpy(l[i].at.r, poses[2 * s + i].r, sizeof l[i].at.r);
+                l[i].at.t = (vec3){poses[2 * s + i].t.x, poses[2 * s + i].t.y, poses[2 * s + i].t.z};
+            }
+            state_contact buf[512];
+            state_output out = {.contacts = buf, .capacity = contacts ? 512 : 1};
+            state_allowed al[1] = {{"b", "right"}};
+            assert_int_equal(object_set_state(w->objects, l, 2, al, (size_t)allowed, self, contacts, &out, NULL, NULL),
+                             OCTREE_OK);
+            assert_int_equal(rep.valid[s], out.valid);
+            assert_int_equal(rep.found[s], (int)out.count);
+            invalid += !out.valid;
+            for (size_t c = 0; c < out.count; c++, k++) {
+                const trioct_state_contact_t *g = &rep.contacts[k];
+                assert_int_equal(g->state, s);
+                assert_int_equal(g->link, (int)buf[c].link);
+                assert_int_equal(g->with_link, buf[c].with_link);
+                if (buf[c].with_link)
+                    assert_int_equal(g->other, (int)buf[c].other);
+                else
+                    assert_string_equal(rep.objects[g->other], w->objects->objects[buf[c].other].name);
+                assert_int_equal(g->link_triangle, (int)buf[c].link_triangle);
+                assert_int_equal(g->other_triangle, (int)buf[c].other_triangle);
+            }
+        }
+        assert_int_equal(rep.num_contacts, (int)k);
+        assert_true(invalid > 0 && invalid < STATES);
+        trioct_state_reply_t_decode_cleanup(&rep);
+    }
+    /* Refused before any work: duplicate link names, a pose count that is no whole state. */
+    trioct_state_link_t twice[2] = {{"left", "cube", 0, NULL}, {"left", "cube", 0, NULL}};
+    trioct_state_request_t q = {header("edited"), 0, 0, 2, twice, 0, NULL, NULL, 2, poses};
+    trioct_state_reply_t rep = ask_state("edited", &q);
+    assert_int_equal(rep.header.status, TRIOCT_ERR_BAD_REQUEST);
+    assert_non_null(strstr(rep.header.message, "both named left"));
+    trioct_state_reply_t_decode_cleanup(&rep);
+    q = (trioct_state_request_t){header("edited"), 0, 0, 2, links, 0, NULL, NULL, 3, poses};
+    rep = ask_state("edited", &q);
+    assert_int_equal(rep.header.status, TRIOCT_ERR_BAD_REQUEST);
+    assert_non_null(strstr(rep.header.message, "whole number of states"));
+    trioct_state_reply_t_decode_cleanup(&rep);
+    free(tris);
+    world_release(w);
+    assert_int_equal(registry_remove(F.reg, "edited"), 0);
+}
+
 /* ---------- status codes ---------- */
 
 static int provoked[TRIOCT_WIRE_STATUS_COUNT];
@@ -2256,6 +2371,7 @@ int main(void)
         cmocka_unit_test(test_result_caps_are_errors_not_cuts),
         cmocka_unit_test(test_every_status_code),
         cmocka_unit_test(test_object_edits_answer_as_posed_trees),
+        cmocka_unit_test(test_states_answer_as_the_object_set),
         cmocka_unit_test(test_list_and_info_describe_the_worlds),
         cmocka_unit_test(test_load_and_unload),
         cmocka_unit_test(test_list_comes_in_chunks),

@@ -36,6 +36,7 @@
 #include "../tools/replay/replay_log.h"
 #include "../tools/replay/replay_match.h"
 #include "trioct_object_reply_t.h"
+#include "trioct_state_reply_t.h"
 #include "trioct_ray_reply_t.h"
 #include "trioct_ray_request_t.h"
 #include "trioct_status.h"
@@ -431,8 +432,8 @@ static const log_case cases[] = {
      {7, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 12}},
     {"touch", "scene.ini", "requests 10 (0 malformed), replies 10: 10 matched, 0 mismatched, 0 missing, 0 extra (0 to nobody)",
      {8, 2}},
-    {"objects", "scene.ini", "requests 38 (0 malformed), replies 38: 38 matched, 0 mismatched, 0 missing, 0 extra (0 to nobody)",
-     {27, 4, 0, 1, 0, 0, 0, 1, 0, 0, 1, 0, 0, 0, 2, 1, 1}},
+    {"objects", "scene.ini", "requests 44 (0 malformed), replies 44: 44 matched, 0 mismatched, 0 missing, 0 extra (0 to nobody)",
+     {30, 4, 0, 1, 0, 0, 1, 1, 0, 0, 1, 0, 1, 0, 2, 1, 2}},
 };
 #define CASES (sizeof cases / sizeof cases[0])
 
@@ -594,8 +595,8 @@ static void test_objects_golden_follows_the_edits(void **state)
     assert_int_equal(replay_proto_from_scene(&p, LOGS "/scene.ini", err, sizeof err), 0);
     assert_int_equal(replay_log_read(LOGS "/objects.golden.lcmlog", &log, err, sizeof err), 0);
     assert_int_equal(replay_book_build(&b, &log, &p, err, sizeof err), 0);
-    const replay_reply *r[39] = {0};
-    for (int id = 1; id <= 38; id++) {
+    const replay_reply *r[45] = {0};
+    for (int id = 1; id <= 44; id++) {
         size_t n;
         r[id] = replay_book_replies(&b, 0x80, id, &n);
         assert_non_null(r[id]);
@@ -660,6 +661,32 @@ static void test_objects_golden_follows_the_edits(void **state)
     assert_string_equal(((const trioct_object_info_t *)r[37]->records[0])->name, "yard");
     assert_int_equal(r[38]->num_names, 1);
     assert_string_equal(r[38]->names[0], "yard");
+
+    /* States: the verdicts agree with the contact lists; allowed pairs never appear; with
+     * self-collision the finger inside the hand is a link-link contact. */
+    const trioct_state_reply_t *v39 = r[39]->chunk[0];
+    int invalid = 0;
+    for (int s = 0; s < 12; s++) {
+        assert_true(r[39]->found[s] <= 1);
+        assert_int_equal(v39->valid[s], r[40]->found[s] == 0);
+        invalid += !v39->valid[s];
+    }
+    assert_true(invalid > 0 && invalid < 12);
+    int self = 0;
+    for (size_t k = 0; k < r[41]->num_records; k++) {
+        const trioct_state_contact_t *c = r[41]->records[k];
+        if (c->with_link) {
+            self++;
+            continue;
+        }
+        const char *other = r[41]->names[c->other];
+        assert_false(c->link == 0 && strcmp(other, "floor") == 0);   /* hand:floor allowed */
+        assert_false(c->link == 1 && strcmp(other, "crate_b") == 0); /* crate_b:finger allowed */
+    }
+    assert_true(self > 0);
+    assert_int_equal(r[42]->header->status, TRIOCT_ERR_UNKNOWN_SHAPE);
+    assert_int_equal(r[43]->header->status, TRIOCT_ERR_BAD_POSE);
+    assert_int_equal(r[44]->header->status, TRIOCT_ERR_EFFECT);
     replay_book_free(&b);
     replay_log_free(&log);
 }

@@ -24,6 +24,8 @@
 #include "trioct_mesh_request_t.h"
 #include "trioct_object_edit_request_t.h"
 #include "trioct_object_reply_t.h"
+#include "trioct_state_reply_t.h"
+#include "trioct_state_request_t.h"
 #include "trioct_ray_reply_t.h"
 #include "trioct_ray_request_t.h"
 #include "trioct_ray_request_v1_t.h"
@@ -100,7 +102,7 @@ static int64_t random_i64(rng *r) { return (int64_t)(rng_next(r) >> 1) * ((rng_n
 
 static void *array_of(int32_t count, size_t element_size)
 {
-    if (count == 0)
+    if (count <= 0)
         return NULL;
     void *p = calloc((size_t)count, element_size);
     assert_non_null(p);
@@ -371,6 +373,48 @@ static void make_object_reply(rng *r, variant v, trioct_object_reply_t *m)
     }
 }
 
+static void make_state_request(rng *r, variant v, trioct_state_request_t *m)
+{
+    fill_request_header(r, v, &m->header);
+    m->detail = (int8_t)random_i32(r);
+    m->self_collision = (int8_t)random_i32(r);
+    m->num_links = pick_count(r, v);
+    m->links = array_of(m->num_links, sizeof *m->links);
+    for (int32_t i = 0; i < m->num_links; i++) {
+        trioct_state_link_t *l = &m->links[i];
+        l->name = random_text(r, v);
+        l->shape = random_text(r, v);
+        l->num_triangles = pick_count(r, v);
+        l->triangles = array_of(l->num_triangles, sizeof *l->triangles);
+        fill_triangles(r, l->triangles, l->num_triangles);
+    }
+    m->num_allowed = pick_count(r, v);
+    m->allowed_a = random_names(r, v, m->num_allowed);
+    m->allowed_b = random_names(r, v, m->num_allowed);
+    m->num_poses = pick_count(r, v);
+    m->poses = array_of(m->num_poses, sizeof *m->poses);
+    for (int32_t i = 0; i < m->num_poses; i++)
+        random_pose(r, &m->poses[i]);
+}
+
+static void make_state_reply(rng *r, variant v, trioct_state_reply_t *m)
+{
+    fill_reply_header(r, v, &m->header);
+    m->detail = (int8_t)random_i32(r);
+    m->num_states = pick_count(r, v);
+    m->valid = array_of(m->num_states, sizeof *m->valid);
+    for (int32_t i = 0; i < m->num_states; i++)
+        m->valid[i] = (int8_t)random_i32(r);
+    m->found = random_found(r, m->num_states);
+    m->num_objects = pick_count(r, v);
+    m->objects = random_names(r, v, m->num_objects);
+    m->num_contacts = pick_count(r, v);
+    m->contacts = array_of(m->num_contacts, sizeof *m->contacts);
+    for (int32_t i = 0; i < m->num_contacts; i++)
+        m->contacts[i] = (trioct_state_contact_t){random_i32(r), random_i32(r), (int8_t)random_i32(r),
+                                                  random_i32(r), random_i32(r), random_i32(r)};
+}
+
 static void make_status(rng *r, variant v, trioct_status_t *m)
 {
     m->utime = random_i64(r);
@@ -381,7 +425,7 @@ static void make_status(rng *r, variant v, trioct_status_t *m)
     m->threads = random_i32(r);
     m->queue_depth = random_i32(r);
     m->queue_capacity = random_i32(r);
-    for (int k = 0; k < 5; k++)
+    for (int k = 0; k < 6; k++)
         m->served[k] = random_i64(r);
     m->malformed = random_i64(r);
     m->num_status_codes = pick_count(r, v);
@@ -636,12 +680,49 @@ static void lay_object_reply(layout *l, const trioct_object_reply_t *m)
     }
 }
 
+static void lay_state_request(layout *l, const trioct_state_request_t *m)
+{
+    lay_request_header(l, &m->header);
+    lay_bytes(l, 1 + 1);
+    lay_count(l, "num_links", m->num_links);
+    for (int32_t i = 0; i < m->num_links; i++) {
+        const trioct_state_link_t *k = &m->links[i];
+        snprintf(l->scope, sizeof l->scope, "links[%d].", (int)i);
+        lay_string(l, "name", &k->name);
+        lay_string(l, "shape", &k->shape);
+        lay_count(l, "num_triangles", k->num_triangles);
+        lay_bytes(l, __trioct_triangle_t_encoded_array_size(k->triangles, k->num_triangles));
+        l->scope[0] = '\0';
+    }
+    lay_count(l, "num_allowed", m->num_allowed);
+    for (int32_t i = 0; i < m->num_allowed; i++)
+        lay_string_element(l, "allowed_a", (int)i, &m->allowed_a[i]);
+    for (int32_t i = 0; i < m->num_allowed; i++)
+        lay_string_element(l, "allowed_b", (int)i, &m->allowed_b[i]);
+    lay_count(l, "num_poses", m->num_poses);
+    lay_bytes(l, __trioct_pose_t_encoded_array_size(m->poses, m->num_poses));
+}
+
+static void lay_state_reply(layout *l, const trioct_state_reply_t *m)
+{
+    lay_reply_header(l, &m->header);
+    lay_bytes(l, 1);
+    lay_count(l, "num_states", m->num_states);
+    lay_bytes(l, __int8_t_encoded_array_size(m->valid, m->num_states));
+    lay_bytes(l, __int32_t_encoded_array_size(m->found, m->num_states));
+    lay_count(l, "num_objects", m->num_objects);
+    for (int32_t k = 0; k < m->num_objects; k++)
+        lay_string_element(l, "objects", (int)k, &m->objects[k]);
+    lay_count(l, "num_contacts", m->num_contacts);
+    lay_bytes(l, __trioct_state_contact_t_encoded_array_size(m->contacts, m->num_contacts));
+}
+
 static void lay_status(layout *l, const trioct_status_t *m)
 {
     lay_bytes(l, 8);
     lay_string(l, "daemon", &m->daemon);
     lay_string(l, "version", &m->version);
-    lay_bytes(l, 8 + 1 + 3 * 4 + 5 * 8 + 8);
+    lay_bytes(l, 8 + 1 + 3 * 4 + 6 * 8 + 8);
     lay_count(l, "num_status_codes", m->num_status_codes);
     lay_bytes(l, __int64_t_encoded_array_size(m->replies_by_status, m->num_status_codes));
     lay_bytes(l, 3 * 8);
@@ -663,6 +744,8 @@ typedef union any_message {
     trioct_ray_request_v1_t ray_request_v1;
     trioct_object_edit_request_t object_edit_request;
     trioct_object_reply_t object_reply;
+    trioct_state_request_t state_request;
+    trioct_state_reply_t state_reply;
 } any_message;
 
 typedef struct codec {
@@ -704,6 +787,8 @@ CODEC_FUNCTIONS(status)
 CODEC_FUNCTIONS(ray_request_v1)
 CODEC_FUNCTIONS(object_edit_request)
 CODEC_FUNCTIONS(object_reply)
+CODEC_FUNCTIONS(state_request)
+CODEC_FUNCTIONS(state_reply)
 
 #define CODEC_ENTRY(type, member)                                                                     \
     {type, #member "_t", codec_make_##member, codec_lay_##member, codec_encode_##member,              \
@@ -716,6 +801,7 @@ static const codec codecs[WIRE_TYPE_COUNT] = {
     CODEC_ENTRY(WIRE_MESH_REPLY, mesh_reply),       CODEC_ENTRY(WIRE_ADMIN_REPLY, admin_reply),
     CODEC_ENTRY(WIRE_STATUS, status),               CODEC_ENTRY(WIRE_RAY_REQUEST_V1, ray_request_v1),
     CODEC_ENTRY(WIRE_OBJECT_EDIT_REQUEST, object_edit_request), CODEC_ENTRY(WIRE_OBJECT_REPLY, object_reply),
+    CODEC_ENTRY(WIRE_STATE_REQUEST, state_request), CODEC_ENTRY(WIRE_STATE_REPLY, state_reply),
 };
 
 /* ---------- samples: encoded messages with their layout ---------- */
@@ -1285,7 +1371,7 @@ static void test_short_absent_and_oversized_input_is_rejected(void **state)
         assert_non_null(strstr(err.what, "more than LCM can encode"));
     }
     assert_int_equal(wire_check(WIRE_TYPE_COUNT, fingerprint, 8, &err), -1);
-    assert_string_equal(err.what, "wire type 12 is unknown");
+    assert_string_equal(err.what, "wire type 14 is unknown");
     assert_int_equal(wire_check((wire_type)-3, fingerprint, 8, NULL), -1);
 }
 

@@ -7,6 +7,7 @@
 #include <string.h>
 
 #include "cli.h"
+#include "cli_pose.h"
 #include "cli_text.h"
 
 /* ---- --pose x y z qw qx qy qz --------------------------------------------------------- */
@@ -29,18 +30,8 @@ static int take_pose(int *argc, char **argv, int *found, trioct_pose *out, char 
             snprintf(err, err_len, "--pose takes seven numbers: x y z qw qx qy qz");
             return -1;
         }
-        double v[7];
-        for (int k = 0; k < 7; k++)
-            if (cli_parse_double(argv[i + 1 + k], 0, &v[k]) != 0) {
-                snprintf(err, err_len, "--pose: '%.40s' is not a finite number (x y z qw qx qy qz)", argv[i + 1 + k]);
-                return -1;
-            }
-        int st = trioct_pose_from_quaternion(v[0], v[1], v[2], v[3], v[4], v[5], v[6], out);
-        if (st != TRIOCT_OK) {
-            snprintf(err, err_len, "--pose: the quaternion (%g %g %g %g) is not of length 1 within 1e-3", v[3], v[4],
-                     v[5], v[6]);
+        if (cli_parse_quaternion_pose(&argv[i + 1], "--pose", out, err, err_len) != 0)
             return -1;
-        }
         memmove(&argv[i], &argv[i + 8], (size_t)(*argc - i - 8) * sizeof *argv);
         *argc -= 8;
         *found = 1;

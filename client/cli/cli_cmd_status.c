@@ -79,6 +79,7 @@ static void daemon_json(cli_json *j, const trioct_daemon_status *s)
     cli_json_key_int(j, "mesh", s->served[2]);
     cli_json_key_int(j, "admin", s->served[3]);
     cli_json_key_int(j, "objects", s->served[4]);
+    cli_json_key_int(j, "state", s->served[5]);
     cli_json_object_end(j);
     cli_json_key_int(j, "errors", error_replies(s));
     cli_json_key(j, "replies_by_status");
@@ -139,8 +140,8 @@ static int daemon_print(cli_context *ctx, const trioct_daemon_status *s)
     fprintf(out, "  queue     %d of %d\n", s->queue_depth, s->queue_capacity);
     fprintf(out,
             "  served    ray %" PRId64 ", triangle %" PRId64 ", mesh %" PRId64 ", admin %" PRId64
-            ", objects %" PRId64 "\n",
-            s->served[0], s->served[1], s->served[2], s->served[3], s->served[4]);
+            ", objects %" PRId64 ", state %" PRId64 "\n",
+            s->served[0], s->served[1], s->served[2], s->served[3], s->served[4], s->served[5]);
     if (s->latency_count > 0)
         fprintf(out,
                 "  latency   p50 %" PRId64 " us, p99 %" PRId64 " us (%" PRId64

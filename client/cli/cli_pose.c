@@ -5,6 +5,8 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "cli_args.h"
+#include "quaternion.h"
 #include "cli_csv.h"
 
 /* M_PI is XSI, not C11 or plain POSIX. */
@@ -113,4 +115,23 @@ void cli_pose_list_free(cli_pose_list *list)
 {
     free(list->poses);
     memset(list, 0, sizeof *list);
+}
+
+int cli_parse_quaternion_pose(char *const text[7], const char *what, trioct_pose *out, char *err, size_t err_len)
+{
+    double v[7];
+    for (int k = 0; k < 7; k++)
+        if (cli_parse_double(text[k], 0, &v[k]) != 0) {
+            snprintf(err, err_len, "%s: '%.40s' is not a finite number (x y z qw qx qy qz)", what, text[k]);
+            return -1;
+        }
+    /* The library's trioct_pose_from_quaternion makes the same matrix; the header-only form
+     * keeps this file free of the library, as the parser's tests link it alone. */
+    if (trioct_quaternion_matrix(v[3], v[4], v[5], v[6], out->r) != TRIOCT_QUATERNION_OK) {
+        snprintf(err, err_len, "%s: the quaternion (%g %g %g %g) is not of length 1 within 1e-3", what, v[3], v[4],
+                 v[5], v[6]);
+        return -1;
+    }
+    out->t = (trioct_vec3){v[0], v[1], v[2]};
+    return 0;
 }

@@ -15,6 +15,10 @@ void cli_rotation_degrees(double rx, double ry, double rz, double r[9]);
 /* Parses "tx ty tz" or "tx ty tz rx ry rz" (blanks or commas). 0, or -1 with err. */
 int cli_parse_pose(const char *text, trioct_pose *out, char *err, size_t err_len);
 
+/* Seven arguments "x y z qw qx qy qz": a position and a quaternion, normalised as the
+ * daemon would (trioct_pose_from_quaternion). 0, or -1 with err (what names the option). */
+int cli_parse_quaternion_pose(char *const text[7], const char *what, trioct_pose *out, char *err, size_t err_len);
+
 typedef struct cli_pose_list {
     size_t count, cap;
     trioct_pose *poses;

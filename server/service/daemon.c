@@ -35,6 +35,7 @@ static const trioct_channel_kind world_kinds[] = {
     TRIOCT_CHANNEL_MESH,
     TRIOCT_CHANNEL_ADMIN,
     TRIOCT_CHANNEL_OBJECTS,
+    TRIOCT_CHANNEL_STATE,
 };
 #define WORLD_KINDS (sizeof world_kinds / sizeof world_kinds[0])
 
@@ -166,6 +167,7 @@ static const char *const type_names[REQUEST_TYPE_COUNT] = {
     [REQUEST_MESH] = "mesh",
     [REQUEST_ADMIN] = "admin",
     [REQUEST_OBJECTS] = "objects",
+    [REQUEST_STATE] = "state",
 };
 
 static void publish_status(daemon *d);

@@ -71,6 +71,7 @@ static const wire_type wire_of[REQUEST_TYPE_COUNT] = {
     [REQUEST_MESH] = WIRE_MESH_REQUEST,
     [REQUEST_ADMIN] = WIRE_ADMIN_REQUEST,
     [REQUEST_OBJECTS] = WIRE_OBJECT_EDIT_REQUEST,
+    [REQUEST_STATE] = WIRE_STATE_REQUEST,
 };
 
 /* Offsets after the header of the fields dispatch_is_small reads: ray_request_t (and v1)
@@ -155,6 +156,9 @@ static dispatch_peek_result peek(const dispatch_ctx *ctx, const char *channel, c
         break;
     case TRIOCT_CHANNEL_OBJECTS:
         type = REQUEST_OBJECTS;
+        break;
+    case TRIOCT_CHANNEL_STATE:
+        type = REQUEST_STATE;
         break;
     default:
         return PEEK_NOT_MINE; /* STATUS: another daemon's heartbeat */
@@ -314,7 +318,7 @@ static int check_admin_channel(job *j)
 static int channel_has_world(trioct_channel_kind kind)
 {
     return kind == TRIOCT_CHANNEL_RAY || kind == TRIOCT_CHANNEL_TRI || kind == TRIOCT_CHANNEL_MESH ||
-           kind == TRIOCT_CHANNEL_ADMIN || kind == TRIOCT_CHANNEL_OBJECTS;
+           kind == TRIOCT_CHANNEL_ADMIN || kind == TRIOCT_CHANNEL_OBJECTS || kind == TRIOCT_CHANNEL_STATE;
 }
 
 static const struct {
@@ -325,6 +329,7 @@ static const struct {
     [REQUEST_RAY] = {EFFECT_RAYS, "rays", "ray"},
     [REQUEST_TRIANGLE] = {EFFECT_TRIANGLES, "triangles", "triangle"},
     [REQUEST_MESH] = {EFFECT_MESHES, "meshes", "mesh"},
+    [REQUEST_STATE] = {EFFECT_MESHES, "meshes", "state"},
 };
 
 /* "rays", "rays and meshes", ...: what a world serves, for a person. */
@@ -431,6 +436,14 @@ static int run_request(job *j, const void *bytes, size_t size)
             break;
         status = dispatch_mesh(j, &m);
         trioct_mesh_request_t_decode_cleanup(&m);
+        return status;
+    }
+    case REQUEST_STATE: {
+        trioct_state_request_t m;
+        if (trioct_state_request_t_decode(bytes, 0, len, &m) < 0)
+            break;
+        status = dispatch_state(j, &m);
+        trioct_state_request_t_decode_cleanup(&m);
         return status;
     }
     case REQUEST_OBJECTS: {

@@ -31,6 +31,7 @@ typedef enum request_type {
     REQUEST_MESH = 2,
     REQUEST_ADMIN = 3,
     REQUEST_OBJECTS = 4,
+    REQUEST_STATE = 5,
     REQUEST_TYPE_COUNT
 } request_type;
 

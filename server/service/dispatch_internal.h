@@ -6,6 +6,7 @@
  *   dispatch_posed.c    the same asked of a world of posed objects; the replies' object names
  *   dispatch_admin.c    LIST, INFO, LOAD, UNLOAD and world_info_t
  *   dispatch_objects.c  object edits and listings
+ *   dispatch_state.c    robot state checks
  *   dispatch_encode.c   replies cut into chunks that each fit TRIOCT_MAX_CHUNK_BYTES */
 #ifndef TRIOCT_SERVICE_DISPATCH_INTERNAL_H
 #define TRIOCT_SERVICE_DISPATCH_INTERNAL_H
@@ -21,6 +22,8 @@
 #include "trioct_mesh_request_t.h"
 #include "trioct_object_edit_request_t.h"
 #include "trioct_object_reply_t.h"
+#include "trioct_state_reply_t.h"
+#include "trioct_state_request_t.h"
 #include "trioct_ray_reply_t.h"
 #include "trioct_ray_request_t.h"
 #include "trioct_ray_request_v1_t.h"
@@ -90,6 +93,7 @@ int dispatch_triangle(job *j, const trioct_triangle_request_t *m);
 int dispatch_mesh(job *j, const trioct_mesh_request_t *m);
 int dispatch_admin(job *j, const trioct_admin_request_t *m);
 int dispatch_objects(job *j, const trioct_object_edit_request_t *m);
+int dispatch_state(job *j, const trioct_state_request_t *m);
 
 /* ---------- replies ---------- */
 
@@ -150,6 +154,12 @@ int encode_admin_reply(dispatch_reply *out, const reply_head *h, int8_t op,
 /* An object reply: count objects of infos (NULL: none listed) split over the chunks. */
 int encode_object_reply(dispatch_reply *out, const reply_head *h, int32_t failed_edit, int64_t objects,
                         int64_t triangles, const trioct_object_info_t *infos, size_t count);
+
+/* A state reply: chunk 0 carries valid[] and found[] of the states and the object names;
+ * the count contacts are split over the chunks. */
+int encode_state_reply(dispatch_reply *out, const reply_head *h, int8_t detail, int32_t states, const int8_t *valid,
+                       const int32_t *found, int32_t object_count, char **objects,
+                       const trioct_state_contact_t *contacts, size_t count);
 
 /* One chunk, no results, of the reply type for type. */
 int encode_error_reply(dispatch_reply *out, request_type type, const reply_head *h, int8_t detail);

@@ -1119,6 +1119,57 @@ static void test_objects(void **state)
     jfree(v);
 }
 
+/* A robot state of cube links over the box: resting on the top is a contact with the box
+ * (coplanar faces), lifted it is clear; two overlapping links collide with --self unless
+ * their pair is allowed; allowing the box leaves the resting link clear. */
+static void test_state(void **state)
+{
+    (void)state;
+    jv *v = JSON(0, "state", "box", "--link", "cube", "2", "2", "2.5", "1", "0", "0", "0", "--contacts");
+    assert_false(jbool(v, "valid"));
+    assert_true(jlen(v, "contacts") > 0);
+    assert_string_equal(jstr(v, "contacts.0.link"), "cube");
+    assert_string_equal(jstr(v, "contacts.0.other"), "box");
+    assert_string_equal(jstr(v, "contacts.0.other_kind"), "object");
+    int tri = (int)jnum(v, "contacts.0.other_triangle");
+    assert_true(tri == 0 || tri == 1); /* the top */
+    jfree(v);
+
+    v = JSON(0, "state", "box", "--link", "cube", "2", "2", "2.5", "1", "0", "0", "0", "--allow", "box:cube");
+    assert_true(jbool(v, "valid"));
+    jfree(v);
+
+    /* Two cubes overlapping in the air: clear of the world, not of each other. */
+    v = JSON(0, "state", "box", "--link", "cube", "2", "2", "5", "1", "0", "0", "0", "--link", "cube", "2.5", "2", "5",
+             "0.7071067811865476", "0", "0", "0.7071067811865476");
+    assert_true(jbool(v, "valid"));
+    jfree(v);
+    v = JSON(0, "state", "box", "--link", "cube", "2", "2", "5", "1", "0", "0", "0", "--link", "cube", "2.5", "2", "5",
+             "0.7071067811865476", "0", "0", "0.7071067811865476", "--self");
+    assert_false(jbool(v, "valid"));
+    assert_string_equal(jstr(v, "contacts.0.other"), "cube.2");
+    assert_string_equal(jstr(v, "contacts.0.other_kind"), "link");
+    jfree(v);
+    v = JSON(0, "state", "box", "--link", "cube", "2", "2", "5", "1", "0", "0", "0", "--link", "cube", "2.5", "2", "5",
+             "1", "0", "0", "0", "--self", "--allow", "cube.2:cube");
+    assert_true(jbool(v, "valid"));
+    jfree(v);
+
+    cli_run r = CLI("state", "box", "--link", "cube", "2", "2", "2.5", "1", "0", "0", "0");
+    expect_code(&r, 0);
+    expect_text(r.out, "1 link: in collision");
+    run_free(&r);
+    v = JSON(1, "state", "box", "--link", "nosuch", "0", "0", "0", "1", "0", "0", "0");
+    assert_string_equal(jstr(v, "status"), "ERR_UNKNOWN_SHAPE");
+    jfree(v);
+    v = JSON(1, "state", "box_rays", "--link", "cube", "0", "0", "0", "1", "0", "0", "0");
+    assert_string_equal(jstr(v, "status"), "ERR_EFFECT");
+    jfree(v);
+    r = CLI("state", "box", "--link", "cube", "0", "0", "0");
+    expect_code(&r, 2);
+    run_free(&r);
+}
+
 static void test_load_and_unload(void **state)
 {
     (void)state;
@@ -1438,6 +1489,7 @@ int main(int argc, char **argv)
         cmocka_unit_test(test_exit_bad_reply),
         cmocka_unit_test(test_status),
         cmocka_unit_test(test_objects),
+        cmocka_unit_test(test_state),
     };
     return cmocka_run_group_tests(tests, group_setup, group_teardown);
 }

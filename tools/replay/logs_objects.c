@@ -135,5 +135,44 @@ int logs_write_objects(const char *dir)
     yard.id = ++q.id;
     lr_rays_contact(&w, &yard, TRIOCT_RAY_REQUEST_T_CLOSEST, WORLD_ACC, TRIOCT_RAY_REQUEST_T_CROSSING, 0, INFINITY, 1,
                     24, p.o, p.d);
+
+    /* Robot states against the shop as it now stands: a hand (the probe) and a finger (an
+     * inline box) at twelve states near the crates, first each state's verdict, then every
+     * contact, then with the floor allowed for the hand, the finger allowed on crate_b and
+     * the two checked against each other (contact is surface contact: the finger is set
+ * through the hand's side, not inside it). */
+    trioct_triangle_t finger[12];
+    const double fh = 0.2;
+    const trioct_vec3_t fc[8] = {{-fh, -fh, -fh}, {fh, -fh, -fh}, {fh, fh, -fh}, {-fh, fh, -fh},
+                                 {-fh, -fh, fh},  {fh, -fh, fh},  {fh, fh, fh},  {-fh, fh, fh}};
+    for (int f = 0; f < 12; f++)
+        finger[f] = (trioct_triangle_t){fc[faces[f][0]], fc[faces[f][1]], fc[faces[f][2]]};
+    const trioct_state_link_t links[2] = {{"hand", "probe", 0, NULL}, {"finger", "", 12, finger}};
+    enum { STATES = 12 };
+    trioct_pose_t at[2 * STATES];
+    ls_poses(&r, 2 * STATES, ls_vec(-6, -6, 0), ls_vec(6, 6, 3), at);
+    for (int s = 0; s < STATES; s += 3) { /* every third state: the finger through the hand's side */
+        at[2 * s + 1] = at[2 * s];
+        at[2 * s + 1].t.x += 0.25;
+    }
+    lr_req st = {OBJECTS_CLIENT, 0, "REPLAY_OBJECTS", "shop", NULL, 0};
+    st.id = ++q.id;
+    lr_state(&w, &st, TRIOCT_STATE_REQUEST_T_VALID, 0, 2, links, 0, NULL, NULL, 2 * STATES, at);
+    st.id = ++q.id;
+    lr_state(&w, &st, TRIOCT_STATE_REQUEST_T_CONTACTS, 0, 2, links, 0, NULL, NULL, 2 * STATES, at);
+    char *allow_a[2] = {"hand", "crate_b"}, *allow_b[2] = {"floor", "finger"};
+    st.id = ++q.id;
+    lr_state(&w, &st, TRIOCT_STATE_REQUEST_T_CONTACTS, 1, 2, links, 2, allow_a, allow_b, 2 * STATES, at);
+    /* Refused: a shape the world does not register, a pose that is not a rotation, a world
+     * that does not serve meshes. */
+    const trioct_state_link_t ghost[1] = {{"hand", "nothing", 0, NULL}};
+    st.id = ++q.id;
+    lr_state(&w, &st, TRIOCT_STATE_REQUEST_T_VALID, 0, 1, ghost, 0, NULL, NULL, 1, at);
+    trioct_pose_t skew[2] = {at[0], at[1]};
+    skew[1].r[1] += 0.1;
+    st.id = ++q.id;
+    lr_state(&w, &st, TRIOCT_STATE_REQUEST_T_VALID, 0, 2, links, 0, NULL, NULL, 2, skew);
+    lr_req rays_only = {OBJECTS_CLIENT, ++q.id, "REPLAY_OBJECTS", "spare", NULL, 0};
+    lr_state(&w, &rays_only, TRIOCT_STATE_REQUEST_T_VALID, 0, 2, links, 0, NULL, NULL, 2, at);
     return lw_save(&w, dir, "objects");
 }

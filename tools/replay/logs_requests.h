@@ -33,6 +33,11 @@ void lr_admin(logs_writer *w, const lr_req *q, int8_t op, const char *mesh_path)
 /* An object edit list (n edits, maybe none) on the world's OBJECTS channel; list: the
  * reply lists the objects. */
 void lr_objects(logs_writer *w, const lr_req *q, int list, int n, const trioct_object_edit_t *edits);
+/* A state check of n_links links at n_poses poses (n_links per state), with n_allowed
+ * pairs a[i]:b[i]. */
+void lr_state(logs_writer *w, const lr_req *q, int8_t detail, int8_t self_collision, int n_links,
+              const trioct_state_link_t *links, int n_allowed, char **a, char **b, int n_poses,
+              const trioct_pose_t *poses);
 /* A LOAD with every option. */
 void lr_load(logs_writer *w, const lr_req *q, const char *mesh_path, double resolution, int8_t accuracy,
              double seed_epsilon, int32_t effects);

@@ -91,6 +91,11 @@ static uint8_t *encode_objects(const trioct_object_edit_request_t *m, size_t *si
     ENCODE(trioct_object_edit_request_t, m, size);
 }
 
+static uint8_t *encode_state(const trioct_state_request_t *m, size_t *size)
+{
+    ENCODE(trioct_state_request_t, m, size);
+}
+
 void lw_ray(logs_writer *w, const char *channel, const trioct_ray_request_t *m)
 {
     size_t n;
@@ -130,6 +135,13 @@ void lw_objects(logs_writer *w, const char *channel, const trioct_object_edit_re
 {
     size_t n;
     uint8_t *b = encode_objects(m, &n);
+    push(w, channel, b, n);
+}
+
+void lw_state(logs_writer *w, const char *channel, const trioct_state_request_t *m)
+{
+    size_t n;
+    uint8_t *b = encode_state(m, &n);
     push(w, channel, b, n);
 }
 

@@ -15,6 +15,7 @@
 #include "trioct_admin_request_t.h"
 #include "trioct_mesh_request_t.h"
 #include "trioct_object_edit_request_t.h"
+#include "trioct_state_request_t.h"
 #include "trioct_ray_request_t.h"
 #include "trioct_ray_request_v1_t.h"
 #include "trioct_triangle_request_t.h"
@@ -47,6 +48,7 @@ void lw_triangle(logs_writer *w, const char *channel, const trioct_triangle_requ
 void lw_mesh(logs_writer *w, const char *channel, const trioct_mesh_request_t *m);
 void lw_admin(logs_writer *w, const char *channel, const trioct_admin_request_t *m);
 void lw_objects(logs_writer *w, const char *channel, const trioct_object_edit_request_t *m);
+void lw_state(logs_writer *w, const char *channel, const trioct_state_request_t *m);
 
 /* The encoding of a request, for hostile variations of it (caller frees); NULL on failure. */
 uint8_t *lw_encode_ray(const trioct_ray_request_t *m, size_t *size);

@@ -7,6 +7,7 @@
 #include "trioct_admin_reply_t.h"
 #include "trioct_mesh_reply_t.h"
 #include "trioct_object_reply_t.h"
+#include "trioct_state_reply_t.h"
 #include "trioct_ray_reply_t.h"
 #include "trioct_triangle_reply_t.h"
 
@@ -23,6 +24,8 @@ size_t replay_reply_struct_size(wire_type type)
         return sizeof(trioct_admin_reply_t);
     case WIRE_OBJECT_REPLY:
         return sizeof(trioct_object_reply_t);
+    case WIRE_STATE_REPLY:
+        return sizeof(trioct_state_reply_t);
     default:
         return 0;
     }
@@ -43,6 +46,8 @@ int replay_reply_decode(wire_type type, const void *bytes, size_t size, void *ms
         return trioct_admin_reply_t_decode(bytes, 0, n, msg) == n ? 0 : -1;
     case WIRE_OBJECT_REPLY:
         return trioct_object_reply_t_decode(bytes, 0, n, msg) == n ? 0 : -1;
+    case WIRE_STATE_REPLY:
+        return trioct_state_reply_t_decode(bytes, 0, n, msg) == n ? 0 : -1;
     default:
         return -1;
     }
@@ -65,6 +70,9 @@ void replay_reply_cleanup(wire_type type, void *msg)
         break;
     case WIRE_OBJECT_REPLY:
         trioct_object_reply_t_decode_cleanup(msg);
+        break;
+    case WIRE_STATE_REPLY:
+        trioct_state_reply_t_decode_cleanup(msg);
         break;
     default:
         break;
@@ -133,6 +141,9 @@ static int32_t chunk_names(wire_type type, void *m, char ***names)
     case WIRE_MESH_REPLY:
         *names = ((trioct_mesh_reply_t *)m)->objects;
         return ((trioct_mesh_reply_t *)m)->num_objects;
+    case WIRE_STATE_REPLY:
+        *names = ((trioct_state_reply_t *)m)->objects;
+        return ((trioct_state_reply_t *)m)->num_objects;
     default:
         *names = NULL;
         return 0;
@@ -146,6 +157,15 @@ static size_t chunk_records(wire_type type, void *m, const void **base, size_t *
     *segs = NULL;
     *nsegs = 0;
     switch (type) {
+    case WIRE_STATE_REPLY: {
+        trioct_state_reply_t *r = m;
+        *base = r->contacts;
+        *stride = sizeof *r->contacts;
+        *items = r->num_states;
+        *found = r->found;
+        *detail = r->detail;
+        return (size_t)r->num_contacts;
+    }
     case WIRE_OBJECT_REPLY: {
         trioct_object_reply_t *r = m;
         *base = r->list;

@@ -9,6 +9,7 @@
 #include "trioct_contact_t.h"
 #include "trioct_mesh_pair_t.h"
 #include "trioct_object_reply_t.h"
+#include "trioct_state_reply_t.h"
 #include "trioct_ray_hit_t.h"
 #include "trioct_ray_request_t.h"
 #include "trioct_status.h"
@@ -147,6 +148,7 @@ typedef int32_t (*item_of_fn)(const void *record);
 static int32_t hit_ray(const void *r) { return ((const trioct_ray_hit_t *)r)->ray; }
 static int32_t contact_query(const void *r) { return ((const trioct_contact_t *)r)->query; }
 static int32_t pair_pose(const void *r) { return ((const trioct_mesh_pair_t *)r)->pose; }
+static int32_t state_of(const void *r) { return ((const trioct_state_contact_t *)r)->state; }
 
 static int group(groups *g, const replay_reply *r, int32_t items, item_of_fn item_of)
 {
@@ -242,6 +244,19 @@ static void pair_cmp(diff *d, const char *where, const replay_reply *e, size_t k
     cmp_i64(d, where, "world triangle", a->world_triangle, b->world_triangle);
 }
 
+static void state_cmp(diff *d, const char *where, const replay_reply *e, size_t ke, const replay_reply *g, size_t kg)
+{
+    const trioct_state_contact_t *a = e->records[ke], *b = g->records[kg];
+    cmp_i64(d, where, "link", a->link, b->link);
+    cmp_i64(d, where, "with_link", a->with_link, b->with_link);
+    if (a->with_link && b->with_link)
+        cmp_i64(d, where, "other link", a->other, b->other);
+    else if (!a->with_link && !b->with_link)
+        cmp_object(d, where, e, a->other, g, b->other);
+    cmp_i64(d, where, "link triangle", a->link_triangle, b->link_triangle);
+    cmp_i64(d, where, "other triangle", a->other_triangle, b->other_triangle);
+}
+
 typedef struct item_kind {
     const char *item;   /* "ray" */
     const char *record; /* "hit" */
@@ -252,6 +267,7 @@ typedef struct item_kind {
 static const item_kind ray_kind = {"ray", "hit", hit_ray, hit_cmp};
 static const item_kind tri_kind = {"triangle", "contact", contact_query, contact_cmp};
 static const item_kind mesh_kind = {"pose", "pair", pair_pose, pair_cmp};
+static const item_kind state_kind = {"state", "contact", state_of, state_cmp};
 
 static void cmp_items(diff *d, const replay_reply *e, const replay_reply *g, const item_kind *k)
 {
@@ -457,6 +473,9 @@ size_t replay_compare(const replay_reply *expected, const replay_reply *got, con
         break;
     case WIRE_OBJECT_REPLY:
         cmp_objects(&d, e, g);
+        break;
+    case WIRE_STATE_REPLY:
+        cmp_items(&d, e, g, &state_kind);
         break;
     default:
         cmp_worlds(&d, e, g, rules);
