@@ -122,6 +122,9 @@ $(E2E_CLI_BIN): $(BUILD)/tests/e2e/e2e_cli.o $(ALL_LIBS)
 	$(CC) $(ALL_CFLAGS) $< $(ALL_LIBS) -lcmocka $(SYS_LIBS) -o $@
 test: $(CLI_BIN) $(E2E_CLI_BIN)
 
+EDITS_BENCH_BIN := $(BUILD)/bench/edits_bench
+$(EDITS_BENCH_BIN): $(BUILD)/bench/edits_bench.o $(ALL_LIBS)
+	$(CC) $(ALL_CFLAGS) $< $(ALL_LIBS) $(SYS_LIBS) -o $@
 DAEMON_BENCH_BIN := $(BUILD)/bench/daemon_bench
 $(DAEMON_BENCH_BIN): $(BUILD)/bench/daemon_bench.o $(ALL_LIBS)
 	$(CC) $(ALL_CFLAGS) $< $(ALL_LIBS) $(SYS_LIBS) -o $@
@@ -160,10 +163,12 @@ asan:
 	$(MAKE) BUILD=build-asan OPT="-O1 -g -fno-omit-frame-pointer" \
 	    SAN="-fsanitize=address,undefined -fno-sanitize-recover=all" test
 
-bench: $(BENCH_BIN) $(DAEMON_BENCH_BIN) $(DAEMON_BIN)
+bench: $(BENCH_BIN) $(DAEMON_BENCH_BIN) $(EDITS_BENCH_BIN) $(DAEMON_BIN)
 	@for b in $(BENCH_BIN); do echo "== $$b"; $$b || exit 1; done
 	@echo "== $(DAEMON_BENCH_BIN) (udpm in a private network namespace)"
 	tests/e2e/netns.sh $(DAEMON_BENCH_BIN) $(DAEMON_BIN)
+	@echo "== $(EDITS_BENCH_BIN) (udpm in a private network namespace)"
+	tests/e2e/netns.sh $(EDITS_BENCH_BIN) $(DAEMON_BIN)
 	@$(MAKE) --no-print-directory bench-peers
 
 # trioct against its peers, Embree 3 (rays, builds) and FCL 0.7 (triangles, a shape at
