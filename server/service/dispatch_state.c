@@ -9,21 +9,6 @@
 #include "../world/object_state.h"
 #include "dispatch_internal.h"
 
-/* Link and object names: 1..32 of [A-Za-z0-9_.-], the object names' rule. */
-static int link_name_ok(const char *s)
-{
-    size_t n = strlen(s);
-    if (n == 0 || n > TRIOCT_MAX_NAME_LEN)
-        return 0;
-    for (size_t i = 0; i < n; i++) {
-        char c = s[i];
-        if (!((c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '_' || c == '-' ||
-              c == '.'))
-            return 0;
-    }
-    return 1;
-}
-
 static int finite3(const trioct_vec3_t *v)
 {
     return isfinite(v->x) && isfinite(v->y) && isfinite(v->z);
@@ -50,7 +35,7 @@ static int check_state(job *j, const trioct_state_request_t *m)
     int inline_total = 0;
     for (int i = 0; i < m->num_links; i++) {
         const trioct_state_link_t *l = &m->links[i];
-        if (!link_name_ok(l->name))
+        if (!object_name_valid(l->name))
             return job_fail(j, TRIOCT_ERR_BAD_REQUEST, "links[%d].name \"%s\" is not 1..%d of [A-Za-z0-9_.-]", i,
                             dispatch_quote(l->name, q, sizeof q), TRIOCT_MAX_NAME_LEN);
         for (int k = 0; k < i; k++)
@@ -78,7 +63,7 @@ static int check_state(job *j, const trioct_state_request_t *m)
                                 i, l->name, t);
     }
     for (int i = 0; i < m->num_allowed; i++)
-        if (!link_name_ok(m->allowed_a[i]) || !link_name_ok(m->allowed_b[i]))
+        if (!object_name_valid(m->allowed_a[i]) || !object_name_valid(m->allowed_b[i]))
             return job_fail(j, TRIOCT_ERR_BAD_REQUEST, "allowed pair %d names no link or object", i);
     for (int k = 0; k < m->num_poses; k++) {
         const trioct_pose_t *p = &m->poses[k];

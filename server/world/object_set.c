@@ -126,7 +126,7 @@ long object_set_find(const object_set *s, const char *name)
     return found ? (long)i : -1;
 }
 
-static int name_ok(const char *name)
+int object_name_valid(const char *name)
 {
     size_t n = name ? strlen(name) : 0;
     if (n == 0 || n > TRIOCT_MAX_NAME_LEN)
@@ -163,7 +163,7 @@ typedef struct table {
 static object_edit_status apply_one(table *t, const object_edit *e, char *err, size_t err_len, size_t index)
 {
     const char *what = edit_kind_text(e->kind);
-    if (!name_ok(e->name)) {
+    if (!object_name_valid(e->name)) {
         error_text(err, err_len, "edits[%zu] (%s): object name '%s' is not 1-%d of [A-Za-z0-9_.-]", index, what,
                    e->name ? e->name : "", TRIOCT_MAX_NAME_LEN);
         return OBJECT_EDIT_BAD_NAME;

@@ -68,6 +68,10 @@ object_set *object_set_create(void);
 void object_set_retain(object_set *s);
 void object_set_release(object_set *s);
 
+/* 1 when name is 1..TRIOCT_MAX_NAME_LEN characters of [A-Za-z0-9_.-], the rule of object
+ * (and robot link) names, else 0. */
+int object_name_valid(const char *name);
+
 /* The index of the object of that name, or -1. */
 long object_set_find(const object_set *s, const char *name);
 
