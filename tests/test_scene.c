@@ -504,7 +504,20 @@ static void test_objects_and_poses(void **state)
                                              "object.zeta = parts/crate.obj\n"
                                              "object.alpha = parts/ball.obj\n"
                                              "object.mid = parts/crate.obj\n"
-                                             "pose.mid = 0.5 0 -1 0.7071067811865476 0.7071067811865476 0 0\n");
+                                             "pose.mid = 0.5 0 -1 0.7071067811865476 0.7071067811865476 0 0\n"
+                                             "object.shelf.left-2 = parts/crate.obj\n");
+    /* Object names follow the one rule of object names: dots and dashes too. */
+    assert_int_equal(w->object_count, 4);
+    assert_string_equal(w->objects[3].name, "zeta");
+    assert_string_equal(w->objects[2].name, "shelf.left-2");
+    assert_int_equal(w->objects[2].mesh, w->objects[1].mesh);
+    scene_free(&l.sc);
+    w = load_one_world(&l, "[bench]\n"
+                           "pose.zeta = 1 2 3 0 0 0 1\n"
+                           "object.zeta = parts/crate.obj\n"
+                           "object.alpha = parts/ball.obj\n"
+                           "object.mid = parts/crate.obj\n"
+                           "pose.mid = 0.5 0 -1 0.7071067811865476 0.7071067811865476 0 0\n");
     assert_int_equal(w->object_count, 3);
     assert_int_equal(w->mesh_count, 2); /* crate once, ball once */
     assert_string_equal(w->objects[0].name, "alpha");
@@ -550,7 +563,7 @@ static void test_object_errors(void **state)
     expect_error_at("[w]\nobject.a = a.obj\npose.a = 0 0 0 1 0 0\n", 3, "seven numbers");
     expect_error_at("[w]\nobject.a = a.obj\npose.a = 0 0 0 1 0 0 0 5\n", 3, "seven numbers");
     expect_error_at("[w]\nobject.a = a.obj\npose.a = 0 nan 0 1 0 0 0\n", 3, "not finite");
-    expect_error_at("[w]\nobject.a-b = a.obj\n", 2, "invalid object name 'a-b'");
+    expect_error_at("[w]\nobject.a/b = a.obj\n", 2, "invalid object name 'a/b'");
     expect_error_at("[w]\nobject.a =\n", 2, "object.a needs a file path");
     expect_error_at("[w]\nmesh = m.obj\nobject.a = a.obj\n", 1, "has objects and mesh");
     expect_error_at("[w]\nobject.a = a.obj\ntranslate = 1 2 3\n", 1, "has objects and mesh");

@@ -21,6 +21,7 @@
 
 #include "../../common/channels.h"
 #include "error_text.h"
+#include "object_set.h"
 
 #define DAEMON_SECTION "daemon"
 #define SHAPE_KEY_PREFIX "shape."
@@ -471,8 +472,8 @@ static int object_pose_seen(const scene_parser *p, size_t world, size_t object)
 static int key_object(scene_parser *p, world_spec *spec, const char *key, const char *value)
 {
     const char *name = key + strlen(OBJECT_KEY_PREFIX);
-    if (!trioct_name_valid(name, TRIOCT_MAX_NAME_LEN))
-        return parser_fail(p, p->line, "invalid object name '%s': 1 to %d characters of A-Z a-z 0-9 _", name,
+    if (!object_name_valid(name))
+        return parser_fail(p, p->line, "invalid object name '%s': 1 to %d characters of A-Z a-z 0-9 _ . -", name,
                            TRIOCT_MAX_NAME_LEN);
     world_object_spec *o = object_entry(p, spec, name);
     if (!o)
@@ -498,8 +499,8 @@ static int key_object(scene_parser *p, world_spec *spec, const char *key, const 
 static int key_pose(scene_parser *p, world_spec *spec, const char *key, const char *value)
 {
     const char *name = key + strlen(POSE_KEY_PREFIX);
-    if (!trioct_name_valid(name, TRIOCT_MAX_NAME_LEN))
-        return parser_fail(p, p->line, "invalid object name '%s': 1 to %d characters of A-Z a-z 0-9 _", name,
+    if (!object_name_valid(name))
+        return parser_fail(p, p->line, "invalid object name '%s': 1 to %d characters of A-Z a-z 0-9 _ . -", name,
                            TRIOCT_MAX_NAME_LEN);
     double v[7];
     char why[160];
