@@ -103,7 +103,7 @@ static int build_result(const assembly *a, size_t states, size_t links, trioct_s
         return client_fail(r, TRIOCT_ERR_NOMEM, "out of memory for %zu contacts", total);
     out->num_states = states;
     for (size_t i = 0; i < states; i++) {
-        out->valid[i] = first->valid[i] != 0;
+        out->valid[i] = first->found[i] == 0;
         out->found[i] = first->found[i];
     }
     if (client_object_names(r, first->num_objects, first->objects, &out->objects) != TRIOCT_OK)

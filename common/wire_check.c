@@ -439,8 +439,7 @@ static void walk_state_reply(wire_cursor *c)
 {
     walk_reply_header(c);
     cursor_int8(c, "detail");
-    int32_t num_states = cursor_count(c, "num_states", 1 + 4);
-    cursor_fixed_array(c, num_states, 1, "valid");
+    int32_t num_states = cursor_count(c, "num_states", 4);
     cursor_fixed_array(c, num_states, 4, "found");
     walk_object_names(c);
     int32_t num_contacts = cursor_count(c, "num_contacts", STATE_CONTACT_BYTES);

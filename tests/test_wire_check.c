@@ -402,9 +402,6 @@ static void make_state_reply(rng *r, variant v, trioct_state_reply_t *m)
     fill_reply_header(r, v, &m->header);
     m->detail = (int8_t)random_i32(r);
     m->num_states = pick_count(r, v);
-    m->valid = array_of(m->num_states, sizeof *m->valid);
-    for (int32_t i = 0; i < m->num_states; i++)
-        m->valid[i] = (int8_t)random_i32(r);
     m->found = random_found(r, m->num_states);
     m->num_objects = pick_count(r, v);
     m->objects = random_names(r, v, m->num_objects);
@@ -708,7 +705,6 @@ static void lay_state_reply(layout *l, const trioct_state_reply_t *m)
     lay_reply_header(l, &m->header);
     lay_bytes(l, 1);
     lay_count(l, "num_states", m->num_states);
-    lay_bytes(l, __int8_t_encoded_array_size(m->valid, m->num_states));
     lay_bytes(l, __int32_t_encoded_array_size(m->found, m->num_states));
     lay_count(l, "num_objects", m->num_objects);
     for (int32_t k = 0; k < m->num_objects; k++)

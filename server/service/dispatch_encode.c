@@ -341,13 +341,12 @@ int encode_object_reply(dispatch_reply *out, const reply_head *h, int32_t failed
     return split_encode(out, &ops, &o, count);
 }
 
-/* State replies: chunk 0 carries valid[], found[] and the object names; the contacts,
+/* State replies: chunk 0 carries found[] and the object names; the contacts,
  * all of one size, are cut over the chunks in order. */
 typedef struct state_chunks {
     const reply_head *head;
     int8_t detail;
     int32_t states;
-    const int8_t *valid;
     const int32_t *found;
     int32_t object_count;
     char **objects;
@@ -361,7 +360,6 @@ static void state_fill(const state_chunks *q, int first, size_t lo, size_t hi, i
     fill_head(&m->header, q->head, index, count);
     m->detail = q->detail;
     m->num_states = first ? q->states : 0;
-    m->valid = first ? (int8_t *)q->valid : NULL;
     m->found = first ? (int32_t *)q->found : NULL;
     m->num_objects = first ? q->object_count : 0;
     m->objects = first ? q->objects : NULL;
@@ -390,14 +388,12 @@ static size_t state_record_size(const void *ctx, size_t i)
     return ((const state_chunks *)ctx)->record_bytes;
 }
 
-int encode_state_reply(dispatch_reply *out, const reply_head *h, int8_t detail, int32_t states, const int8_t *valid,
-                       const int32_t *found, int32_t object_count, char **objects,
+int encode_state_reply(dispatch_reply *out, const reply_head *h, int8_t detail, int32_t states, const int32_t *found, int32_t object_count, char **objects,
                        const trioct_state_contact_t *contacts, size_t count)
 {
     static const chunk_ops ops = {state_size, state_encode, state_record_size};
     trioct_state_contact_t one = {0};
-    state_chunks q = {h,       detail,       states,   valid,
-                      found,   object_count, objects,  count ? contacts : NULL,
+    state_chunks q = {h,       detail,  states, found, object_count, objects, count ? contacts : NULL,
                       (size_t)__trioct_state_contact_t_encoded_array_size(&one, 1)};
     return split_encode(out, &ops, &q, count);
 }
@@ -408,7 +404,7 @@ int encode_error_reply(dispatch_reply *out, request_type type, const reply_head 
     case REQUEST_OBJECTS:
         return encode_object_reply(out, h, -1, 0, 0, NULL, 0);
     case REQUEST_STATE:
-        return encode_state_reply(out, h, detail, 0, NULL, NULL, 0, NULL, NULL, 0);
+        return encode_state_reply(out, h, detail, 0, NULL, 0, NULL, NULL, 0);
     case REQUEST_RAY:
         return encode_ray_reply(out, h, detail, NULL);
     case REQUEST_TRIANGLE:

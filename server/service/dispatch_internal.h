@@ -155,10 +155,9 @@ int encode_admin_reply(dispatch_reply *out, const reply_head *h, int8_t op,
 int encode_object_reply(dispatch_reply *out, const reply_head *h, int32_t failed_edit, int64_t objects,
                         int64_t triangles, const trioct_object_info_t *infos, size_t count);
 
-/* A state reply: chunk 0 carries valid[] and found[] of the states and the object names;
+/* A state reply: chunk 0 carries found[] of the states and the object names;
  * the count contacts are split over the chunks. */
-int encode_state_reply(dispatch_reply *out, const reply_head *h, int8_t detail, int32_t states, const int8_t *valid,
-                       const int32_t *found, int32_t object_count, char **objects,
+int encode_state_reply(dispatch_reply *out, const reply_head *h, int8_t detail, int32_t states, const int32_t *found, int32_t object_count, char **objects,
                        const trioct_state_contact_t *contacts, size_t count);
 
 /* One chunk, no results, of the reply type for type. */

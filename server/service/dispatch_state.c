@@ -126,7 +126,6 @@ static int inline_link(job *j, const trioct_state_link_t *l, int index, octree *
 /* The reply's contacts and per-state arrays, in wire form. */
 typedef struct state_answer {
     int32_t states;
-    int8_t *valid;
     int32_t *found;
     size_t count, capacity;
     trioct_state_contact_t *contacts;
@@ -136,7 +135,6 @@ typedef struct state_answer {
 
 static void state_answer_free(state_answer *a)
 {
-    free(a->valid);
     free(a->found);
     free(a->contacts);
     free(a->objects);
@@ -181,12 +179,11 @@ static int run_states(job *j, const trioct_state_request_t *m, state_link *links
     size_t n = (size_t)m->num_links;
     int all = m->detail == TRIOCT_STATE_REQUEST_T_CONTACTS;
     a->states = m->num_poses / m->num_links;
-    a->valid = dispatch_malloc((size_t)a->states * sizeof *a->valid);
     a->found = dispatch_malloc((size_t)a->states * sizeof *a->found);
     state_contact *buf = dispatch_malloc((all ? TRIOCT_MAX_RESULTS : 1) * sizeof *buf);
     state_scratch *scratch = state_scratch_new();
     int status = TRIOCT_OK;
-    if (!a->valid || !a->found || !buf || !scratch)
+    if (!a->found || !buf || !scratch)
         status = job_fail(j, TRIOCT_ERR_NOMEM, "out of memory for the states");
     for (int32_t s = 0; s < a->states && status == TRIOCT_OK; s++) {
         for (size_t i = 0; i < n; i++) {
@@ -209,7 +206,6 @@ static int run_states(job *j, const trioct_state_request_t *m, state_link *links
                               TRIOCT_MAX_RESULTS);
             break;
         }
-        a->valid[s] = (int8_t)out.valid;
         size_t keep = out.count < room ? out.count : room;
         a->found[s] = (int32_t)keep;
         if (keep && array_reserve((void **)&a->contacts, &a->capacity, a->count + keep, sizeof *a->contacts, 64) != 0) {
@@ -259,7 +255,7 @@ int dispatch_state(job *j, const trioct_state_request_t *m)
         status = run_states(j, m, links, allowed, &a);
     if (status == TRIOCT_OK) {
         reply_head h = job_head(j, TRIOCT_OK, "ok");
-        status = encode_state_reply(j->out, &h, m->detail, a.states, a.valid, a.found, a.object_count, a.objects,
+        status = encode_state_reply(j->out, &h, m->detail, a.states, a.found, a.object_count, a.objects,
                                     a.contacts, a.count);
         if (status == TRIOCT_ERR_NOMEM)
             job_fail(j, status, "out of memory encoding the reply");
