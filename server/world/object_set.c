@@ -96,6 +96,8 @@ void object_set_release(object_set *s)
     for (size_t i = 0; i < s->count; i++)
         object_model_release(s->objects[i].model);
     free(s->objects);
+    free(s->top);
+    free(s->top_order);
     free(s);
 }
 
@@ -239,6 +241,116 @@ static object_edit_status apply_one(table *t, const object_edit *e, char *err, s
     return OBJECT_EDIT_BAD_EDIT;
 }
 
+/* ---------- the hierarchy over the objects' boxes ---------- */
+
+/* Objects a leaf holds at most: a leaf's boxes are tested one by one. */
+#define TOP_LEAF_OBJECTS 2
+
+static box3 box_union(box3 a, box3 b)
+{
+    return (box3){vec3_min(a.lo, b.lo), vec3_max(a.hi, b.hi)};
+}
+
+static double centre_on(const world_object *o, int axis)
+{
+    const double *lo = &o->bounds.lo.x, *hi = &o->bounds.hi.x;
+    return 0.5 * lo[axis] + 0.5 * hi[axis];
+}
+
+/* Orders order[lo, hi) by box centre on axis, object index breaking ties, so the split
+ * does not depend on qsort's order among equals. */
+static void sort_on_axis(const world_object *objects, uint32_t *order, size_t n, int axis)
+{
+    for (size_t i = 1; i < n; i++) { /* insertion sort: leaves and splits of a few hundred */
+        uint32_t v = order[i];
+        double cv = centre_on(&objects[v], axis);
+        size_t j = i;
+        while (j > 0) {
+            double cu = centre_on(&objects[order[j - 1]], axis);
+            if (cu < cv || (cu == cv && order[j - 1] < v))
+                break;
+            order[j] = order[j - 1];
+            j--;
+        }
+        order[j] = v;
+    }
+}
+
+/* Builds the subtree of order[lo, hi) at node `at`; next is the next free node. */
+static void build_top(object_set *s, uint32_t at, uint32_t lo, uint32_t hi, uint32_t *next)
+{
+    object_top_node *node = &s->top[at];
+    box3 b = s->objects[s->top_order[lo]].bounds;
+    for (uint32_t i = lo + 1; i < hi; i++)
+        b = box_union(b, s->objects[s->top_order[i]].bounds);
+    node->box = b;
+    if (hi - lo <= TOP_LEAF_OBJECTS) {
+        node->first = lo;
+        node->count = hi - lo;
+        return;
+    }
+    vec3 extent = vec3_sub(b.hi, b.lo);
+    int axis = extent.x >= extent.y && extent.x >= extent.z ? 0 : extent.y >= extent.z ? 1 : 2;
+    sort_on_axis(s->objects, &s->top_order[lo], hi - lo, axis);
+    uint32_t mid = lo + (hi - lo) / 2;
+    uint32_t left = *next;
+    *next += 2;
+    node->first = left;
+    node->count = 0;
+    build_top(s, left, lo, mid, next);
+    build_top(s, left + 1, mid, hi, next);
+}
+
+/* 0, or -1 when out of memory (the set then has no hierarchy and must not be used). */
+static int make_top(object_set *s)
+{
+    s->top = NULL;
+    s->top_order = NULL;
+    if (s->count == 0)
+        return 0;
+    s->top = malloc((2 * s->count) * sizeof *s->top);
+    s->top_order = malloc(s->count * sizeof *s->top_order);
+    if (!s->top || !s->top_order)
+        return -1;
+    for (size_t i = 0; i < s->count; i++)
+        s->top_order[i] = (uint32_t)i;
+    uint32_t next = 1;
+    build_top(s, 0, 0, (uint32_t)s->count, &next);
+    return 0;
+}
+
+static int by_index(const void *a, const void *b)
+{
+    uint32_t x = *(const uint32_t *)a, y = *(const uint32_t *)b;
+    return (x > y) - (x < y);
+}
+
+size_t object_set_near(const object_set *s, box3 b, uint32_t *out)
+{
+    if (s->count == 0)
+        return 0;
+    uint32_t stack[64];
+    size_t depth = 0, n = 0;
+    stack[depth++] = 0;
+    while (depth > 0) {
+        const object_top_node *node = &s->top[stack[--depth]];
+        if (boxes_apart(b, node->box)) /* closed boxes apart: nothing below meets b */
+            continue;
+        if (node->count == 0) {
+            stack[depth++] = node->first;
+            stack[depth++] = node->first + 1;
+            continue;
+        }
+        for (uint32_t k = 0; k < node->count; k++) {
+            uint32_t i = s->top_order[node->first + k];
+            if (!boxes_apart(b, s->objects[i].bounds))
+                out[n++] = i;
+        }
+    }
+    qsort(out, n, sizeof *out, by_index);
+    return n;
+}
+
 object_edit_status object_set_apply(const object_set *from, const object_edit *edits, size_t count,
                                     object_set **out, size_t *failed, char *err, size_t err_len)
 {
@@ -272,6 +384,14 @@ object_edit_status object_set_apply(const object_set *from, const object_edit *e
     s->objects = t.items;
     s->count = t.count;
     s->version = from->version + 1;
+    if (make_top(s) != 0) {
+        free(s->top);
+        free(s->top_order);
+        free(s->objects);
+        free(s);
+        error_text(err, err_len, "out of memory");
+        return OBJECT_EDIT_NOMEM;
+    }
     for (size_t i = 0; i < s->count; i++) {
         object_model_retain(s->objects[i].model);
         s->triangles += s->objects[i].model->mesh.triangle_count;
@@ -301,6 +421,40 @@ static void posed_triangle(const world_object *o, uint32_t triangle, vec3 out[3]
 {
     for (int k = 0; k < 3; k++)
         out[k] = octree_pose_point(&o->at, mesh_data_corner(&o->model->mesh, triangle, k));
+}
+
+/* The objects whose posed boxes the ray meets within [tmin, tmax], each with the least t
+ * at which it can: through the hierarchy, whose node boxes hold their objects' boxes, so
+ * a node the ray misses holds no object it meets (the slab interval only widens as a box
+ * grows: every step of it is monotone in the box's bounds). */
+static size_t ray_candidates(const object_set *s, const ray_input *ray, ray_candidate *cand, size_t cap)
+{
+    uint32_t stack[64];
+    size_t depth = 0, n = 0;
+    stack[depth++] = 0;
+    while (depth > 0) {
+        const object_top_node *node = &s->top[stack[--depth]];
+        double t0, t1;
+        if (!octree_ray_box_interval(ray->origin, ray->direction, node->box, &t0, &t1) || t1 < ray->tmin ||
+            t0 > ray->tmax)
+            continue;
+        if (node->count == 0) {
+            stack[depth++] = node->first;
+            stack[depth++] = node->first + 1;
+            continue;
+        }
+        for (uint32_t k = 0; k < node->count; k++) {
+            uint32_t i = s->top_order[node->first + k];
+            if (!octree_ray_box_interval(ray->origin, ray->direction, s->objects[i].bounds, &t0, &t1))
+                continue;
+            if (t1 < ray->tmin || t0 > ray->tmax)
+                continue;
+            if (n == cap)
+                return SIZE_MAX; /* more than the caller's room: it asks again with more */
+            cand[n++] = (ray_candidate){t0 > ray->tmin ? t0 : ray->tmin, i};
+        }
+    }
+    return n;
 }
 
 /* Order of two hits of one ray: exact t, then object, then triangle. */
@@ -357,17 +511,16 @@ octree_status object_set_ray(const object_set *s, const ray_input *ray, ray_deta
     if (s->count == 0)
         return OCTREE_OK;
 
-    ray_candidate *cand = malloc(s->count * sizeof *cand);
-    if (!cand)
-        return OCTREE_ERR_NOMEM;
-    size_t n = 0;
-    for (size_t i = 0; i < s->count; i++) {
-        double t0, t1;
-        if (!octree_ray_box_interval(ray->origin, ray->direction, s->objects[i].bounds, &t0, &t1))
-            continue;
-        if (t1 < ray->tmin || t0 > ray->tmax)
-            continue;
-        cand[n++] = (ray_candidate){t0 > ray->tmin ? t0 : ray->tmin, (uint32_t)i};
+    /* A ray meets a few objects' boxes: room for 64 on the stack, and when it meets more,
+     * room for them all on the heap. */
+    ray_candidate local[64];
+    ray_candidate *cand = local;
+    size_t n = ray_candidates(s, ray, cand, sizeof local / sizeof local[0]);
+    if (n == SIZE_MAX) {
+        cand = malloc(s->count * sizeof *cand);
+        if (!cand)
+            return OCTREE_ERR_NOMEM;
+        n = ray_candidates(s, ray, cand, s->count);
     }
     qsort(cand, n, sizeof *cand, by_entry);
 
@@ -403,7 +556,8 @@ octree_status object_set_ray(const object_set *s, const ray_input *ray, ray_deta
             else
                 out->truncated = 1;
         }
-        free(cand);
+        if (cand != local)
+            free(cand);
         return st;
     }
 
@@ -413,7 +567,8 @@ octree_status object_set_ray(const object_set *s, const ray_input *ray, ray_deta
     object_hit *all = NULL;
     ray_hit *buf = malloc((cap ? cap : 1) * sizeof *buf);
     if (!buf) {
-        free(cand);
+        if (cand != local)
+            free(cand);
         return OCTREE_ERR_NOMEM;
     }
     for (size_t k = 0; k < n && st == OCTREE_OK; k++) {
@@ -448,7 +603,8 @@ octree_status object_set_ray(const object_set *s, const ray_input *ray, ray_deta
     }
     free(all);
     free(buf);
-    free(cand);
+    if (cand != local)
+        free(cand);
     return st;
 }
 
@@ -470,11 +626,15 @@ octree_status object_set_triangle(const object_set *s, const vec3 tri[3], tri_de
     tri_contact *buf = NULL;
     size_t buf_cap = 0;
     octree_status st = OCTREE_OK;
-    /* In object order, each object's contacts sorted by triangle: the union's order. */
-    for (size_t i = 0; i < s->count; i++) {
+    /* In object order, each object's contacts sorted by triangle: the union's order. Only
+     * objects whose closed boxes meet the triangle's can share a point with it. */
+    uint32_t *near = s->count ? malloc(s->count * sizeof *near) : NULL;
+    if (s->count && !near)
+        return OCTREE_ERR_NOMEM;
+    size_t near_count = object_set_near(s, qb, near);
+    for (size_t ni = 0; ni < near_count; ni++) {
+        size_t i = near[ni];
         const world_object *o = &s->objects[i];
-        if (boxes_apart(qb, o->bounds)) /* closed boxes apart: no common point */
-            continue;
         size_t room = detail == TRI_YESNO ? 0 : (out->capacity > stored ? out->capacity - stored : 0);
         if (room > buf_cap) {
             free(buf);
@@ -501,5 +661,6 @@ octree_status object_set_triangle(const object_set *s, const vec3 tri[3], tri_de
     }
     out->truncated = out->count > stored;
     free(buf);
+    free(near);
     return st;
 }

@@ -21,8 +21,8 @@
 #include "mesh_data.h"
 #include "mesh_load.h"
 
-/* Objects a world may hold: a flat table over their boxes answers that many rays in a
- * few microseconds; a hierarchy over the boxes is the next step if worlds need more. */
+/* Objects a world may hold. A query reaches them through a hierarchy of their posed boxes
+ * (object_top), rebuilt with every version: O(n log n) an edit list, nothing per triangle. */
 #define OBJECT_SET_MAX_OBJECTS 1024
 
 /* A mesh and its tree in the mesh's own frame, shared by reference count. */
@@ -55,13 +55,28 @@ typedef struct world_object {
     box3 bounds; /* every posed vertex inside (octree_pose_box of the model's bounds) */
 } world_object;
 
+/* A node of the hierarchy over the objects' boxes: a leaf holds objects
+ * top_order[first .. first + count), an interior node (count 0) its two children at first
+ * and first + 1. */
+typedef struct object_top_node {
+    box3 box;
+    uint32_t first;
+    uint32_t count;
+} object_top_node;
+
 typedef struct object_set {
     uint64_t version;        /* 1 for the first set, + 1 for every applied edit list */
     world_object *objects;   /* sorted by name, so answers do not depend on edit order */
     size_t count;
     size_t triangles;
+    object_top_node *top;    /* the hierarchy, root first; NULL without objects */
+    uint32_t *top_order;     /* object indexes, leaf by leaf */
     atomic_int refs;
 } object_set;
+
+/* The indexes of the objects whose posed boxes meet the closed box b, ascending, into out
+ * (room for s->count); returns how many. */
+size_t object_set_near(const object_set *s, box3 b, uint32_t *out);
 
 /* A set with no objects at version 0, or NULL when out of memory. */
 object_set *object_set_create(void);

@@ -153,12 +153,21 @@ octree_status object_set_state(const object_set *s, const state_link *links, siz
             return OCTREE_ERR_NOMEM;
         }
     }
+    uint32_t *near = s->count ? malloc(s->count * sizeof *near) : NULL;
+    if (s->count && !near) {
+        free(run.pairs);
+        state_scratch_free(own);
+        return OCTREE_ERR_NOMEM;
+    }
     int over = 0;
     for (size_t i = 0; i < link_count && !over; i++) {
         const state_link *l = &links[i];
-        for (size_t j = 0; j < s->count && !over; j++) {
+        /* The objects whose boxes meet the link's, in object order, from the hierarchy. */
+        size_t near_count = object_set_near(s, link_boxes[i], near);
+        for (size_t nj = 0; nj < near_count && !over; nj++) {
+            size_t j = near[nj];
             const world_object *o = &s->objects[j];
-            if (boxes_apart(link_boxes[i], o->bounds) || allowed_pair(allowed, allowed_count, l->name, o->name))
+            if (allowed_pair(allowed, allowed_count, l->name, o->name))
                 continue;
             over = test_pair(&run, o->model->tree, &o->at, l, (uint32_t)i, 0, (uint32_t)j);
         }
@@ -170,6 +179,7 @@ octree_status object_set_state(const object_set *s, const state_link *links, siz
     }
     if (all_contacts)
         out->truncated = out->count > out->capacity;
+    free(near);
     free(run.pairs);
     state_scratch_free(own);
     return run.st;
