@@ -257,27 +257,70 @@ static double centre_on(const world_object *o, int axis)
     return 0.5 * lo[axis] + 0.5 * hi[axis];
 }
 
-/* Orders order[lo, hi) by box centre on axis, object index breaking ties, so the split
- * does not depend on qsort's order among equals. */
-static void sort_on_axis(const world_object *objects, uint32_t *order, size_t n, int axis)
+typedef struct centre_key {
+    double c;
+    uint32_t i;
+} centre_key;
+
+static int key_less(centre_key x, centre_key y)
 {
-    for (size_t i = 1; i < n; i++) { /* insertion sort: leaves and splits of a few hundred */
-        uint32_t v = order[i];
-        double cv = centre_on(&objects[v], axis);
-        size_t j = i;
-        while (j > 0) {
-            double cu = centre_on(&objects[order[j - 1]], axis);
-            if (cu < cv || (cu == cv && order[j - 1] < v))
-                break;
-            order[j] = order[j - 1];
-            j--;
+    return x.c < y.c || (x.c == y.c && x.i < y.i);
+}
+
+/* Puts the k-th smallest key (by centre, then object index: a total order, so the split
+ * does not depend on the order the objects came in) at keys[k], smaller ones before it and
+ * larger after: quickselect with a median-of-three pivot, O(n) expected. */
+static void select_kth(centre_key *keys, size_t n, size_t k)
+{
+    size_t lo = 0, hi = n - 1;
+    while (lo < hi) {
+        size_t mid = lo + (hi - lo) / 2;
+        if (key_less(keys[mid], keys[lo])) {
+            centre_key t = keys[mid]; keys[mid] = keys[lo]; keys[lo] = t;
         }
-        order[j] = v;
+        if (key_less(keys[hi], keys[lo])) {
+            centre_key t = keys[hi]; keys[hi] = keys[lo]; keys[lo] = t;
+        }
+        if (key_less(keys[hi], keys[mid])) {
+            centre_key t = keys[hi]; keys[hi] = keys[mid]; keys[mid] = t;
+        }
+        centre_key pivot = keys[mid];
+        size_t i = lo, j = hi;
+        while (i <= j) {
+            while (key_less(keys[i], pivot))
+                i++;
+            while (key_less(pivot, keys[j]))
+                j--;
+            if (i <= j) {
+                centre_key t = keys[i]; keys[i] = keys[j]; keys[j] = t;
+                i++;
+                if (j == 0)
+                    break;
+                j--;
+            }
+        }
+        if (k <= j)
+            hi = j;
+        else if (k >= i)
+            lo = i;
+        else
+            return;
     }
 }
 
+/* Splits order[0, n) at its middle by box centre on axis: the n/2 smallest first. keys has
+ * room for n. */
+static void split_on_axis(const world_object *objects, uint32_t *order, size_t n, int axis, centre_key *keys)
+{
+    for (size_t k = 0; k < n; k++)
+        keys[k] = (centre_key){centre_on(&objects[order[k]], axis), order[k]};
+    select_kth(keys, n, n / 2);
+    for (size_t k = 0; k < n; k++)
+        order[k] = keys[k].i;
+}
+
 /* Builds the subtree of order[lo, hi) at node `at`; next is the next free node. */
-static void build_top(object_set *s, uint32_t at, uint32_t lo, uint32_t hi, uint32_t *next)
+static void build_top(object_set *s, uint32_t at, uint32_t lo, uint32_t hi, uint32_t *next, centre_key *keys)
 {
     object_top_node *node = &s->top[at];
     box3 b = s->objects[s->top_order[lo]].bounds;
@@ -291,14 +334,14 @@ static void build_top(object_set *s, uint32_t at, uint32_t lo, uint32_t hi, uint
     }
     vec3 extent = vec3_sub(b.hi, b.lo);
     int axis = extent.x >= extent.y && extent.x >= extent.z ? 0 : extent.y >= extent.z ? 1 : 2;
-    sort_on_axis(s->objects, &s->top_order[lo], hi - lo, axis);
+    split_on_axis(s->objects, &s->top_order[lo], hi - lo, axis, keys);
     uint32_t mid = lo + (hi - lo) / 2;
     uint32_t left = *next;
     *next += 2;
     node->first = left;
     node->count = 0;
-    build_top(s, left, lo, mid, next);
-    build_top(s, left + 1, mid, hi, next);
+    build_top(s, left, lo, mid, next, keys);
+    build_top(s, left + 1, mid, hi, next, keys);
 }
 
 /* 0, or -1 when out of memory (the set then has no hierarchy and must not be used). */
@@ -310,12 +353,16 @@ static int make_top(object_set *s)
         return 0;
     s->top = malloc((2 * s->count) * sizeof *s->top);
     s->top_order = malloc(s->count * sizeof *s->top_order);
-    if (!s->top || !s->top_order)
+    centre_key *keys = malloc(s->count * sizeof *keys);
+    if (!s->top || !s->top_order || !keys) {
+        free(keys);
         return -1;
+    }
     for (size_t i = 0; i < s->count; i++)
         s->top_order[i] = (uint32_t)i;
     uint32_t next = 1;
-    build_top(s, 0, 0, (uint32_t)s->count, &next);
+    build_top(s, 0, 0, (uint32_t)s->count, &next, keys);
+    free(keys);
     return 0;
 }
 
