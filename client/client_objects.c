@@ -182,6 +182,9 @@ static int start_objects(trioct_client *c, const char *world, const trioct_objec
             w->mesh = (char *)(e->mesh ? e->mesh : "");
             memcpy(w->pose.r, e->pose.r, sizeof w->pose.r);
             w->pose.t = wire_vec(e->pose.t);
+            w->rotation = e->quaternion ? TRIOCT_OBJECT_EDIT_T_QUATERNION : TRIOCT_OBJECT_EDIT_T_MATRIX;
+            if (e->quaternion)
+                memcpy(w->quaternion, e->quaternion, sizeof w->quaternion);
             w->num_triangles = (int32_t)e->num_triangles;
             w->triangles = triangles + at;
             for (size_t t = 0; t < e->num_triangles; t++, at++)

@@ -159,6 +159,9 @@ static int start_states(trioct_client *c, const trioct_state_query *q, int timeo
         .allowed_b = calloc(na ? na : 1, sizeof(char *)),
         .num_poses = (int32_t)np,
         .poses = calloc(np ? np : 1, sizeof(trioct_pose_t)),
+        .rotation = q->quaternions ? TRIOCT_STATE_REQUEST_T_QUATERNION : TRIOCT_STATE_REQUEST_T_MATRIX,
+        .num_quaternions = q->quaternions ? (int32_t)(4 * np) : 0,
+        .quaternions = (double *)q->quaternions, /* the encoder only reads them */
     };
     trioct_triangle_t *tris = calloc(nt ? nt : 1, sizeof *tris);
     pending *p = NULL;

@@ -333,7 +333,10 @@ typedef struct trioct_object_edit {
     const char *mesh; /* ADD: a mesh file relative to the daemon's world directory (objects
                          of one file share its loaded mesh and tree); NULL or "": the
                          inline triangles */
-    trioct_pose pose; /* ADD and MOVE: a rotation (orthonormal within 1e-6, det +1) */
+    trioct_pose pose; /* ADD and MOVE: t, and unless quaternion is given r, a rotation
+                         (orthonormal within 1e-6, det +1) */
+    const double *quaternion; /* NULL, or the rotation as (w, x, y, z), sent as it is and
+                                 normalised by the daemon (length 1 within 1e-3) */
     size_t num_triangles; /* ADD without a mesh: 1..TRIOCT_MAX_INLINE_SHAPE_TRIANGLES */
     const trioct_triangle *triangles;
 } trioct_object_edit;
@@ -391,6 +394,8 @@ typedef struct trioct_state_query {
     const trioct_allowed_pair *allowed;
     size_t num_states;  /* num_states x num_links at most TRIOCT_MAX_POSES */
     const trioct_pose *poses; /* num_links per state, state after state */
+    const double *quaternions; /* NULL, or 4 a pose (w, x, y, z): the rotations, sent as they
+                                  are and normalised by the daemon; poses[k].r is then unused */
 } trioct_state_query;
 
 typedef struct trioct_state_contact {

@@ -364,8 +364,9 @@ static void walk_object_names(wire_cursor *c)
         cursor_string_element(c, "objects", i);
 }
 
-/* The shortest object_edit_t: an op, two empty strings, a pose and no triangles. */
-enum { MIN_OBJECT_EDIT_BYTES = 1 + 2 * MIN_STRING_BYTES + POSE_BYTES + 4 };
+/* The shortest object_edit_t: an op, two empty strings, a pose, the rotation's form and
+ * quaternion, and no triangles. */
+enum { MIN_OBJECT_EDIT_BYTES = 1 + 2 * MIN_STRING_BYTES + POSE_BYTES + 1 + 4 * 8 + 4 };
 
 static void walk_object_edit_request(wire_cursor *c)
 {
@@ -379,6 +380,8 @@ static void walk_object_edit_request(wire_cursor *c)
         cursor_string(c, "name");
         cursor_string(c, "mesh");
         cursor_skip(c, POSE_BYTES, "pose");
+        cursor_int8(c, "rotation");
+        cursor_skip(c, 4 * 8, "quaternion");
         int32_t num_triangles = cursor_count(c, "num_triangles", TRIANGLE_BYTES);
         cursor_fixed_array(c, num_triangles, TRIANGLE_BYTES, "triangles");
     }
@@ -433,6 +436,9 @@ static void walk_state_request(wire_cursor *c)
         cursor_string_element(c, "allowed_b", i);
     int32_t num_poses = cursor_count(c, "num_poses", POSE_BYTES);
     cursor_fixed_array(c, num_poses, POSE_BYTES, "poses");
+    cursor_int8(c, "rotation");
+    int32_t num_quaternions = cursor_count(c, "num_quaternions", 8);
+    cursor_fixed_array(c, num_quaternions, 8, "quaternions");
 }
 
 static void walk_state_reply(wire_cursor *c)

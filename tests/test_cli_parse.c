@@ -415,20 +415,22 @@ static void test_parse_quaternion_pose(void **state)
 {
     (void)state;
     trioct_pose p;
+    double q[4];
     char err[160];
     char *quarter[7] = {"1", "2", "3", "0.7071067811865476", "0", "0", "0.7071067811865476"};
-    assert_int_equal(cli_parse_quaternion_pose(quarter, "--pose", &p, err, sizeof err), 0);
+    assert_int_equal(cli_parse_quaternion_pose(quarter, "--pose", &p, q, err, sizeof err), 0);
     assert_true(p.t.x == 1 && p.t.y == 2 && p.t.z == 3);
     assert_true(fabs(p.r[0]) < 1e-15 && fabs(p.r[1] + 1) < 1e-15 && fabs(p.r[3] - 1) < 1e-15);
     assert_true(p.r[8] == 1 && p.r[2] == 0 && p.r[6] == 0);
+    assert_true(q[0] == 0.7071067811865476 && q[1] == 0 && q[3] == 0.7071067811865476); /* as typed */
     char *unnormalised[7] = {"0", "0", "0", "1.0005", "0", "0", "0"};
-    assert_int_equal(cli_parse_quaternion_pose(unnormalised, "--pose", &p, err, sizeof err), 0);
+    assert_int_equal(cli_parse_quaternion_pose(unnormalised, "--pose", &p, NULL, err, sizeof err), 0);
     assert_true(p.r[0] == 1 && p.r[4] == 1);
     char *long_one[7] = {"0", "0", "0", "2", "0", "0", "0"};
-    assert_int_equal(cli_parse_quaternion_pose(long_one, "--pose", &p, err, sizeof err), -1);
+    assert_int_equal(cli_parse_quaternion_pose(long_one, "--pose", &p, NULL, err, sizeof err), -1);
     assert_non_null(strstr(err, "not of length 1"));
     char *word[7] = {"0", "zero", "0", "1", "0", "0", "0"};
-    assert_int_equal(cli_parse_quaternion_pose(word, "--link", &p, err, sizeof err), -1);
+    assert_int_equal(cli_parse_quaternion_pose(word, "--link", &p, NULL, err, sizeof err), -1);
     assert_non_null(strstr(err, "--link: 'zero'"));
 }
 

@@ -558,7 +558,8 @@ static answer ask_objects(const char *world, int list, int n, const trioct_objec
 
 static trioct_object_edit_t wire_edit(int8_t op, const char *name, const char *mesh, trioct_pose_t at)
 {
-    return (trioct_object_edit_t){op, (char *)name, (char *)(mesh ? mesh : ""), at, 0, NULL};
+    return (trioct_object_edit_t){op, (char *)name, (char *)(mesh ? mesh : ""), at, TRIOCT_OBJECT_EDIT_T_MATRIX, {0},
+                                  0, NULL};
 }
 
 static trioct_admin_request_t admin_request(const char *world, int8_t op)
@@ -1658,7 +1659,7 @@ static void test_states_answer_as_the_object_set(void **state)
     for (int variant = 0; variant < 3; variant++) {
         int contacts = variant > 0, self = variant == 2, allowed = variant == 2 ? 1 : 0;
         trioct_state_request_t q = {header("edited"), (int8_t)contacts, (int8_t)self, 2, links, allowed,
-                                    allow_a, allow_b, 2 * STATES, poses};
+                                    allow_a, allow_b, 2 * STATES, poses, 0, 0, NULL};
         trioct_state_reply_t rep = ask_state("edited", &q);
         assert_int_equal(rep.header.status, TRIOCT_OK);
         assert_int_equal(rep.num_states, STATES);
@@ -1698,12 +1699,12 @@ static void test_states_answer_as_the_object_set(void **state)
     }
     /* Refused before any work: duplicate link names, a pose count that is no whole state. */
     trioct_state_link_t twice[2] = {{"left", "cube", 0, NULL}, {"left", "cube", 0, NULL}};
-    trioct_state_request_t q = {header("edited"), 0, 0, 2, twice, 0, NULL, NULL, 2, poses};
+    trioct_state_request_t q = {header("edited"), 0, 0, 2, twice, 0, NULL, NULL, 2, poses, 0, 0, NULL};
     trioct_state_reply_t rep = ask_state("edited", &q);
     assert_int_equal(rep.header.status, TRIOCT_ERR_BAD_REQUEST);
     assert_non_null(strstr(rep.header.message, "both named left"));
     trioct_state_reply_t_decode_cleanup(&rep);
-    q = (trioct_state_request_t){header("edited"), 0, 0, 2, links, 0, NULL, NULL, 3, poses};
+    q = (trioct_state_request_t){header("edited"), 0, 0, 2, links, 0, NULL, NULL, 3, poses, 0, 0, NULL};
     rep = ask_state("edited", &q);
     assert_int_equal(rep.header.status, TRIOCT_ERR_BAD_REQUEST);
     assert_non_null(strstr(rep.header.message, "whole number of states"));

@@ -432,8 +432,8 @@ static const log_case cases[] = {
      {7, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 12}},
     {"touch", "scene.ini", "requests 10 (0 malformed), replies 10: 10 matched, 0 mismatched, 0 missing, 0 extra (0 to nobody)",
      {8, 2}},
-    {"objects", "scene.ini", "requests 44 (0 malformed), replies 44: 44 matched, 0 mismatched, 0 missing, 0 extra (0 to nobody)",
-     {30, 4, 0, 1, 0, 0, 1, 1, 0, 0, 1, 0, 1, 0, 2, 1, 2}},
+    {"objects", "scene.ini", "requests 48 (0 malformed), replies 48: 48 matched, 0 mismatched, 0 missing, 0 extra (0 to nobody)",
+     {33, 4, 0, 1, 0, 0, 1, 1, 0, 0, 1, 0, 1, 0, 2, 1, 3}},
 };
 #define CASES (sizeof cases / sizeof cases[0])
 
@@ -595,8 +595,8 @@ static void test_objects_golden_follows_the_edits(void **state)
     assert_int_equal(replay_proto_from_scene(&p, LOGS "/scene.ini", err, sizeof err), 0);
     assert_int_equal(replay_log_read(LOGS "/objects.golden.lcmlog", &log, err, sizeof err), 0);
     assert_int_equal(replay_book_build(&b, &log, &p, err, sizeof err), 0);
-    const replay_reply *r[45] = {0};
-    for (int id = 1; id <= 44; id++) {
+    const replay_reply *r[49] = {0};
+    for (int id = 1; id <= 48; id++) {
         size_t n;
         r[id] = replay_book_replies(&b, 0x80, id, &n);
         assert_non_null(r[id]);
@@ -686,6 +686,19 @@ static void test_objects_golden_follows_the_edits(void **state)
     assert_int_equal(r[42]->header->status, TRIOCT_ERR_UNKNOWN_SHAPE);
     assert_int_equal(r[43]->header->status, TRIOCT_ERR_BAD_POSE);
     assert_int_equal(r[44]->header->status, TRIOCT_ERR_EFFECT);
+
+    /* A quaternion on the wire: the daemon's matrix of a quarter turn about z, the version
+     * after it; one of length 2 refused; states turned by quaternions answered. */
+    assert_int_equal(r[45]->header->status, TRIOCT_OK);
+    assert_int_equal(r[45]->header->world_version, 5);
+    const trioct_object_info_t *turned = listed(r[45], "crate_b");
+    assert_true(fabs(turned->pose.r[0]) < 1e-15 && fabs(turned->pose.r[1] + 1) < 1e-15 &&
+                fabs(turned->pose.r[3] - 1) < 1e-15 && turned->pose.r[8] == 1);
+    assert_int_equal(r[46]->header->status, TRIOCT_ERR_BAD_POSE);
+    assert_non_null(strstr(r[46]->header->message, "quaternion"));
+    assert_int_equal(r[47]->header->status, TRIOCT_OK);
+    assert_int_equal(r[47]->num_items, 2);
+    assert_int_equal(r[48]->header->world_version, 5);
     replay_book_free(&b);
     replay_log_free(&log);
 }

@@ -346,6 +346,9 @@ static void make_object_edit_request(rng *r, variant v, trioct_object_edit_reque
         e->name = random_text(r, v);
         e->mesh = random_text(r, v);
         random_pose(r, &e->pose);
+        e->rotation = (int8_t)random_i32(r);
+        for (int k = 0; k < 4; k++)
+            e->quaternion[k] = random_double(r);
         e->num_triangles = pick_count(r, v);
         e->triangles = array_of(e->num_triangles, sizeof *e->triangles);
         fill_triangles(r, e->triangles, e->num_triangles);
@@ -395,6 +398,11 @@ static void make_state_request(rng *r, variant v, trioct_state_request_t *m)
     m->poses = array_of(m->num_poses, sizeof *m->poses);
     for (int32_t i = 0; i < m->num_poses; i++)
         random_pose(r, &m->poses[i]);
+    m->rotation = (int8_t)random_i32(r);
+    m->num_quaternions = pick_count(r, v);
+    m->quaternions = array_of(m->num_quaternions, sizeof *m->quaternions);
+    for (int32_t i = 0; i < m->num_quaternions; i++)
+        m->quaternions[i] = random_double(r);
 }
 
 static void make_state_reply(rng *r, variant v, trioct_state_reply_t *m)
@@ -655,7 +663,7 @@ static void lay_object_edit_request(layout *l, const trioct_object_edit_request_
         lay_bytes(l, 1);
         lay_string(l, "name", &e->name);
         lay_string(l, "mesh", &e->mesh);
-        lay_bytes(l, __trioct_pose_t_encoded_array_size(&e->pose, 1));
+        lay_bytes(l, __trioct_pose_t_encoded_array_size(&e->pose, 1) + 1 + 4 * 8);
         lay_count(l, "num_triangles", e->num_triangles);
         lay_bytes(l, __trioct_triangle_t_encoded_array_size(e->triangles, e->num_triangles));
         l->scope[0] = '\0';
@@ -698,6 +706,9 @@ static void lay_state_request(layout *l, const trioct_state_request_t *m)
         lay_string_element(l, "allowed_b", (int)i, &m->allowed_b[i]);
     lay_count(l, "num_poses", m->num_poses);
     lay_bytes(l, __trioct_pose_t_encoded_array_size(m->poses, m->num_poses));
+    lay_bytes(l, 1);
+    lay_count(l, "num_quaternions", m->num_quaternions);
+    lay_bytes(l, __double_encoded_array_size(m->quaternions, m->num_quaternions));
 }
 
 static void lay_state_reply(layout *l, const trioct_state_reply_t *m)

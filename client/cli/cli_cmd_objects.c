@@ -14,7 +14,7 @@
 
 /* Takes --pose and its seven numbers out of argv (so that the numbers, negative ones too,
  * are not read as options), compacting the rest. 0 with *found and *out, or -1 with err. */
-static int take_pose(int *argc, char **argv, int *found, trioct_pose *out, char *err, size_t err_len)
+static int take_pose(int *argc, char **argv, int *found, trioct_pose *out, double q[4], char *err, size_t err_len)
 {
     *found = 0;
     for (int i = 0; i < *argc; i++) {
@@ -30,7 +30,7 @@ static int take_pose(int *argc, char **argv, int *found, trioct_pose *out, char 
             snprintf(err, err_len, "--pose takes seven numbers: x y z qw qx qy qz");
             return -1;
         }
-        if (cli_parse_quaternion_pose(&argv[i + 1], "--pose", out, err, err_len) != 0)
+        if (cli_parse_quaternion_pose(&argv[i + 1], "--pose", out, q, err, err_len) != 0)
             return -1;
         memmove(&argv[i], &argv[i + 8], (size_t)(*argc - i - 8) * sizeof *argv);
         *argc -= 8;
@@ -225,7 +225,8 @@ static int run_object(cli_context *ctx, int argc, char **argv)
         return cli_internal_error(ctx, "out of memory");
     memcpy(args, argv, (size_t)argc * sizeof *args);
     int n = argc;
-    if (take_pose(&n, args, &has_pose, &at, err, sizeof err) != 0) {
+    double q[4];
+    if (take_pose(&n, args, &has_pose, &at, q, err, sizeof err) != 0) {
         free(args);
         return cli_usage_error(ctx, "%s", err);
     }
@@ -235,7 +236,8 @@ static int run_object(cli_context *ctx, int argc, char **argv)
     int rc = cli_command_args(ctx, &cli_command_object, n, args, object_options, object_option, &mesh, pos, &npos);
     if (rc < 0 && npos != 3)
         rc = cli_usage_error(ctx, "expected add|move|remove WORLD NAME; got %d argument%s", npos, npos == 1 ? "" : "s");
-    trioct_object_edit e = {.name = npos > 2 ? pos[2] : NULL, .mesh = mesh, .pose = at};
+    /* The quaternion goes as it was typed; the daemon makes the matrix. */
+    trioct_object_edit e = {.name = npos > 2 ? pos[2] : NULL, .mesh = mesh, .pose = at, .quaternion = has_pose ? q : NULL};
     const char *action = npos > 0 ? pos[0] : "";
     if (rc < 0) {
         if (strcmp(action, "add") == 0)

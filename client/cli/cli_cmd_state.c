@@ -14,6 +14,7 @@ typedef struct state_args {
     trioct_state_link links[STATE_MAX_CLI_LINKS];
     char names[STATE_MAX_CLI_LINKS][TRIOCT_MAX_NAME_LEN + 1];
     trioct_pose poses[STATE_MAX_CLI_LINKS];
+    double quaternions[STATE_MAX_CLI_LINKS][4]; /* as typed: what is sent */
     size_t num_links;
     trioct_allowed_pair allowed[STATE_MAX_CLI_ALLOWED];
     char allowed_text[STATE_MAX_CLI_ALLOWED][2 * TRIOCT_MAX_NAME_LEN + 2];
@@ -46,7 +47,7 @@ static int take_links(int *argc, char **argv, state_args *a, char *err, size_t e
             return -1;
         }
         size_t k = a->num_links;
-        if (cli_parse_quaternion_pose(&argv[i + 2], "--link", &a->poses[k], err, err_len) != 0)
+        if (cli_parse_quaternion_pose(&argv[i + 2], "--link", &a->poses[k], a->quaternions[k], err, err_len) != 0)
             return -1;
         int same = 0;
         for (size_t j = 0; j < k; j++)
@@ -193,7 +194,7 @@ static int run_state(cli_context *ctx, int argc, char **argv)
                                 a->self,     a->num_links,
                                 a->links,    a->num_allowed,
                                 a->allowed,  1,
-                                a->poses};
+                                a->poses,    &a->quaternions[0][0]};
         trioct_state_result res;
         int status = trioct_states(ctx->client, &q, timeout, &res);
         if (status != TRIOCT_OK) {

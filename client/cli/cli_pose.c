@@ -117,7 +117,8 @@ void cli_pose_list_free(cli_pose_list *list)
     memset(list, 0, sizeof *list);
 }
 
-int cli_parse_quaternion_pose(char *const text[7], const char *what, trioct_pose *out, char *err, size_t err_len)
+int cli_parse_quaternion_pose(char *const text[7], const char *what, trioct_pose *out, double q[4], char *err,
+                              size_t err_len)
 {
     double v[7];
     for (int k = 0; k < 7; k++)
@@ -133,5 +134,7 @@ int cli_parse_quaternion_pose(char *const text[7], const char *what, trioct_pose
         return -1;
     }
     out->t = (trioct_vec3){v[0], v[1], v[2]};
+    if (q != NULL)
+        memcpy(q, &v[3], 4 * sizeof *q);
     return 0;
 }

@@ -16,8 +16,10 @@ void cli_rotation_degrees(double rx, double ry, double rz, double r[9]);
 int cli_parse_pose(const char *text, trioct_pose *out, char *err, size_t err_len);
 
 /* Seven arguments "x y z qw qx qy qz": a position and a quaternion, normalised as the
- * daemon would (trioct_pose_from_quaternion). 0, or -1 with err (what names the option). */
-int cli_parse_quaternion_pose(char *const text[7], const char *what, trioct_pose *out, char *err, size_t err_len);
+ * daemon would (trioct_pose_from_quaternion) into *out, and the quaternion as given into q
+ * (may be NULL), which is what is sent. 0, or -1 with err (what names the option). */
+int cli_parse_quaternion_pose(char *const text[7], const char *what, trioct_pose *out, double q[4], char *err,
+                              size_t err_len);
 
 typedef struct cli_pose_list {
     size_t count, cap;

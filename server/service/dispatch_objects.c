@@ -21,15 +21,24 @@ static int edit_fail(job *j, int index, int status, const char *fmt, const char 
     return job_fail(j, status, fmt, index, dispatch_quote(name, q, sizeof q), why);
 }
 
-static int pose_in(const trioct_pose_t *p, pose *out)
+/* The edit's pose: t with pose.r, or with the rotation of its quaternion (normalised; one
+ * far from unit length is OCTREE_ERR_INVALID, as is a matrix that is no rotation). */
+static int pose_in(const trioct_object_edit_t *e, pose *out)
 {
+    const trioct_pose_t *p = &e->pose;
+    vec3 t = {p->t.x, p->t.y, p->t.z};
+    if (!isfinite(t.x) || !isfinite(t.y) || !isfinite(t.z))
+        return OCTREE_ERR_NONFINITE;
+    if (e->rotation == TRIOCT_OBJECT_EDIT_T_QUATERNION) {
+        octree_status st = octree_pose_from_quaternion(t, e->quaternion[0], e->quaternion[1], e->quaternion[2],
+                                                       e->quaternion[3], out);
+        return st != OCTREE_OK ? st : octree_pose_check(out);
+    }
     memcpy(out->r, p->r, sizeof out->r);
-    out->t = (vec3){p->t.x, p->t.y, p->t.z};
+    out->t = t;
     for (int k = 0; k < 9; k++)
         if (!isfinite(p->r[k]))
             return OCTREE_ERR_NONFINITE;
-    if (!isfinite(p->t.x) || !isfinite(p->t.y) || !isfinite(p->t.z))
-        return OCTREE_ERR_NONFINITE;
     return octree_pose_check(out);
 }
 
@@ -59,11 +68,19 @@ static int check_edits(job *j, const trioct_object_edit_request_t *m, object_edi
             return job_fail(j, TRIOCT_ERR_BAD_REQUEST, "edits[%d].op %d is not ADD (0), MOVE (1) or REMOVE (2)", i,
                             e->op);
         }
+        if (e->rotation != TRIOCT_OBJECT_EDIT_T_MATRIX && e->rotation != TRIOCT_OBJECT_EDIT_T_QUATERNION) {
+            j->failed_edit = i;
+            return job_fail(j, TRIOCT_ERR_BAD_REQUEST, "edits[%d].rotation %d is not MATRIX (0) or QUATERNION (1)",
+                            i, e->rotation);
+        }
         if (out->kind != OBJECT_EDIT_REMOVE) {
-            int ps = pose_in(&e->pose, &out->at);
+            int ps = pose_in(e, &out->at);
             if (ps == OCTREE_ERR_NONFINITE)
                 return edit_fail(j, i, TRIOCT_ERR_NONFINITE, "edits[%d] (%s): the pose %s", e->name,
                                  "has a NaN or infinite entry");
+            if (ps != OCTREE_OK && e->rotation == TRIOCT_OBJECT_EDIT_T_QUATERNION)
+                return edit_fail(j, i, TRIOCT_ERR_BAD_POSE, "edits[%d] (%s): the pose %s", e->name,
+                                 "has a quaternion whose length is not 1 within 1e-3");
             if (ps != OCTREE_OK)
                 return edit_fail(j, i, TRIOCT_ERR_BAD_POSE, "edits[%d] (%s): the pose %s", e->name,
                                  "is not a rotation: R^T R must be I within 1e-6 in every entry and det(R) +1 "

@@ -14,6 +14,26 @@ static int finite3(const trioct_vec3_t *v)
     return isfinite(v->x) && isfinite(v->y) && isfinite(v->z);
 }
 
+/* Pose k of the request: t, and pose.r or the rotation of its quaternion (normalised). */
+static octree_status state_pose(const trioct_state_request_t *m, int k, pose *out)
+{
+    const trioct_pose_t *p = &m->poses[k];
+    vec3 t = {p->t.x, p->t.y, p->t.z};
+    if (!finite3(&p->t))
+        return OCTREE_ERR_NONFINITE;
+    if (m->rotation == TRIOCT_STATE_REQUEST_T_QUATERNION) {
+        const double *q = &m->quaternions[4 * k];
+        octree_status st = octree_pose_from_quaternion(t, q[0], q[1], q[2], q[3], out);
+        return st != OCTREE_OK ? st : octree_pose_check(out);
+    }
+    for (int e = 0; e < 9; e++)
+        if (!isfinite(p->r[e]))
+            return OCTREE_ERR_NONFINITE;
+    memcpy(out->r, p->r, sizeof out->r);
+    out->t = t;
+    return octree_pose_check(out);
+}
+
 static int check_state(job *j, const trioct_state_request_t *m)
 {
     char q[48];
@@ -29,6 +49,12 @@ static int check_state(job *j, const trioct_state_request_t *m)
     if (m->num_poses > TRIOCT_MAX_POSES)
         return job_fail(j, TRIOCT_ERR_OVER_CAP, "num_poses %d is over TRIOCT_MAX_POSES=%d; send fewer states",
                         m->num_poses, TRIOCT_MAX_POSES);
+    if (m->rotation != TRIOCT_STATE_REQUEST_T_MATRIX && m->rotation != TRIOCT_STATE_REQUEST_T_QUATERNION)
+        return job_fail(j, TRIOCT_ERR_BAD_REQUEST, "rotation %d is not MATRIX (0) or QUATERNION (1)", m->rotation);
+    int quaternions = m->rotation == TRIOCT_STATE_REQUEST_T_QUATERNION;
+    if (m->num_quaternions != (quaternions ? 4 * m->num_poses : 0))
+        return job_fail(j, TRIOCT_ERR_BAD_REQUEST, "num_quaternions %d: %s", m->num_quaternions,
+                        quaternions ? "QUATERNION rotations are 4 numbers a pose" : "MATRIX rotations send none");
     if (m->num_poses % m->num_links != 0)
         return job_fail(j, TRIOCT_ERR_BAD_REQUEST, "num_poses %d is not a whole number of states of %d links",
                         m->num_poses, m->num_links);
@@ -66,18 +92,17 @@ static int check_state(job *j, const trioct_state_request_t *m)
         if (!object_name_valid(m->allowed_a[i]) || !object_name_valid(m->allowed_b[i]))
             return job_fail(j, TRIOCT_ERR_BAD_REQUEST, "allowed pair %d names no link or object", i);
     for (int k = 0; k < m->num_poses; k++) {
-        const trioct_pose_t *p = &m->poses[k];
         int state = k / m->num_links, link = k % m->num_links;
-        int finite = finite3(&p->t);
-        for (int e = 0; e < 9; e++)
-            finite &= isfinite(p->r[e]) != 0;
-        if (!finite)
+        pose at;
+        int st = state_pose(m, k, &at);
+        if (st == OCTREE_ERR_NONFINITE)
             return job_fail(j, TRIOCT_ERR_NONFINITE, "poses[%d] (state %d, link %s) has a NaN or infinite entry", k,
                             state, m->links[link].name);
-        pose at;
-        memcpy(at.r, p->r, sizeof at.r);
-        at.t = (vec3){p->t.x, p->t.y, p->t.z};
-        if (octree_pose_check(&at) != OCTREE_OK)
+        if (st != OCTREE_OK && quaternions)
+            return job_fail(j, TRIOCT_ERR_BAD_POSE,
+                            "poses[%d] (state %d, link %s): its quaternion's length is not 1 within 1e-3", k, state,
+                            m->links[link].name);
+        if (st != OCTREE_OK)
             return job_fail(j, TRIOCT_ERR_BAD_POSE,
                             "poses[%d] (state %d, link %s) is not a rotation: R^T R must be I within %g in every "
                             "entry and det(R) +1",
@@ -186,11 +211,8 @@ static int run_states(job *j, const trioct_state_request_t *m, state_link *links
     if (!a->found || !buf || !scratch)
         status = job_fail(j, TRIOCT_ERR_NOMEM, "out of memory for the states");
     for (int32_t s = 0; s < a->states && status == TRIOCT_OK; s++) {
-        for (size_t i = 0; i < n; i++) {
-            const trioct_pose_t *p = &m->poses[(size_t)s * n + i];
-            memcpy(links[i].at.r, p->r, sizeof links[i].at.r);
-            links[i].at.t = (vec3){p->t.x, p->t.y, p->t.z};
-        }
+        for (size_t i = 0; i < n; i++)
+            (void)state_pose(m, (int)((size_t)s * n + i), &links[i].at); /* checked before any work */
         size_t room = all ? TRIOCT_MAX_RESULTS - a->count : 1;
         state_output out = {.contacts = buf, .capacity = room};
         octree_status st = object_set_state(j->w->objects, links, n, allowed, (size_t)m->num_allowed, m->self_collision,

@@ -26,7 +26,8 @@ static trioct_pose_t pose_of(double angle_z, double x, double y, double z)
 
 static trioct_object_edit_t edit(int8_t op, const char *name, const char *mesh, trioct_pose_t at)
 {
-    return (trioct_object_edit_t){op, (char *)name, (char *)(mesh ? mesh : ""), at, 0, NULL};
+    return (trioct_object_edit_t){op, (char *)name, (char *)(mesh ? mesh : ""), at, TRIOCT_OBJECT_EDIT_T_MATRIX, {0},
+                                  0, NULL};
 }
 
 /* The queries asked after each edit: the same rays, triangles and poses every time. */
@@ -174,5 +175,29 @@ int logs_write_objects(const char *dir)
     lr_state(&w, &st, TRIOCT_STATE_REQUEST_T_VALID, 0, 2, links, 0, NULL, NULL, 2, skew);
     lr_req rays_only = {OBJECTS_CLIENT, ++q.id, "REPLAY_OBJECTS", "spare", NULL, 0};
     lr_state(&w, &rays_only, TRIOCT_STATE_REQUEST_T_VALID, 0, 2, links, 0, NULL, NULL, 2, at);
+
+    /* Rotations sent as quaternions: a move (listed, to show the matrix the daemon made),
+     * one of length 2 (refused), and states whose links are turned by quaternions. */
+    trioct_object_edit_t turn = edit(TRIOCT_OBJECT_EDIT_T_MOVE, "crate_b", NULL, pose_of(0, 1, 1, 0.25));
+    turn.rotation = TRIOCT_OBJECT_EDIT_T_QUATERNION;
+    const double quarter_z[4] = {0.7071067811865476, 0, 0, 0.7071067811865476};
+    memcpy(turn.quaternion, quarter_z, sizeof quarter_z);
+    q.id++;
+    lr_objects(&w, &q, 1, 1, &turn);
+    turn.quaternion[0] = 2 * quarter_z[0];
+    turn.quaternion[3] = 2 * quarter_z[3];
+    q.id++;
+    lr_objects(&w, &q, 0, 1, &turn);
+    double qs[4 * 4];
+    for (int k = 0; k < 4; k++) {
+        double a = 0.4 * k;
+        const double qk[4] = {cos(a), sin(a) * 0.6, 0, sin(a) * 0.8};
+        memcpy(&qs[4 * k], qk, sizeof qk);
+    }
+    st.id = ++q.id;
+    lr_state_quaternions(&w, &st, TRIOCT_STATE_REQUEST_T_CONTACTS, 1, 2, links, 4, at, qs);
+    q.id++;
+    lr_rays_contact(&w, &q, TRIOCT_RAY_REQUEST_T_CLOSEST, WORLD_ACC, TRIOCT_RAY_REQUEST_T_CROSSING, 0, INFINITY, 1, 24,
+                    p.o, p.d);
     return lw_save(&w, dir, "objects");
 }

@@ -130,6 +130,25 @@ void lr_state(logs_writer *w, const lr_req *q, int8_t detail, int8_t self_collis
     lw_state(w, channel_of(q, TRIOCT_CHANNEL_STATE), &m);
 }
 
+void lr_state_quaternions(logs_writer *w, const lr_req *q, int8_t detail, int8_t self_collision, int n_links,
+                          const trioct_state_link_t *links, int n_poses, const trioct_pose_t *poses,
+                          const double *quaternions)
+{
+    trioct_state_request_t m;
+    memset(&m, 0, sizeof m);
+    m.header = header_of(q);
+    m.detail = detail;
+    m.self_collision = self_collision;
+    m.num_links = n_links;
+    m.links = (trioct_state_link_t *)links;
+    m.num_poses = n_poses;
+    m.poses = (trioct_pose_t *)poses;
+    m.rotation = TRIOCT_STATE_REQUEST_T_QUATERNION;
+    m.num_quaternions = 4 * n_poses;
+    m.quaternions = (double *)quaternions;
+    lw_state(w, channel_of(q, TRIOCT_CHANNEL_STATE), &m);
+}
+
 void lr_load(logs_writer *w, const lr_req *q, const char *mesh_path, double resolution, int8_t accuracy,
              double seed_epsilon, int32_t effects)
 {

@@ -38,6 +38,10 @@ void lr_objects(logs_writer *w, const lr_req *q, int list, int n, const trioct_o
 void lr_state(logs_writer *w, const lr_req *q, int8_t detail, int8_t self_collision, int n_links,
               const trioct_state_link_t *links, int n_allowed, char **a, char **b, int n_poses,
               const trioct_pose_t *poses);
+/* The same with the rotations as quaternions (4 a pose, w x y z); poses[k].r unused. */
+void lr_state_quaternions(logs_writer *w, const lr_req *q, int8_t detail, int8_t self_collision, int n_links,
+                          const trioct_state_link_t *links, int n_poses, const trioct_pose_t *poses,
+                          const double *quaternions);
 /* A LOAD with every option. */
 void lr_load(logs_writer *w, const lr_req *q, const char *mesh_path, double resolution, int8_t accuracy,
              double seed_epsilon, int32_t effects);
