@@ -367,10 +367,16 @@ static int check_header(job *j, int64_t now_utime)
                         "LOAD needs header.world to name the world: \"%s\" is not 1..%d characters of "
                         "[A-Za-z0-9_]",
                         dispatch_quote(j->hdr.world, q, sizeof q), TRIOCT_MAX_NAME_LEN);
-    if (req->deadline_utime != 0 && req->deadline_utime < now_utime)
-        return job_fail(j, TRIOCT_ERR_DEADLINE,
-                        "deadline_utime %lld passed %lld us before the work could start",
-                        (long long)req->deadline_utime, (long long)(now_utime - req->deadline_utime));
+    if (req->deadline_utime != 0 && req->deadline_utime < now_utime) {
+        /* A deadline far in the past (any peer may send INT64_MIN) is later than an int64
+         * counts: the subtraction must not overflow. */
+        int64_t late;
+        if (__builtin_sub_overflow(now_utime, req->deadline_utime, &late))
+            return job_fail(j, TRIOCT_ERR_DEADLINE, "deadline_utime %lld passed more than %lld us before the work could start",
+                            (long long)req->deadline_utime, (long long)INT64_MAX);
+        return job_fail(j, TRIOCT_ERR_DEADLINE, "deadline_utime %lld passed %lld us before the work could start",
+                        (long long)req->deadline_utime, (long long)late);
+    }
     if (channel_has_world(req->channel_kind)) {
         j->w = registry_acquire(j->ctx->worlds, req->channel_name);
         if (!j->w)
