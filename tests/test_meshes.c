@@ -15,6 +15,7 @@
 #include <time.h>
 #include <sys/resource.h>
 #include <sys/wait.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <assimp/cimport.h>
@@ -753,6 +754,28 @@ static void scratch_remove(scratch *s)
     rmdir(s->dir);
 }
 
+/* Only regular files reach the importer: a FIFO named like a mesh is refused at once (an
+ * open for reading would block until a writer came), and so is a device (issue 20). */
+static void test_load_refuses_fifos_and_devices(void **state)
+{
+    (void)state;
+    char dir[] = "/tmp/trioct-fifo-XXXXXX";
+    assert_non_null(mkdtemp(dir));
+    char path[96];
+    snprintf(path, sizeof path, "%s/pipe.obj", dir);
+    assert_int_equal(mkfifo(path, 0600), 0);
+    loaded l = load(path);
+    assert_int_equal(l.status, -1);
+    assert_non_null(strstr(l.err, "it is a FIFO, not a regular file"));
+    assert_null(l.mesh.vertices);
+    unlink(path);
+    rmdir(dir);
+
+    loaded dev = load("/dev/zero");
+    assert_int_equal(dev.status, -1);
+    assert_non_null(strstr(dev.err, "it is a device, not a regular file"));
+}
+
 static void test_load_refuses_nan_naming_the_triangle(void **state)
 {
     (void)state;
@@ -988,6 +1011,7 @@ int main(void)
         cmocka_unit_test(test_load_stl_binary_and_ascii_agree),
         cmocka_unit_test(test_load_counts_skipped_points_and_lines),
         cmocka_unit_test(test_load_missing_file_and_directory),
+        cmocka_unit_test(test_load_refuses_fifos_and_devices),
         cmocka_unit_test(test_load_invalid_models_fail_cleanly),
         cmocka_unit_test(test_load_refuses_infinite_coordinates_in_glb),
         cmocka_unit_test(test_load_refuses_nan_naming_the_triangle),

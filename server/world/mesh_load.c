@@ -8,7 +8,9 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <fcntl.h>
 #include <sys/stat.h>
+#include <unistd.h>
 
 #include <assimp/cimport.h>
 #include <assimp/postprocess.h>
@@ -375,22 +377,41 @@ static int walk_nodes(loader *ld, const struct aiScene *scene)
 }
 
 /* assimp's own "unable to open" hides the reason; errno names it. */
+static const char *file_kind(mode_t mode)
+{
+    if (S_ISDIR(mode))
+        return "a directory";
+    if (S_ISFIFO(mode))
+        return "a FIFO";
+    if (S_ISCHR(mode) || S_ISBLK(mode))
+        return "a device";
+    if (S_ISSOCK(mode))
+        return "a socket";
+    return "not a regular file";
+}
+
+/* Only a regular file is handed to the importer. It is opened without blocking and asked
+ * what it is on that descriptor: a FIFO would block an open for reading, and with it the
+ * thread, until a writer came (a FIFO in the world directory hung a worker), and a device
+ * could be read forever. */
 static int check_readable(loader *ld)
 {
-    struct stat info;
     char reason[128] = "unknown error";
-    if (stat(ld->path, &info) != 0) {
+    int fd = open(ld->path, O_RDONLY | O_NONBLOCK | O_CLOEXEC);
+    if (fd < 0) {
         strerror_r(errno, reason, sizeof reason);
         return fail(ld, "cannot open %s: %s", ld->path, reason);
     }
-    if (S_ISDIR(info.st_mode))
-        return fail(ld, "cannot load %s: it is a directory", ld->path);
-    FILE *file = fopen(ld->path, "rb");
-    if (!file) {
-        strerror_r(errno, reason, sizeof reason);
+    struct stat info;
+    int rc = fstat(fd, &info);
+    int why = errno;
+    close(fd);
+    if (rc != 0) {
+        strerror_r(why, reason, sizeof reason);
         return fail(ld, "cannot open %s: %s", ld->path, reason);
     }
-    fclose(file);
+    if (!S_ISREG(info.st_mode))
+        return fail(ld, "cannot load %s: it is %s, not a regular file", ld->path, file_kind(info.st_mode));
     return 0;
 }
 
