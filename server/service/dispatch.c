@@ -49,6 +49,26 @@ const char *dispatch_quote(const char *s, char *buf, size_t len)
     return buf;
 }
 
+int dispatch_out_of_memory(job *j, const char *what)
+{
+    return job_fail(j, TRIOCT_ERR_NOMEM, "out of memory for %s", what);
+}
+
+octree_status dispatch_wire_pose(const trioct_pose_t *p, const double *quaternion, pose *out)
+{
+    vec3 t = {p->t.x, p->t.y, p->t.z};
+    if (!isfinite(t.x) || !isfinite(t.y) || !isfinite(t.z))
+        return OCTREE_ERR_NONFINITE;
+    if (quaternion) {
+        octree_status st = octree_pose_from_quaternion(t, quaternion[0], quaternion[1], quaternion[2], quaternion[3],
+                                                       out);
+        return st != OCTREE_OK ? st : octree_pose_check(out);
+    }
+    memcpy(out->r, p->r, sizeof out->r);
+    out->t = t;
+    return octree_pose_check(out); /* OCTREE_ERR_NONFINITE for a NaN or infinite entry of r */
+}
+
 int job_engine_error(job *j, octree_status st, const char *item, size_t i)
 {
     switch (st) {

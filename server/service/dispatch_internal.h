@@ -141,6 +141,22 @@ int posed_meshes(job *j, const octree *shape_tree, box3 shape_bounds, const pose
  * reply's table of names, which it makes: each named object once, in set (name) order. */
 int posed_name_objects(job *j, query_result *r);
 
+/* The same for any records: field gives record i's object index, or NULL for a record that
+ * names no object (a state contact with another link). The names point into the world's
+ * set; *names is the caller's to free. */
+typedef int32_t *(*object_field_fn)(void *records, size_t i);
+int dispatch_name_objects(job *j, void *records, size_t count, object_field_fn field, int32_t *named_count,
+                          char ***names);
+
+/* TRIOCT_ERR_NOMEM with "out of memory for <what>". */
+int dispatch_out_of_memory(job *j, const char *what);
+
+/* A pose of the wire into *out: t, and pose.r or, when quaternion is not NULL, the rotation
+ * of that quaternion (w, x, y, z), normalised. OCTREE_ERR_NONFINITE for a NaN or infinite
+ * entry, OCTREE_ERR_INVALID for a quaternion far from unit length or a matrix that is no
+ * rotation (octree_pose_check). */
+octree_status dispatch_wire_pose(const trioct_pose_t *p, const double *quaternion, pose *out);
+
 /* Each encodes a whole reply into out->chunks (every chunk <= TRIOCT_MAX_CHUNK_BYTES) and
  * returns TRIOCT_OK, or TRIOCT_ERR_NOMEM (or TRIOCT_ERR_OVER_CAP for a record that fits no
  * chunk) with out->chunks left empty. A NULL result encodes one chunk without results. */

@@ -21,27 +21,6 @@ static int edit_fail(job *j, int index, int status, const char *fmt, const char 
     return job_fail(j, status, fmt, index, dispatch_quote(name, q, sizeof q), why);
 }
 
-/* The edit's pose: t with pose.r, or with the rotation of its quaternion (normalised; one
- * far from unit length is OCTREE_ERR_INVALID, as is a matrix that is no rotation). */
-static int pose_in(const trioct_object_edit_t *e, pose *out)
-{
-    const trioct_pose_t *p = &e->pose;
-    vec3 t = {p->t.x, p->t.y, p->t.z};
-    if (!isfinite(t.x) || !isfinite(t.y) || !isfinite(t.z))
-        return OCTREE_ERR_NONFINITE;
-    if (e->rotation == TRIOCT_OBJECT_EDIT_T_QUATERNION) {
-        octree_status st = octree_pose_from_quaternion(t, e->quaternion[0], e->quaternion[1], e->quaternion[2],
-                                                       e->quaternion[3], out);
-        return st != OCTREE_OK ? st : octree_pose_check(out);
-    }
-    memcpy(out->r, p->r, sizeof out->r);
-    out->t = t;
-    for (int k = 0; k < 9; k++)
-        if (!isfinite(p->r[k]))
-            return OCTREE_ERR_NONFINITE;
-    return octree_pose_check(out);
-}
-
 /* What the edit list asks, checked; the models of the adds are loaded later. */
 static int check_edits(job *j, const trioct_object_edit_request_t *m, object_edit *edits)
 {
@@ -74,7 +53,8 @@ static int check_edits(job *j, const trioct_object_edit_request_t *m, object_edi
                             i, e->rotation);
         }
         if (out->kind != OBJECT_EDIT_REMOVE) {
-            int ps = pose_in(e, &out->at);
+            int ps = dispatch_wire_pose(&e->pose, e->rotation == TRIOCT_OBJECT_EDIT_T_QUATERNION ? e->quaternion : NULL,
+                                        &out->at);
             if (ps == OCTREE_ERR_NONFINITE)
                 return edit_fail(j, i, TRIOCT_ERR_NONFINITE, "edits[%d] (%s): the pose %s", e->name,
                                  "has a NaN or infinite entry");

@@ -12,7 +12,7 @@
 
 static int posed_nomem(job *j, const char *what)
 {
-    return job_fail(j, TRIOCT_ERR_NOMEM, "out of memory for %s", what);
+    return dispatch_out_of_memory(j, what);
 }
 
 static int posed_over(job *j, size_t total, const char *fewer)
@@ -170,10 +170,48 @@ int posed_meshes(job *j, const octree *shape_tree, box3 shape_bounds, const pose
     return status;
 }
 
-/* The object fields of the records: indexes in the world's set before, in the reply's
- * table after, with the table holding each named object once, in set (name) order. */
-static int32_t *record_object(query_result *r, size_t i)
+int dispatch_name_objects(job *j, void *records, size_t count, object_field_fn field, int32_t *named_count,
+                          char ***names)
 {
+    const object_set *s = j->w->objects;
+    *named_count = 0;
+    *names = NULL;
+    if (count == 0 || s->count == 0)
+        return TRIOCT_OK;
+    int32_t *rank = dispatch_calloc(s->count, sizeof *rank);
+    if (!rank)
+        return posed_nomem(j, "the reply's object names");
+    for (size_t i = 0; i < count; i++) {
+        int32_t *o = field(records, i);
+        if (o)
+            rank[*o] = 1;
+    }
+    int32_t named = 0;
+    for (size_t k = 0; k < s->count; k++)
+        if (rank[k])
+            rank[k] = ++named; /* 1-based while marking */
+    *names = dispatch_malloc((size_t)named * sizeof **names);
+    if (!*names) {
+        free(rank);
+        return posed_nomem(j, "the reply's object names");
+    }
+    for (size_t k = 0; k < s->count; k++)
+        if (rank[k])
+            (*names)[rank[k] - 1] = (char *)s->objects[k].name;
+    *named_count = named;
+    for (size_t i = 0; i < count; i++) {
+        int32_t *o = field(records, i);
+        if (o)
+            *o = rank[*o] - 1;
+    }
+    free(rank);
+    return TRIOCT_OK;
+}
+
+/* The object field of a query result's record i: hits, contacts or pairs. */
+static int32_t *record_object(void *records, size_t i)
+{
+    query_result *r = records;
     if (r->hits)
         return &r->hits[i].object;
     if (r->contacts)
@@ -183,31 +221,5 @@ static int32_t *record_object(query_result *r, size_t i)
 
 int posed_name_objects(job *j, query_result *r)
 {
-    const object_set *s = j->w->objects;
-    if (r->record_count == 0 || s->count == 0)
-        return TRIOCT_OK;
-    int32_t *rank = dispatch_calloc(s->count, sizeof *rank);
-    if (!rank)
-        return posed_nomem(j, "the reply's object names");
-    for (size_t i = 0; i < r->record_count; i++)
-        rank[*record_object(r, i)] = 1;
-    int32_t named = 0;
-    for (size_t k = 0; k < s->count; k++)
-        if (rank[k])
-            rank[k] = ++named; /* 1-based while marking */
-    r->objects = dispatch_malloc((size_t)named * sizeof *r->objects);
-    if (!r->objects) {
-        free(rank);
-        return posed_nomem(j, "the reply's object names");
-    }
-    for (size_t k = 0; k < s->count; k++)
-        if (rank[k])
-            r->objects[rank[k] - 1] = (char *)s->objects[k].name;
-    r->object_count = named;
-    for (size_t i = 0; i < r->record_count; i++) {
-        int32_t *o = record_object(r, i);
-        *o = rank[*o] - 1;
-    }
-    free(rank);
-    return TRIOCT_OK;
+    return dispatch_name_objects(j, r, r->record_count, record_object, &r->object_count, &r->objects);
 }

@@ -91,7 +91,7 @@ static int over_results(job *j, size_t total, const char *fewer)
 
 static int out_of_memory(job *j, const char *what)
 {
-    return job_fail(j, TRIOCT_ERR_NOMEM, "out of memory for %s", what);
+    return dispatch_out_of_memory(j, what);
 }
 
 /* The OK reply of a query, encoded; the world's query counter goes up once it is. */

@@ -14,24 +14,11 @@ static int finite3(const trioct_vec3_t *v)
     return isfinite(v->x) && isfinite(v->y) && isfinite(v->z);
 }
 
-/* Pose k of the request: t, and pose.r or the rotation of its quaternion (normalised). */
+/* Pose k of the request (dispatch_wire_pose). */
 static octree_status state_pose(const trioct_state_request_t *m, int k, pose *out)
 {
-    const trioct_pose_t *p = &m->poses[k];
-    vec3 t = {p->t.x, p->t.y, p->t.z};
-    if (!finite3(&p->t))
-        return OCTREE_ERR_NONFINITE;
-    if (m->rotation == TRIOCT_STATE_REQUEST_T_QUATERNION) {
-        const double *q = &m->quaternions[4 * k];
-        octree_status st = octree_pose_from_quaternion(t, q[0], q[1], q[2], q[3], out);
-        return st != OCTREE_OK ? st : octree_pose_check(out);
-    }
-    for (int e = 0; e < 9; e++)
-        if (!isfinite(p->r[e]))
-            return OCTREE_ERR_NONFINITE;
-    memcpy(out->r, p->r, sizeof out->r);
-    out->t = t;
-    return octree_pose_check(out);
+    return dispatch_wire_pose(&m->poses[k],
+                              m->rotation == TRIOCT_STATE_REQUEST_T_QUATERNION ? &m->quaternions[4 * k] : NULL, out);
 }
 
 static int check_state(job *j, const trioct_state_request_t *m)
@@ -165,37 +152,11 @@ static void state_answer_free(state_answer *a)
     free(a->objects);
 }
 
-/* The object fields of object contacts, from set indexes to indexes in a table of the
- * named objects, each once, in set (name) order. */
-static int name_state_objects(job *j, state_answer *a)
+/* A state contact's object, or NULL when its other is a link. */
+static int32_t *contact_object(void *records, size_t i)
 {
-    const object_set *s = j->w->objects;
-    if (a->count == 0 || s->count == 0)
-        return TRIOCT_OK;
-    int32_t *rank = dispatch_calloc(s->count, sizeof *rank);
-    if (!rank)
-        return job_fail(j, TRIOCT_ERR_NOMEM, "out of memory for the reply's object names");
-    for (size_t i = 0; i < a->count; i++)
-        if (!a->contacts[i].with_link)
-            rank[a->contacts[i].other] = 1;
-    int32_t named = 0;
-    for (size_t k = 0; k < s->count; k++)
-        if (rank[k])
-            rank[k] = ++named;
-    a->objects = dispatch_malloc((size_t)named * sizeof *a->objects);
-    if (!a->objects) {
-        free(rank);
-        return job_fail(j, TRIOCT_ERR_NOMEM, "out of memory for the reply's object names");
-    }
-    for (size_t k = 0; k < s->count; k++)
-        if (rank[k])
-            a->objects[rank[k] - 1] = (char *)s->objects[k].name;
-    a->object_count = named;
-    for (size_t i = 0; i < a->count; i++)
-        if (!a->contacts[i].with_link)
-            a->contacts[i].other = rank[a->contacts[i].other] - 1;
-    free(rank);
-    return TRIOCT_OK;
+    trioct_state_contact_t *c = &((trioct_state_contact_t *)records)[i];
+    return c->with_link ? NULL : &c->other;
 }
 
 static int run_states(job *j, const trioct_state_request_t *m, state_link *links, const state_allowed *allowed,
@@ -244,7 +205,9 @@ static int run_states(job *j, const trioct_state_request_t *m, state_link *links
     }
     free(buf);
     state_scratch_free(scratch);
-    return status == TRIOCT_OK ? name_state_objects(j, a) : status;
+    return status == TRIOCT_OK
+               ? dispatch_name_objects(j, a->contacts, a->count, contact_object, &a->object_count, &a->objects)
+               : status;
 }
 
 int dispatch_state(job *j, const trioct_state_request_t *m)

@@ -111,9 +111,9 @@ void lr_objects(logs_writer *w, const lr_req *q, int list, int n, const trioct_o
     lw_objects(w, channel_of(q, TRIOCT_CHANNEL_OBJECTS), &m);
 }
 
-void lr_state(logs_writer *w, const lr_req *q, int8_t detail, int8_t self_collision, int n_links,
-              const trioct_state_link_t *links, int n_allowed, char **a, char **b, int n_poses,
-              const trioct_pose_t *poses)
+/* The state request both forms share; the caller sets the rotations' form. */
+static trioct_state_request_t state_message(const lr_req *q, int8_t detail, int8_t self_collision, int n_links,
+                                            const trioct_state_link_t *links, int n_poses, const trioct_pose_t *poses)
 {
     trioct_state_request_t m;
     memset(&m, 0, sizeof m);
@@ -122,11 +122,19 @@ void lr_state(logs_writer *w, const lr_req *q, int8_t detail, int8_t self_collis
     m.self_collision = self_collision;
     m.num_links = n_links;
     m.links = (trioct_state_link_t *)links;
+    m.num_poses = n_poses;
+    m.poses = (trioct_pose_t *)poses;
+    return m;
+}
+
+void lr_state(logs_writer *w, const lr_req *q, int8_t detail, int8_t self_collision, int n_links,
+              const trioct_state_link_t *links, int n_allowed, char **a, char **b, int n_poses,
+              const trioct_pose_t *poses)
+{
+    trioct_state_request_t m = state_message(q, detail, self_collision, n_links, links, n_poses, poses);
     m.num_allowed = n_allowed;
     m.allowed_a = a;
     m.allowed_b = b;
-    m.num_poses = n_poses;
-    m.poses = (trioct_pose_t *)poses;
     lw_state(w, channel_of(q, TRIOCT_CHANNEL_STATE), &m);
 }
 
@@ -134,15 +142,7 @@ void lr_state_quaternions(logs_writer *w, const lr_req *q, int8_t detail, int8_t
                           const trioct_state_link_t *links, int n_poses, const trioct_pose_t *poses,
                           const double *quaternions)
 {
-    trioct_state_request_t m;
-    memset(&m, 0, sizeof m);
-    m.header = header_of(q);
-    m.detail = detail;
-    m.self_collision = self_collision;
-    m.num_links = n_links;
-    m.links = (trioct_state_link_t *)links;
-    m.num_poses = n_poses;
-    m.poses = (trioct_pose_t *)poses;
+    trioct_state_request_t m = state_message(q, detail, self_collision, n_links, links, n_poses, poses);
     m.rotation = TRIOCT_STATE_REQUEST_T_QUATERNION;
     m.num_quaternions = 4 * n_poses;
     m.quaternions = (double *)quaternions;
