@@ -144,8 +144,19 @@ $(DEMO_DIR)/.stamp: $(DEMO_WORLD_BIN)
 	$(DEMO_WORLD_BIN) $(DEMO_DIR)
 	@touch $@
 
-$(DAEMON_BIN): $(BUILD)/server/service/trioctd.o $(SERVICE_LIB) $(WORLD_LIB) $(PROTO_LIB) $(ENGINE_LIB)
+$(DAEMON_BIN): $(BUILD)/server/service/trioctd.o $(SERVICE_LIB) $(WORLD_LIB) $(PROTO_LIB) $(ENGINE_LIB) | $(LOADER_BIN)
 	$(CC) $(ALL_CFLAGS) $< $(SERVICE_LIB) $(WORLD_LIB) $(PROTO_LIB) $(ENGINE_LIB) $(SYS_LIBS) -o $@
+
+# trioct-load (issue 20): the daemon parses every mesh file in one of these, a confined
+# child process, and looks for it beside its own executable (or in ../libexec/trioct/).
+LOADER_BIN := $(BUILD)/trioct-load
+LOADER_CONFINE_OBJ := $(BUILD)/server/loader/loader_confine.o
+$(LOADER_BIN): $(BUILD)/server/loader/trioct_load.o $(LOADER_CONFINE_OBJ) $(WORLD_LIB) $(ENGINE_LIB)
+	$(CC) $(ALL_CFLAGS) $< $(LOADER_CONFINE_OBJ) $(WORLD_LIB) $(ENGINE_LIB) -lassimp -lseccomp $(LDLIBS_ENGINE) -o $@
+all: $(LOADER_BIN)
+# test_loader's fake loaders confine themselves with the loader's own code.
+$(BUILD)/tests/test_loader: $(BUILD)/tests/test_loader.o $(LOADER_CONFINE_OBJ) $(ALL_LIBS) | $(LOADER_BIN)
+	$(CC) $(ALL_CFLAGS) $< $(LOADER_CONFINE_OBJ) $(ALL_LIBS) -lcmocka $(SYS_LIBS) -lseccomp -o $@
 
 # The daemon on the demo scene, in a private network namespace, after a demo client's questions.
 run: $(DAEMON_BIN) $(DEMO_BIN) $(DEMO_DIR)/.stamp
