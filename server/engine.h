@@ -3,6 +3,7 @@
 #ifndef TRIOCT_ENGINE_H
 #define TRIOCT_ENGINE_H
 
+#include <stdatomic.h>
 #include <stddef.h>
 #include <stdint.h>
 
@@ -50,6 +51,26 @@ const char *octree_status_text(octree_status status);
  * when given explicitly; the seed's heuristic resolution is clamped to it. */
 #define OCTREE_MAX_DEPTH_CAP 21
 
+/* Bytes shared by builds that may run at once: a daemon's memory budget. A build takes
+ * from it each block before allocating it and stops with OCTREE_ERR_BUDGET when the
+ * account has no room; the finished tree keeps what it holds and gives it back when freed.
+ * Thread-safe. */
+typedef struct memory_account {
+    atomic_size_t used;
+    size_t limit; /* SIZE_MAX: none */
+} memory_account;
+
+/* An account with nothing used. */
+void memory_account_init(memory_account *account, size_t limit);
+/* Takes bytes when they fit under the limit: 0, or -1 with nothing taken. */
+int memory_account_take(memory_account *account, size_t bytes);
+/* Takes bytes whether they fit or not: for memory already allocated, to keep the count true. */
+void memory_account_charge(memory_account *account, size_t bytes);
+void memory_account_give(memory_account *account, size_t bytes);
+size_t memory_account_used(const memory_account *account);
+/* What is left under the limit (0 when at or past it). */
+size_t memory_account_left(const memory_account *account);
+
 typedef struct octree_def {
     double resolution;    /* leaf side d; <= 0 asks for the seed's heuristic sqrt(mean |E2 x E0|) */
     int max_depth;        /* cap on L_max, 0..OCTREE_MAX_DEPTH_CAP */
@@ -74,6 +95,9 @@ typedef struct octree_def {
      * default) is OCTREE_DEFAULT_BUDGET_BASE + OCTREE_DEFAULT_BUDGET_PER_TRIANGLE per
      * triangle, about forty times what real meshes take; SIZE_MAX is no budget. */
     size_t budget_bytes;
+    /* Shared with other builds and trees: the build takes every byte it counts against
+     * budget_bytes from it as well. NULL (the default): none. */
+    memory_account *account;
     /* 1: no compiled traversal form (octree_traversal.h, about 20-30 bytes a triangle):
      * rays take the double-precision walk over the seed's nodes, with the same answers
      * (any-hit rays may report another of their hits), more slowly. 0 (the default):

@@ -182,6 +182,47 @@ static void test_build_stops_at_its_budget(void **state)
     mesh_data_free(&m);
 }
 
+/* A shared account: a tree holds exactly its bytes of it and gives them back when freed;
+ * a build the account has no room for stops with the memory budget in its message and
+ * leaves the account as it found it; two trees count side by side. */
+static void test_build_takes_from_a_shared_account(void **state)
+{
+    (void)state;
+    mesh_data m = needle();
+    mesh_view v = mesh_data_view(&m);
+    octree_def def = octree_default_def();
+    memory_account account;
+    memory_account_init(&account, SIZE_MAX);
+    def.account = &account;
+    octree_error err;
+    octree *t = octree_build(&v, &def, &err);
+    assert_non_null(t);
+    octree_info info;
+    octree_get_info(t, &info);
+    assert_int_equal(memory_account_used(&account), info.bytes_total);
+    octree *second = octree_build(&v, &def, &err);
+    assert_non_null(second);
+    assert_int_equal(memory_account_used(&account), 2 * info.bytes_total);
+    octree_free(second);
+    assert_int_equal(memory_account_used(&account), info.bytes_total);
+
+    /* Room for a little more than one tree: the second stops as it grows. */
+    account.limit = info.bytes_total + info.bytes_total / 2;
+    assert_null(octree_build(&v, &def, &err));
+    assert_int_equal(err.status, OCTREE_ERR_BUDGET);
+    assert_non_null(strstr(err.message, "memory budget"));
+    assert_int_equal(memory_account_used(&account), info.bytes_total);
+    /* No room even for the copy of the mesh: stopped at once. */
+    account.limit = info.bytes_total + 10;
+    assert_null(octree_build(&v, &def, &err));
+    assert_int_equal(err.status, OCTREE_ERR_BUDGET);
+    assert_non_null(strstr(err.message, "has 10 left"));
+    assert_int_equal(memory_account_used(&account), info.bytes_total);
+    octree_free(t);
+    assert_int_equal(memory_account_used(&account), 0);
+    mesh_data_free(&m);
+}
+
 /* The seed's epsilon at the scale of the world made every node touch every triangle when
  * the seed's test decided membership (one tiny triangle passed 4 GB). Every mode now builds
  * the exact tree, so the seed build is the exact build and fits a small budget. */
@@ -1322,6 +1363,7 @@ int main(void)
         cmocka_unit_test(test_bad_index_and_empty_mesh_are_rejected),
         cmocka_unit_test(test_depth_cap_errors_when_explicit_and_clamps_heuristic),
         cmocka_unit_test(test_build_stops_at_its_budget),
+        cmocka_unit_test(test_build_takes_from_a_shared_account),
         cmocka_unit_test(test_seed_epsilon_at_the_world_scale_builds_the_exact_tree),
         cmocka_unit_test(test_status_texts_are_distinct_and_general),
         cmocka_unit_test(test_children_follow_the_seed_octant_order),

@@ -66,6 +66,7 @@ octree_def octree_default_def(void)
         .triangle_boxes = 0,
         .node_bounds = 0,
         .budget_bytes = 0,
+        .account = NULL,
         .plain_walk = 0,
     };
 }
@@ -137,6 +138,7 @@ typedef struct build_ctx {
     size_t budget; /* bytes the build may hold (octree_def.budget_bytes, resolved) */
     size_t held;   /* bytes it holds now */
     size_t asked;  /* the request that would have passed the budget, when one did */
+    int account_full; /* it was the shared account (octree_def.account) that had no room */
     /* box_octants_reached by bounds_reach_index's comparisons */
     uint8_t reach_of_index[64];
 } build_ctx;
@@ -149,11 +151,38 @@ static int budget_take(build_ctx *ctx, size_t bytes)
         ctx->asked = bytes;
         return -1;
     }
+    octree *tree = ctx->tree;
+    if (tree->account && memory_account_take(tree->account, bytes) != 0) {
+        ctx->asked = bytes;
+        ctx->account_full = 1;
+        return -1;
+    }
     ctx->held += bytes;
+    tree->accounted += tree->account ? bytes : 0;
     return 0;
 }
 
-static void budget_give_back(build_ctx *ctx, size_t bytes) { ctx->held -= bytes; }
+static void budget_give_back(build_ctx *ctx, size_t bytes)
+{
+    ctx->held -= bytes;
+    octree *tree = ctx->tree;
+    if (tree->account) {
+        memory_account_give(tree->account, bytes);
+        tree->accounted -= bytes;
+    }
+}
+
+/* The tree keeps, of the account, what it holds when built: no more, no less. */
+static void settle_account(octree *tree, size_t bytes)
+{
+    if (!tree->account)
+        return;
+    if (bytes > tree->accounted)
+        memory_account_charge(tree->account, bytes - tree->accounted);
+    else
+        memory_account_give(tree->account, tree->accounted - bytes);
+    tree->accounted = bytes;
+}
 
 /* Grows a build list to hold extra more items, counting its new capacity first. */
 static octree_status u32_reserve(build_ctx *ctx, u32_array *a, size_t extra)
@@ -758,6 +787,20 @@ octree *octree_build(const mesh_view *mesh, const octree_def *def_in, octree_err
     octree *tree = calloc(1, sizeof *tree);
     if (!tree)
         return fail(err, OCTREE_ERR_NOMEM, SIZE_MAX, "out of memory");
+    /* The copy's peak, taken before it is made; what is more than the steady part goes back
+     * once the renumbering is done. */
+    size_t first = peak > steady ? peak : steady;
+    if (def.account) {
+        if (memory_account_take(def.account, first) != 0) {
+            size_t left = memory_account_left(def.account);
+            free(tree);
+            return fail(err, OCTREE_ERR_BUDGET, SIZE_MAX,
+                        "the build needs %zu bytes for its copy of %zu triangles; the memory budget of %zu bytes has %zu left",
+                        first, n, def.account->limit, left);
+        }
+        tree->account = def.account;
+        tree->accounted = first;
+    }
     octree_status st = copy_mesh(tree, mesh, err);
     if (st != OCTREE_OK) {
         octree_free(tree);
@@ -787,6 +830,7 @@ octree *octree_build(const mesh_view *mesh, const octree_def *def_in, octree_err
         const vec3 *t = tree->triangles[i];
         ctx.bounds[i] = (triangle_bounds){vec3_min(vec3_min(t[0], t[1]), t[2]), vec3_max(vec3_max(t[0], t[1]), t[2])};
     }
+    settle_account(tree, steady);
     /* Rounded up: the cube's side D >= extent must hold for the real extent, which a
      * rounded-to-nearest difference may fall short of by half an ulp. */
     double extent = fmax(difference_rounded_up(hi.x, lo.x),
@@ -868,6 +912,11 @@ octree *octree_build(const mesh_view *mesh, const octree_def *def_in, octree_err
         size_t nodes = tree->node_count;
         free(ctx.bounds);
         octree_free(tree);
+        if (ctx.account_full)
+            return fail(err, st, SIZE_MAX,
+                        "the build held %zu bytes and asked for %zu more, at %zu nodes; the memory budget of %zu bytes "
+                        "has %zu left",
+                        ctx.held, ctx.asked, nodes, def.account->limit, memory_account_left(def.account));
         return fail(err, st,
                     SIZE_MAX, "the build needs more than its budget of %zu bytes: it held %zu and asked for %zu more, at %zu nodes",
                     budget, ctx.held, ctx.asked, nodes);
@@ -937,6 +986,7 @@ octree *octree_build(const mesh_view *mesh, const octree_def *def_in, octree_err
                         info->bytes_triangle_boxes + info->bytes_node_bounds + info->bytes_traversal +
                         sizeof *tree;
     info->mode = def.mode;
+    settle_account(tree, info->bytes_total);
     tree->seed_epsilon = def.seed_epsilon;
     info->build_seconds = seconds_now() - started;
     return tree;
@@ -946,6 +996,8 @@ void octree_free(octree *tree)
 {
     if (!tree)
         return;
+    if (tree->account)
+        memory_account_give(tree->account, tree->accounted);
     free(tree->triangles);
     free(tree->vertices);
     free(tree->corners);

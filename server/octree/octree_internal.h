@@ -58,6 +58,10 @@ typedef struct triangle_box {
 _Static_assert(sizeof(triangle_box) == 24, "engine.h documents 24 bytes a triangle");
 
 struct octree {
+    /* The account the build took from (octree_def.account) and what this tree holds of it:
+     * given back by octree_free. */
+    memory_account *account;
+    size_t accounted;
     /* While the seed's build runs, each triangle's three vertices side by side (its
      * membership tests read them in turn); freed once the nodes are built. */
     vec3 (*triangles)[3];
