@@ -23,6 +23,8 @@
     X(TRIOCT_ERR_UNKNOWN_OBJECT, 14, "the world has no object of that name")                   \
     X(TRIOCT_ERR_OBJECT_EXISTS, 15, "the world already has an object of that name")            \
     X(TRIOCT_ERR_BAD_POSE, 16, "a pose is not a rotation, or places a vertex out of range")    \
+    X(TRIOCT_ERR_BUDGET, 17, "the change needs more memory than a budget leaves")             \
+    X(TRIOCT_ERR_DENIED, 18, "the change is not authenticated, or its nonce was seen before")  \
     X(TRIOCT_ERR_TIMEOUT, 100, "no reply within the timeout")                                  \
     X(TRIOCT_ERR_NO_DAEMON, 101, "no daemon serves the world")                                 \
     X(TRIOCT_ERR_TRANSPORT, 102, "the LCM bus could not be used")                              \
@@ -35,7 +37,7 @@ typedef enum trioct_status {
 } trioct_status;
 
 /* Codes that travel on the wire are below this; arrays indexed by status use it as size. */
-#define TRIOCT_WIRE_STATUS_COUNT 17
+#define TRIOCT_WIRE_STATUS_COUNT 19
 
 /* The table's text for a code, or "unknown status" for a code not in it. */
 static inline const char *trioct_status_text(int status)

@@ -51,6 +51,8 @@ void dispatch_world_info(const dispatch_ctx *ctx, const registry_entry *entry, t
     info->bytes_triangles = (int64_t)oi.bytes_triangles;
     info->bytes_effects = effects_bytes;
     info->bytes_total = (int64_t)oi.bytes_total + (int64_t)w->bytes_shapes;
+    info->memory_bytes = (int64_t)world_memory_bytes(w);
+    info->memory_budget = (int64_t)w->spec.memory_budget;
     info->build_seconds = oi.build_seconds;
 
     info->objects = (int64_t)w->objects->count;
@@ -208,7 +210,7 @@ static int admin_load(job *j, const trioct_admin_request_t *m)
     char err[TRIOCT_MAX_MESSAGE_LEN - 64];
     err[0] = '\0';
     int build_status = TRIOCT_ERR_LOAD_FAILED;
-    world *w = world_build(spec, j->ctx->world_dir, &build_status, err, sizeof err);
+    world *w = world_build(spec, j->ctx->world_dir, &j->ctx->env, &build_status, err, sizeof err);
     free(spec);
     if (!w) {
         if (build_status == TRIOCT_OK)
@@ -248,9 +250,9 @@ int dispatch_admin(job *j, const trioct_admin_request_t *m)
     case TRIOCT_ADMIN_REQUEST_T_INFO:
         return admin_info(j);
     case TRIOCT_ADMIN_REQUEST_T_UNLOAD:
-        return admin_unload(j);
+        return dispatch_authorize(j) == TRIOCT_OK ? admin_unload(j) : j->status;
     case TRIOCT_ADMIN_REQUEST_T_LOAD:
-        return admin_load(j, m);
+        return dispatch_authorize(j) == TRIOCT_OK ? admin_load(j, m) : j->status;
     default:
         /* check_header admits only the op its channel serves. */
         return job_fail(j, TRIOCT_ERR_BAD_REQUEST, "admin op %d is not LIST, INFO, LOAD or UNLOAD", m->op);

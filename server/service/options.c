@@ -5,6 +5,7 @@
 #include <limits.h>
 #include <stdlib.h>
 #include <string.h>
+#include <unistd.h>
 #include <uv.h>
 
 #include "../../common/channels.h"
@@ -27,6 +28,9 @@ static const option_row rows[] = {
     {OPT_QUEUE_DEPTH, "--queue-depth", "queue_depth"},
     {OPT_LOG_LEVEL, "--log-level", "log_level"},
     {OPT_STATUS_INTERVAL, "--status-interval", "status_interval"},
+    {OPT_MEMORY_BUDGET, "--memory-budget", "memory_budget"},
+    {OPT_LOADER, "--loader", "loader"},
+    {OPT_ADMIN_KEY_FILE, "--admin-key-file", "admin_key_file"},
 };
 #define ROW_COUNT (sizeof rows / sizeof rows[0])
 
@@ -37,6 +41,9 @@ enum {
     LONGOPT_EXIT_AT_EOF,
     LONGOPT_ORDERED,
     LONGOPT_NO_INLINE,
+    LONGOPT_MEMORY_BUDGET,
+    LONGOPT_LOADER,
+    LONGOPT_ADMIN_KEY_FILE,
 };
 
 static const struct option long_options[] = {
@@ -53,6 +60,9 @@ static const struct option long_options[] = {
     {"exit-at-eof", no_argument, NULL, LONGOPT_EXIT_AT_EOF},
     {"ordered", no_argument, NULL, LONGOPT_ORDERED},
     {"no-inline", no_argument, NULL, LONGOPT_NO_INLINE},
+    {"memory-budget", required_argument, NULL, LONGOPT_MEMORY_BUDGET},
+    {"loader", required_argument, NULL, LONGOPT_LOADER},
+    {"admin-key-file", required_argument, NULL, LONGOPT_ADMIN_KEY_FILE},
     {"help", no_argument, NULL, 'h'},
     {"version", no_argument, NULL, 'V'},
     {NULL, 0, NULL, 0},
@@ -107,6 +117,34 @@ static void dir_of(const char *path, char *out, size_t cap)
     if (n == 0)
         n = 1;
     snprintf(out, cap, "%.*s", (int)n, path);
+}
+
+size_t options_default_memory_budget(void)
+{
+    long pages = sysconf(_SC_PHYS_PAGES), page = sysconf(_SC_PAGESIZE);
+    if (pages <= 0 || page <= 0)
+        return (size_t)1 << 30;
+    size_t half = (size_t)pages / 2 * (size_t)page;
+    return half < OPTIONS_MIN_MEMORY_BUDGET ? OPTIONS_MIN_MEMORY_BUDGET : half;
+}
+
+/* A path option: relative ones in a scene are relative to the scene's directory. */
+static int set_path(char *dst, const char *text, const char *base_dir, char *why, size_t why_len)
+{
+    if (text[0] == '\0') {
+        snprintf(why, why_len, "a path is needed");
+        return -1;
+    }
+    int n;
+    if (text[0] == '/' || base_dir == NULL || strcmp(base_dir, ".") == 0)
+        n = snprintf(dst, TRIOCT_MAX_PATH_LEN, "%s", text);
+    else
+        n = snprintf(dst, TRIOCT_MAX_PATH_LEN, "%s/%s", base_dir, text);
+    if (n < 0 || (size_t)n >= TRIOCT_MAX_PATH_LEN) {
+        snprintf(why, why_len, "the path is longer than %d characters", TRIOCT_MAX_PATH_LEN - 1);
+        return -1;
+    }
+    return 0;
 }
 
 /* Sets the field of bit from text. base_dir resolves a relative world_dir (NULL: leave it
@@ -194,6 +232,19 @@ static int set_field(daemon_options *opt, unsigned bit, const char *text, const 
         }
         opt->status_interval_ms = v;
         return 0;
+    case OPT_MEMORY_BUDGET: {
+        size_t bytes;
+        if (scene_parse_bytes(text, &bytes) != 0 || bytes < OPTIONS_MIN_MEMORY_BUDGET) {
+            snprintf(why, why_len, "'%s' is not a size of at least 16M (digits and K, M, G or T)", text);
+            return -1;
+        }
+        opt->memory_budget = bytes;
+        return 0;
+    }
+    case OPT_LOADER:
+        return set_path(opt->loader, text, base_dir, why, why_len);
+    case OPT_ADMIN_KEY_FILE:
+        return set_path(opt->admin_key_file, text, base_dir, why, why_len);
     }
     snprintf(why, why_len, "internal: no such option");
     return -1;
@@ -219,6 +270,9 @@ static unsigned bit_of_flag(int c)
     case 'q': return OPT_QUEUE_DEPTH;
     case 'l': return OPT_LOG_LEVEL;
     case LONGOPT_STATUS_INTERVAL: return OPT_STATUS_INTERVAL;
+    case LONGOPT_MEMORY_BUDGET: return OPT_MEMORY_BUDGET;
+    case LONGOPT_LOADER: return OPT_LOADER;
+    case LONGOPT_ADMIN_KEY_FILE: return OPT_ADMIN_KEY_FILE;
     }
     return 0;
 }
@@ -332,6 +386,12 @@ static void set_defaults(daemon_options *opt, unsigned bits, const char *scene_d
         opt->log_level = LOG_INFO;
     if (bits & OPT_STATUS_INTERVAL)
         opt->status_interval_ms = OPTIONS_DEFAULT_STATUS_INTERVAL_MS;
+    if (bits & OPT_MEMORY_BUDGET)
+        opt->memory_budget = options_default_memory_budget();
+    if (bits & OPT_LOADER)
+        opt->loader[0] = '\0';
+    if (bits & OPT_ADMIN_KEY_FILE)
+        opt->admin_key_file[0] = '\0';
 }
 
 int options_apply_scene(daemon_options *opt, const scene *sc, char *err, size_t err_len)
@@ -431,12 +491,17 @@ void options_usage(FILE *out, const char *argv0)
             "                            and <prefix>_STOP_<name> stops, at that point\n"
             "      --no-inline           hand every request to the workers, even those small\n"
             "                            enough to answer on the loop thread as they come\n"
+            "      --memory-budget SIZE  what all worlds' meshes and trees may hold (default:\n"
+            "                            half the machine's memory; 512M, 2G, ...)\n"
+            "      --loader PROGRAM      the mesh loader (default: trioct-load beside trioctd)\n"
+            "      --admin-key-file FILE the key changes over the bus are authenticated with\n"
+            "                            (default: none, and LOAD, UNLOAD and edits are refused)\n"
             "  -h, --help                this text\n"
             "  -V, --version             the version\n"
             "\n"
             "The scene's [daemon] section takes the same options as url, publish_url, prefix,\n"
-            "name, threads, world_dir, queue_depth, log_level and status_interval; the command\n"
-            "line wins. SIGHUP reloads the scene; SIGTERM and SIGINT finish the work in hand\n"
-            "and exit.\n",
+            "name, threads, world_dir, queue_depth, log_level, status_interval, memory_budget,\n"
+            "loader and admin_key_file; the command line wins. SIGHUP reloads the scene; SIGTERM\n"
+            "and SIGINT finish the work in hand and exit.\n",
             argv0, OPTIONS_DEFAULT_QUEUE_DEPTH, OPTIONS_DEFAULT_STATUS_INTERVAL_MS);
 }

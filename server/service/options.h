@@ -43,6 +43,10 @@
 #define OPTIONS_MIN_STATUS_INTERVAL_MS 10
 #define OPTIONS_MAX_STATUS_INTERVAL_MS 86400000
 #define OPTIONS_MAX_THREADS 1024 /* libuv's cap on UV_THREADPOOL_SIZE */
+#define OPTIONS_MIN_MEMORY_BUDGET ((size_t)16 << 20)
+
+/* Half the machine's physical memory: what memory_budget is when nothing sets it. */
+size_t options_default_memory_budget(void);
 
 /* The options a scene may also set, as bits of daemon_options.from_cli. */
 enum {
@@ -55,6 +59,9 @@ enum {
     OPT_QUEUE_DEPTH = 1u << 6,
     OPT_LOG_LEVEL = 1u << 7,
     OPT_STATUS_INTERVAL = 1u << 8,
+    OPT_MEMORY_BUDGET = 1u << 9,
+    OPT_LOADER = 1u << 10,
+    OPT_ADMIN_KEY_FILE = 1u << 11,
 };
 
 typedef struct daemon_options {
@@ -68,6 +75,9 @@ typedef struct daemon_options {
     int queue_depth;
     log_level log_level;
     int status_interval_ms;
+    size_t memory_budget;      /* bytes every world's meshes and trees may hold together */
+    char loader[TRIOCT_MAX_PATH_LEN];         /* "": the one mesh_loader_find finds */
+    char admin_key_file[TRIOCT_MAX_PATH_LEN]; /* "": no key, no change over the bus */
     int exit_at_eof;   /* file:// input: finish the work in hand and exit 0 at its end */
     int ordered;       /* replays: answers as one thread gives them, whatever threads (daemon.c) */
     int no_inline;     /* every request to the workers, the small ones too (daemon.c) */

@@ -26,6 +26,8 @@ typedef enum mesh_load_outcome {
 /* The limits a daemon gives its loader by default. */
 #define MESH_LOADER_CPU_SECONDS 120u
 #define MESH_LOADER_WALL_SECONDS 300u
+#define MESH_LOADER_MAX_MEMORY ((size_t)4 << 30)
+#define MESH_LOADER_MIN_MEMORY ((size_t)256 << 20)
 
 /* The loader next to the running executable, or in ../libexec/trioct/ from it (an installed
  * tree): 0 with its path in out, or -1 with err naming both places looked in. */

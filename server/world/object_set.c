@@ -71,6 +71,8 @@ void object_model_release(object_model *m)
         return;
     octree_free(m->tree);
     mesh_data_free(&m->mesh);
+    if (m->account)
+        memory_account_give(m->account, m->mesh_accounted);
     free(m);
 }
 

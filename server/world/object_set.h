@@ -33,6 +33,10 @@ typedef struct object_model {
     octree *tree;
     box3 bounds;                   /* of the mesh's vertices, in its frame */
     size_t bytes;                  /* the mesh and the tree */
+    /* The account the mesh's bytes were taken from (the tree gives back its own): given
+     * back when the model is freed. NULL: none. */
+    memory_account *account;
+    size_t mesh_accounted;
     mesh_load_report report;       /* what loading its file found (zero for inline meshes) */
     atomic_int refs;
 } object_model;

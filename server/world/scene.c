@@ -210,7 +210,7 @@ static int def_equal(const octree_def *a, const octree_def *b)
 int world_spec_equal(const world_spec *a, const world_spec *b)
 {
     if (strcmp(a->name, b->name) != 0 || a->mesh_count != b->mesh_count ||
-        a->shape_count != b->shape_count || a->effects != b->effects)
+        a->shape_count != b->shape_count || a->effects != b->effects || a->memory_budget != b->memory_budget)
         return 0;
     for (size_t i = 0; i < a->mesh_count; i++)
         if (strcmp(a->meshes[i], b->meshes[i]) != 0)
@@ -400,6 +400,40 @@ static int key_max_depth(scene_parser *p, world_spec *spec, const char *key, con
     return 0;
 }
 
+int scene_parse_bytes(const char *text, size_t *out)
+{
+    static const struct {
+        const char *unit;
+        int shift;
+    } units[] = {{"", 0},     {"K", 10}, {"KiB", 10}, {"M", 20}, {"MiB", 20},
+                 {"G", 30},   {"GiB", 30}, {"T", 40}, {"TiB", 40}};
+    if (!text || *text < '0' || *text > '9')
+        return -1;
+    char *end;
+    errno = 0;
+    unsigned long long v = strtoull(text, &end, 10);
+    if (errno != 0)
+        return -1;
+    for (size_t i = 0; i < sizeof units / sizeof units[0]; i++) {
+        if (strcmp(end, units[i].unit) != 0)
+            continue;
+        if (v > (unsigned long long)(SIZE_MAX >> units[i].shift))
+            return -1;
+        *out = (size_t)v << units[i].shift;
+        return 0;
+    }
+    return -1;
+}
+
+static int key_memory_budget(scene_parser *p, world_spec *spec, const char *key, const char *value)
+{
+    size_t bytes;
+    if (scene_parse_bytes(value, &bytes) != 0 || bytes == 0)
+        return parser_fail(p, p->line, "%s must be a size above 0 such as 512M or 2G, not '%s'", key, value);
+    spec->memory_budget = bytes;
+    return 0;
+}
+
 static int key_accuracy(scene_parser *p, world_spec *spec, const char *key, const char *value)
 {
     if (accuracy_parse(value, &spec->def.mode) != 0)
@@ -534,6 +568,7 @@ static const struct world_key {
     {"accuracy", key_accuracy, 0},
     {"seed_epsilon", key_seed_epsilon, 0},
     {"effects", key_effects, 0},
+    {"memory_budget", key_memory_budget, 0},
 };
 #define WORLD_KEY_COUNT (sizeof world_keys / sizeof world_keys[0])
 
@@ -558,7 +593,7 @@ static int world_key(scene_parser *p, const char *key, const char *value)
     }
     return parser_fail(p, p->line,
                        "unknown key '%s' in world '%s' (mesh, scale, rotate, translate, resolution, "
-                       "max_depth, accuracy, seed_epsilon, effects, shape.<name>, object.<name>, pose.<name>)",
+                       "max_depth, accuracy, seed_epsilon, effects, memory_budget, shape.<name>, object.<name>, pose.<name>)",
                        key, spec->name);
 }
 

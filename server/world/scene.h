@@ -88,12 +88,20 @@ typedef struct world_spec {
     world_transform transform;
     octree_def def;      /* resolution (<= 0: heuristic), max_depth, mode, seed_epsilon */
     unsigned effects;    /* EFFECT_* bits, never 0 */
+    /* The most its meshes and trees may hold, in bytes (memory_budget); 0: only the
+     * daemon's total bounds it. */
+    size_t memory_budget;
 } world_spec;
 
 /* A spec with the defaults: no meshes, identity transform, octree_default_def(), all effects. */
 void world_spec_init(world_spec *spec, const char *name);
 /* 1 when building a and b would give the same world (the source text aside). */
 int world_spec_equal(const world_spec *a, const world_spec *b);
+
+/* A byte count as a scene or a command line writes it: digits with an optional unit, K, M,
+ * G or T (also KiB, MiB, GiB, TiB; powers of 1024) and nothing else. 0, or -1 for text that
+ * is not one or a count past SIZE_MAX. */
+int scene_parse_bytes(const char *text, size_t *out);
 
 typedef struct scene_option {
     char key[64];

@@ -106,6 +106,10 @@ typedef struct world_builder {
     mesh_load_report merged_report;
     int merging; /* building a section's merged meshes: a triangle index names a file */
     world *w;
+    const world_env *env;
+    size_t budget;      /* the world's memory budget; SIZE_MAX: none */
+    size_t world_bytes; /* what the world holds, and this build has added, so far */
+    size_t mesh_held;   /* mesh bytes taken from the account and not yet handed to a model */
 } world_builder;
 
 static int build_fail(world_builder *b, int status, const char *format, ...)
@@ -120,7 +124,53 @@ static int build_fail(world_builder *b, int status, const char *format, ...)
     return -1;
 }
 
-/* Resolves and loads one file; the loader's message already names the file (and the
+static memory_account *builder_account(const world_builder *b) { return b->env ? b->env->account : NULL; }
+
+/* What the world's budget and the daemon's account both still allow. */
+static size_t builder_room(const world_builder *b)
+{
+    size_t room = b->budget > b->world_bytes ? b->budget - b->world_bytes : 0;
+    memory_account *account = builder_account(b);
+    if (account && memory_account_left(account) < room)
+        room = memory_account_left(account);
+    return room;
+}
+
+/* Bytes for a person: "740 bytes", "64 KiB", "12.5 MiB", "2 GiB". */
+static const char *bytes_text(size_t bytes, char buf[32])
+{
+    static const char *const units[] = {"bytes", "KiB", "MiB", "GiB", "TiB"};
+    double v = (double)bytes;
+    size_t u = 0;
+    while (v >= 1024.0 && u + 1 < sizeof units / sizeof units[0]) {
+        v /= 1024.0;
+        u++;
+    }
+    if (u == 0 || v == (double)(size_t)v)
+        snprintf(buf, 32, "%zu %s", (size_t)v, units[u]);
+    else
+        snprintf(buf, 32, "%.1f %s", v, units[u]);
+    return buf;
+}
+
+/* A refusal for memory, saying both budgets and what they hold, after why (the need). */
+static int budget_fail(world_builder *b, const char *why)
+{
+    char world_part[96] = "no budget of its own", daemon_part[128] = "the daemon has no budget";
+    char a[32], c[32];
+    if (b->budget != SIZE_MAX)
+        snprintf(world_part, sizeof world_part, "a memory_budget of %s, %s of it in use", bytes_text(b->budget, a),
+                 bytes_text(b->world_bytes, c));
+    memory_account *account = builder_account(b);
+    if (account && account->limit != SIZE_MAX)
+        snprintf(daemon_part, sizeof daemon_part, "the daemon's memory_budget is %s, %s of it in use",
+                 bytes_text(account->limit, a), bytes_text(memory_account_used(account), c));
+    return build_fail(b, TRIOCT_ERR_BUDGET, "world '%s': %s (the world has %s; %s)", b->spec->name, why, world_part,
+                      daemon_part);
+}
+
+/* Resolves and loads one file, in the env's loader child when it has one, and takes the
+ * mesh's bytes from the account; the loader's message already names the file (and the
  * triangle of a NaN/Inf coordinate). */
 static int load_file(world_builder *b, const char *rel, mesh_data *mesh, mesh_load_report *report)
 {
@@ -128,9 +178,61 @@ static int load_file(world_builder *b, const char *rel, mesh_data *mesh, mesh_lo
     char why[TRIOCT_MAX_MESSAGE_LEN];
     if (world_resolve_path(b->world_dir, rel, path, sizeof path, why, sizeof why) != 0)
         return build_fail(b, TRIOCT_ERR_BAD_PATH, "world '%s': %s", b->spec->name, why);
-    if (mesh_load_file(path, mesh, report, why, sizeof why) != 0)
+    size_t room = builder_room(b);
+    if (b->env && b->env->loader) {
+        mesh_load_outcome outcome = mesh_load_child(b->env->loader, path, room, mesh, report, why, sizeof why);
+        if (outcome == MESH_LOAD_OVER_BUDGET)
+            return budget_fail(b, why);
+        if (outcome == MESH_LOAD_NO_MEMORY)
+            return build_fail(b, TRIOCT_ERR_NOMEM, "world '%s': %s", b->spec->name, why);
+        if (outcome != MESH_LOAD_OK)
+            return build_fail(b, TRIOCT_ERR_LOAD_FAILED, "world '%s': %s", b->spec->name, why);
+    } else if (mesh_load_file(path, mesh, report, why, sizeof why) != 0) {
         return build_fail(b, TRIOCT_ERR_LOAD_FAILED, "world '%s': %s", b->spec->name, why);
+    }
+    size_t bytes = mesh_data_bytes_for(mesh->vertex_count, mesh->triangle_count);
+    memory_account *account = builder_account(b);
+    if (bytes > room || (account && memory_account_take(account, bytes) != 0)) {
+        char need[32];
+        snprintf(why, sizeof why, "%s: its mesh of %zu triangles needs %s, more than the budget leaves", rel,
+                 mesh->triangle_count, bytes_text(bytes, need));
+        mesh_data_free(mesh);
+        return budget_fail(b, why);
+    }
+    b->world_bytes += bytes;
+    b->mesh_held += account ? bytes : 0;
     return 0;
+}
+
+/* A model takes over the account's share of its mesh from the builder. */
+static void hand_mesh_to_model(world_builder *b, object_model *m)
+{
+    memory_account *account = builder_account(b);
+    if (!account)
+        return;
+    size_t bytes = mesh_data_bytes_for(m->mesh.vertex_count, m->mesh.triangle_count);
+    if (bytes > b->mesh_held) { /* a mesh made here, not loaded: counted now */
+        memory_account_charge(account, bytes - b->mesh_held);
+        b->mesh_held = bytes;
+    }
+    b->mesh_held -= bytes;
+    m->account = account;
+    m->mesh_accounted = bytes;
+}
+
+/* The tree budget of a mesh of n triangles: the engine's own, within what is left. */
+static void budget_tree(world_builder *b, octree_def *def, size_t n)
+{
+    size_t engine = def->budget_bytes;
+    if (engine == 0)
+        engine = n > (SIZE_MAX - OCTREE_DEFAULT_BUDGET_BASE) / OCTREE_DEFAULT_BUDGET_PER_TRIANGLE
+                     ? SIZE_MAX
+                     : OCTREE_DEFAULT_BUDGET_BASE + n * OCTREE_DEFAULT_BUDGET_PER_TRIANGLE;
+    size_t world_left = b->budget > b->world_bytes ? b->budget - b->world_bytes : 0;
+    def->budget_bytes = engine < world_left ? engine : world_left;
+    if (def->budget_bytes == 0)
+        def->budget_bytes = 1; /* 0 would mean the default */
+    def->account = builder_account(b);
 }
 
 /* p' = R (s p) + t, in the order the scene documents. */
@@ -212,6 +314,11 @@ static size_t mesh_of_triangle(const world_builder *b, size_t triangle)
 /* The build error of a tree, naming the file and the triangle in it. */
 static int tree_fail(world_builder *b, const octree_error *oerr, const char *rel, size_t first_triangle)
 {
+    if (oerr->status == OCTREE_ERR_BUDGET) {
+        char why[TRIOCT_MAX_MESSAGE_LEN];
+        snprintf(why, sizeof why, "%s: %s", rel, oerr->message);
+        return budget_fail(b, why);
+    }
     if (oerr->status == OCTREE_ERR_NOMEM)
         return build_fail(b, TRIOCT_ERR_NOMEM, "world '%s': %s: out of memory building the octree", b->spec->name,
                           rel);
@@ -237,6 +344,7 @@ static object_model *make_model(world_builder *b, const char *key, mesh_data *me
                                 const char *rel)
 {
     octree_def def = world_tree_def(b->spec);
+    budget_tree(b, &def, mesh->triangle_count);
     mesh_view view = mesh_data_view(mesh);
     octree_error oerr;
     octree *tree = octree_build(&view, &def, &oerr);
@@ -255,6 +363,10 @@ static object_model *make_model(world_builder *b, const char *key, mesh_data *me
         build_fail(b, TRIOCT_ERR_NOMEM, "world '%s': out of memory for %s", b->spec->name, rel);
         return NULL;
     }
+    octree_info info;
+    octree_get_info(tree, &info);
+    b->world_bytes += info.bytes_total;
+    hand_mesh_to_model(b, m);
     if (report)
         m->report = *report;
     snprintf(m->source, sizeof m->source, "%s", rel);
@@ -389,11 +501,17 @@ static int load_shape(world_builder *b, const world_shape_spec *spec, world_shap
         return -1;
     octree_def def = octree_default_def();
     def.node_bounds = 1;
+    budget_tree(b, &def, mesh.triangle_count);
     mesh_view view = mesh_data_view(&mesh);
     octree_error oerr;
     octree *tree = octree_build(&view, &def, &oerr);
     if (!tree) {
         mesh_data_free(&mesh);
+        if (oerr.status == OCTREE_ERR_BUDGET) {
+            char why[TRIOCT_MAX_MESSAGE_LEN];
+            snprintf(why, sizeof why, "shape '%s' (%s): %s", spec->name, spec->path, oerr.message);
+            return budget_fail(b, why);
+        }
         if (oerr.status == OCTREE_ERR_NOMEM)
             return build_fail(b, TRIOCT_ERR_NOMEM, "world '%s': shape '%s' (%s): out of memory building its octree",
                               b->spec->name, spec->name, spec->path);
@@ -408,6 +526,10 @@ static int load_shape(world_builder *b, const world_shape_spec *spec, world_shap
         mesh_data_free(&mesh);
         return build_fail(b, TRIOCT_ERR_NOMEM, "world '%s': out of memory for shape '%s'", b->spec->name, spec->name);
     }
+    octree_info info;
+    octree_get_info(tree, &info);
+    b->world_bytes += info.bytes_total;
+    hand_mesh_to_model(b, shape->model);
     memcpy(shape->name, spec->name, sizeof shape->name);
     return 0;
 }
@@ -486,13 +608,26 @@ static void world_destroy(world *w)
     free(w);
 }
 
-world *world_build(const world_spec *spec, const char *world_dir, int *status, char *err,
+/* What the build took for meshes that never reached a model goes back. */
+static void builder_give_back(world_builder *b)
+{
+    memory_account *account = builder_account(b);
+    if (account && b->mesh_held)
+        memory_account_give(account, b->mesh_held);
+    b->mesh_held = 0;
+}
+
+static size_t spec_budget(const world_spec *spec) { return spec->memory_budget ? spec->memory_budget : SIZE_MAX; }
+
+world *world_build(const world_spec *spec, const char *world_dir, const world_env *env, int *status, char *err,
                    size_t err_len)
 {
     world_builder b;
     memset(&b, 0, sizeof b);
     b.spec = spec;
     b.world_dir = world_dir;
+    b.env = env;
+    b.budget = spec ? spec_budget(spec) : SIZE_MAX;
     b.status = TRIOCT_OK;
     b.err = err;
     b.err_len = err_len;
@@ -516,6 +651,7 @@ world *world_build(const world_spec *spec, const char *world_dir, int *status, c
             derive_from_objects(b.w);
     }
     mesh_data_free(&b.merged); /* moved into the model unless a step failed */
+    builder_give_back(&b);
     if (failed && b.w) {
         world_destroy(b.w);
         b.w = NULL;
@@ -574,10 +710,11 @@ world *world_edit(const world *from, const object_edit *edits, size_t count, int
     return w;
 }
 
-object_model *world_model_from_file(const world *w, const char *world_dir, const char *rel, int *status, char *err,
-                                    size_t err_len)
+object_model *world_model_from_file(const world *w, const char *world_dir, const world_env *env, const char *rel,
+                                    int *status, char *err, size_t err_len)
 {
-    world_builder b = {.spec = &w->spec, .world_dir = world_dir, .status = TRIOCT_OK, .err = err, .err_len = err_len};
+    world_builder b = {.spec = &w->spec, .world_dir = world_dir, .status = TRIOCT_OK, .err = err, .err_len = err_len,
+                       .env = env, .budget = spec_budget(&w->spec), .world_bytes = world_memory_bytes(w)};
     char path[TRIOCT_MAX_PATH_LEN];
     char why[TRIOCT_MAX_MESSAGE_LEN];
     if (world_resolve_path(world_dir, rel, path, sizeof path, why, sizeof why) != 0) {
@@ -599,20 +736,36 @@ object_model *world_model_from_file(const world *w, const char *world_dir, const
     if (load_file(&b, rel, &mesh, &report) == 0)
         m = make_model(&b, path, &mesh, &report, rel);
     mesh_data_free(&mesh);
+    builder_give_back(&b);
     *status = m ? TRIOCT_OK : b.status;
     return m;
 }
 
-object_model *world_model_from_triangles(const world *w, const char *name, const vec3 (*tris)[3], size_t count,
-                                         int *status, char *err, size_t err_len)
+object_model *world_model_from_triangles(const world *w, const world_env *env, const char *name,
+                                         const vec3 (*tris)[3], size_t count, int *status, char *err,
+                                         size_t err_len)
 {
-    world_builder b = {.spec = &w->spec, .status = TRIOCT_OK, .err = err, .err_len = err_len};
+    world_builder b = {.spec = &w->spec, .status = TRIOCT_OK, .err = err, .err_len = err_len, .env = env,
+                       .budget = spec_budget(&w->spec), .world_bytes = world_memory_bytes(w)};
     mesh_data mesh = {0};
     size_t corners = count > 0 ? 3 * count : 1;
+    size_t bytes = mesh_data_bytes_for(corners, count);
+    memory_account *account = builder_account(&b);
+    if (bytes > builder_room(&b) || (account && memory_account_take(account, bytes) != 0)) {
+        char why[TRIOCT_MAX_MESSAGE_LEN];
+        snprintf(why, sizeof why, "object %s: its %zu inline triangles need %zu bytes, more than the budget leaves",
+                 name, count, bytes);
+        budget_fail(&b, why);
+        *status = b.status;
+        return NULL;
+    }
+    b.world_bytes += bytes;
+    b.mesh_held = account ? bytes : 0;
     mesh.vertices = malloc(corners * sizeof *mesh.vertices);
     mesh.indices = malloc(corners * sizeof *mesh.indices);
     if (!mesh.vertices || !mesh.indices) {
         mesh_data_free(&mesh);
+        builder_give_back(&b);
         *status = TRIOCT_ERR_NOMEM;
         error_text(err, err_len, "object %s: out of memory", name);
         return NULL;
@@ -629,6 +782,7 @@ object_model *world_model_from_triangles(const world *w, const char *name, const
     snprintf(key, sizeof key, "inline:%s", name);
     object_model *m = make_model(&b, key, &mesh, &report, "inline");
     mesh_data_free(&mesh);
+    builder_give_back(&b);
     *status = m ? TRIOCT_OK : b.status;
     return m;
 }
@@ -679,6 +833,21 @@ void world_tree_info(const world *w, octree_info *out)
         out->bytes_node_bounds += one.bytes_node_bounds;
         out->build_seconds += one.build_seconds;
     }
+}
+
+size_t world_memory_bytes(const world *w)
+{
+    size_t bytes = w->bytes_shapes;
+    const object_set *s = w->objects;
+    for (size_t i = 0; s && i < s->count; i++) {
+        const object_model *m = s->objects[i].model;
+        int seen = 0;
+        for (size_t k = 0; k < i && !seen; k++)
+            seen = s->objects[k].model == m;
+        if (!seen)
+            bytes += m->bytes;
+    }
+    return bytes;
 }
 
 const world_shape *world_find_shape(const world *w, const char *name)

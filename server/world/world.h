@@ -11,6 +11,7 @@
 
 #include "mesh_data.h"
 #include "mesh_load.h"
+#include "mesh_load_child.h"
 #include "object_set.h"
 #include "scene.h"
 
@@ -40,6 +41,16 @@ typedef struct world {
     atomic_int refs;
 } world;
 
+/* Where a daemon's worlds get their meshes and their memory. */
+typedef struct world_env {
+    /* Files are parsed in this child program (mesh_load_child.h); NULL: in this process
+     * (tests and tools, which trust their files). */
+    const mesh_loader *loader;
+    /* The daemon's memory budget: every mesh and tree of every world takes from it before
+     * it is allocated and gives back when freed. NULL: none. */
+    memory_account *account;
+} world_env;
+
 /* Resolves rel inside world_dir: refuses an absolute path, a ".." component and, after
  * symlinks are followed, anything outside world_dir. 0 with the full path in out, or -1
  * with err. */
@@ -47,12 +58,14 @@ int world_resolve_path(const char *world_dir, const char *rel, char *out, size_t
                        char *err, size_t err_len);
 
 /* Loads the spec's meshes (and shapes, for EFFECT_MESHES) from world_dir, applies the
- * transform and builds the octree with what the effects need. Returns the world with one
- * reference, or NULL with *status (a trioct_status: TRIOCT_ERR_BAD_PATH,
- * TRIOCT_ERR_LOAD_FAILED, TRIOCT_ERR_NOMEM, or TRIOCT_ERR_BAD_REQUEST for a spec that is
- * itself invalid: bad name, no mesh, too many meshes or shapes, empty effects) and err
- * naming the file and, for NaN/Inf, the triangle. Runs on any thread. */
-world *world_build(const world_spec *spec, const char *world_dir, int *status, char *err,
+ * transform and builds the octree with what the effects need, within the spec's memory
+ * budget and env's account (env may be NULL). Returns the world with one reference, or
+ * NULL with *status (a trioct_status: TRIOCT_ERR_BAD_PATH, TRIOCT_ERR_LOAD_FAILED,
+ * TRIOCT_ERR_NOMEM, TRIOCT_ERR_BUDGET naming the budget and the need, or
+ * TRIOCT_ERR_BAD_REQUEST for a spec that is itself invalid: bad name, no mesh, too many
+ * meshes or shapes, empty effects) and err naming the file and, for NaN/Inf, the triangle.
+ * Runs on any thread. */
+world *world_build(const world_spec *spec, const char *world_dir, const world_env *env, int *status, char *err,
                    size_t err_len);
 
 /* A new world of from's spec and shapes whose objects are from's with the edits applied,
@@ -65,15 +78,17 @@ world *world_edit(const world *from, const object_edit *edits, size_t count, int
                   char *err, size_t err_len);
 
 /* A model for an object added to w: the mesh file rel (inside world_dir, resolved as
- * world_build does) loaded and its tree built as the world's own are, or the model w's
- * objects already use for that file (instances share it). One reference, or NULL with
- * *status (TRIOCT_ERR_BAD_PATH, _LOAD_FAILED, _NOMEM) and err. Any thread. */
-object_model *world_model_from_file(const world *w, const char *world_dir, const char *rel, int *status, char *err,
-                                    size_t err_len);
+ * world_build does) loaded and its tree built as the world's own are, within what w's
+ * budget and env's account leave, or the model w's objects already use for that file
+ * (instances share it). One reference, or NULL with *status (TRIOCT_ERR_BAD_PATH,
+ * _LOAD_FAILED, _NOMEM, _BUDGET) and err. Any thread. */
+object_model *world_model_from_file(const world *w, const char *world_dir, const world_env *env, const char *rel,
+                                    int *status, char *err, size_t err_len);
 /* The same for count inline triangles (finite, checked by the caller), keyed by the
  * object's name: never shared. */
-object_model *world_model_from_triangles(const world *w, const char *name, const vec3 (*tris)[3], size_t count,
-                                         int *status, char *err, size_t err_len);
+object_model *world_model_from_triangles(const world *w, const world_env *env, const char *name,
+                                         const vec3 (*tris)[3], size_t count, int *status, char *err,
+                                         size_t err_len);
 
 void world_retain(world *w);
 /* Drops one reference; the last frees the world. */
@@ -86,6 +101,10 @@ const world_shape *world_find_shape(const world *w, const char *name);
  * the level, resolution and cube of the first object's tree (the world's only tree when
  * it has one); zeros for a world with no objects. */
 void world_tree_info(const world *w, octree_info *out);
+
+/* What w's meshes and trees hold, each shared model once, shapes included: what its
+ * memory budget bounds. */
+size_t world_memory_bytes(const world *w);
 
 /* Worlds built and not yet freed, in the whole process: lets tests (and a leak check at
  * shutdown) see that the last release of a replaced version really freed it. */
