@@ -96,7 +96,7 @@ $(CLIENT_LIB): $(CLIENT_OBJ) $(GEN_OBJ) $(COMMON_OBJ)
 	rm -f $@ && ar rcs $@ $^
 
 ALL_LIBS = $(SUPPORT_LIB) $(SERVICE_LIB) $(WORLD_LIB) $(CLIENT_LIB) $(PROTO_LIB) $(ENGINE_LIB)
-SYS_LIBS = -lgmp -lassimp -llcm -luv -linih $(LDLIBS_ENGINE)
+SYS_LIBS = -lgmp -lassimp -llcm -lsodium -luv -linih $(LDLIBS_ENGINE)
 $(BUILD)/tests/%: $(BUILD)/tests/%.o $(ALL_LIBS)
 	$(CC) $(ALL_CFLAGS) $< $(ALL_LIBS) -lcmocka $(SYS_LIBS) -o $@
 
@@ -115,7 +115,7 @@ CLI_BIN      := $(BUILD)/trioct
 E2E_CLI_BIN  := $(BUILD)/tests/e2e_cli
 all: $(CLI_BIN)
 $(CLI_BIN): $(CLI_OBJ) $(CLIENT_LIB)
-	$(CC) $(ALL_CFLAGS) $(CLI_OBJ) $(CLIENT_LIB) -llcm -lm -pthread -o $@
+	$(CC) $(ALL_CFLAGS) $(CLI_OBJ) $(CLIENT_LIB) -llcm -lsodium -lm -pthread -o $@
 $(BUILD)/tests/test_cli_parse: $(BUILD)/tests/test_cli_parse.o $(CLI_PURE_OBJ)
 	$(CC) $(ALL_CFLAGS) $< $(CLI_PURE_OBJ) -lcmocka -lm -o $@
 $(E2E_CLI_BIN): $(BUILD)/tests/e2e/e2e_cli.o $(ALL_LIBS)
@@ -244,7 +244,7 @@ install-service:
 PIC_DIR        := $(BUILD)/pic
 CLIENT_PIC_OBJ := $(CLIENT_SRC:%.c=$(PIC_DIR)/%.o) $(COMMON_SRC:%.c=$(PIC_DIR)/%.o) \
                   $(GEN_SRC:$(GEN_DIR)/%.c=$(PIC_DIR)/gen/%.o)
-CLIENT_SO      := $(BUILD)/libtrioct.so.1
+CLIENT_SO      := $(BUILD)/libtrioct.so.2
 PIC_CFLAGS      = $(ALL_CFLAGS) -fPIC -fvisibility=hidden
 $(PIC_DIR)/%.o: %.c | $(DEPS_STAMP) $(GEN_STAMP)
 	@mkdir -p $(dir $@)
@@ -253,12 +253,12 @@ $(PIC_DIR)/gen/%.o: $(GEN_DIR)/%.c
 	@mkdir -p $(dir $@)
 	$(CC) $(PIC_CFLAGS) -Wno-unused-parameter -c $< -o $@
 $(CLIENT_SO): $(CLIENT_PIC_OBJ)
-	$(CC) $(ALL_CFLAGS) -shared -Wl,-soname,libtrioct.so.1 -Wl,-z,defs $^ -llcm -lm -o $@
+	$(CC) $(ALL_CFLAGS) -shared -Wl,-soname,libtrioct.so.2 -Wl,-z,defs $^ -llcm -lsodium -lm -o $@
 # The example docs/client.md walks through, built so that it cannot rot.
 EXAMPLE_BIN := $(BUILD)/examples/ray_example
 $(EXAMPLE_BIN): $(BUILD)/client/examples/ray_example.o $(CLIENT_LIB)
 	@mkdir -p $(dir $@)
-	$(CC) $(ALL_CFLAGS) $< $(CLIENT_LIB) -llcm -lm -o $@
+	$(CC) $(ALL_CFLAGS) $< $(CLIENT_LIB) -llcm -lsodium -lm -o $@
 all: $(CLIENT_SO) $(EXAMPLE_BIN)
 test: $(CLIENT_SO) $(EXAMPLE_BIN)
 
@@ -274,13 +274,15 @@ INCLUDEDIR  = $(PREFIX)/include
 PC_VERSION := $(or $(shell sed -n 's/^\#define TRIOCT_VERSION "\(.*\)"/\1/p' common/trioct_version.h),0)
 .PHONY: install install-lib
 install: install-lib install-service
-install-lib: $(DAEMON_BIN) $(CLIENT_LIB) $(CLIENT_SO) $(if $(wildcard client/cli/*.c),$(BUILD)/trioct)
-	install -d $(DESTDIR)$(BINDIR) $(DESTDIR)$(LIBDIR)/pkgconfig $(DESTDIR)$(INCLUDEDIR)/trioct
+install-lib: $(DAEMON_BIN) $(LOADER_BIN) $(CLIENT_LIB) $(CLIENT_SO) $(if $(wildcard client/cli/*.c),$(BUILD)/trioct)
+	install -d $(DESTDIR)$(BINDIR) $(DESTDIR)$(LIBDIR)/pkgconfig $(DESTDIR)$(INCLUDEDIR)/trioct \
+	    $(DESTDIR)$(PREFIX)/libexec/trioct
 	install -m 0755 $(DAEMON_BIN) $(DESTDIR)$(BINDIR)/trioctd
+	install -m 0755 $(LOADER_BIN) $(DESTDIR)$(PREFIX)/libexec/trioct/trioct-load
 	if [ -f $(BUILD)/trioct ]; then install -m 0755 $(BUILD)/trioct $(DESTDIR)$(BINDIR)/trioct; fi
 	install -m 0644 $(CLIENT_LIB) $(DESTDIR)$(LIBDIR)/libtrioct.a
-	install -m 0644 $(CLIENT_SO) $(DESTDIR)$(LIBDIR)/libtrioct.so.1
-	ln -sf libtrioct.so.1 $(DESTDIR)$(LIBDIR)/libtrioct.so
+	install -m 0644 $(CLIENT_SO) $(DESTDIR)$(LIBDIR)/libtrioct.so.2
+	ln -sf libtrioct.so.2 $(DESTDIR)$(LIBDIR)/libtrioct.so
 	install -m 0644 client/trioct.h common/trioct_limits.h common/trioct_status.h \
 	    $(DESTDIR)$(INCLUDEDIR)/trioct/
 	sed -e 's|@PREFIX@|$(PREFIX)|g' -e 's|@LIBDIR@|$(LIBDIR)|g' -e 's|@VERSION@|$(PC_VERSION)|g' \

@@ -470,7 +470,7 @@ int main(int argc, char **argv)
     if (scene_load(scene_path, &s, err, sizeof err) != 0)
         return fail(err);
     int status;
-    world *w = world_build(&s.worlds[0], dir, &status, err, sizeof err);
+    world *w = world_build(&s.worlds[0], dir, NULL, &status, err, sizeof err);
     scene_free(&s);
     if (w == NULL)
         return fail(err);

@@ -469,11 +469,16 @@ int client_pending_send(trioct_client *c, pending *p, const char *channel,
                          size);
     } else if (codec->encode(buf, size, msg) != size) {
         rc = client_fail(r, TRIOCT_ERR_BAD_REQUEST, "the request could not be encoded");
-    } else if (lcm_publish(c->lcm, channel, buf, (unsigned)size) != 0) {
-        rc = client_fail(r, TRIOCT_ERR_TRANSPORT, "cannot publish on %s over %s", channel, c->url);
     } else {
-        c->stats.requests_sent++;
-        rc = TRIOCT_OK;
+        /* A change is signed over the bytes just encoded (a daemon refuses it unsigned). */
+        if (codec->is_change && codec->is_change(msg) && c->admin_key.len > 0)
+            trioct_admin_sign(&c->admin_key, channel, buf, (size_t)size, realtime_us());
+        if (lcm_publish(c->lcm, channel, buf, (unsigned)size) != 0) {
+            rc = client_fail(r, TRIOCT_ERR_TRANSPORT, "cannot publish on %s over %s", channel, c->url);
+        } else {
+            c->stats.requests_sent++;
+            rc = TRIOCT_OK;
+        }
     }
     free(buf);
     if (rc != TRIOCT_OK) {
@@ -588,6 +593,12 @@ trioct_client *trioct_connect(const trioct_connect_options *opt, int *status, ch
         return connect_fail(NULL, status, err, err_len, TRIOCT_ERR_NOMEM, "out of memory");
     client_copy(c->prefix, sizeof c->prefix, prefix);
     c->send_deadlines = o.send_deadlines != 0;
+    const char *key_file = o.admin_key_file ? o.admin_key_file : getenv("TRIOCT_KEY_FILE");
+    if (key_file && key_file[0] != '\0') {
+        char why[TRIOCT_MAX_MESSAGE_LEN];
+        if (trioct_admin_key_load(key_file, &c->admin_key, why, sizeof why) != 0)
+            return connect_fail(c, status, err, err_len, TRIOCT_ERR_BAD_REQUEST, "%s", why);
+    }
     const char *env = getenv("LCM_DEFAULT_URL");
     const char *url = o.url               ? o.url
                       : o.lcm != NULL     ? "the caller's LCM instance"

@@ -45,7 +45,13 @@ static int request_encode(void *buf, int size, const void *msg)
     return trioct_admin_request_t_encode(buf, 0, size, msg);
 }
 
-static const request_codec admin_codec = {request_size, request_encode};
+static int request_is_change(const void *msg)
+{
+    int8_t op = ((const trioct_admin_request_t *)msg)->op;
+    return op == TRIOCT_ADMIN_REQUEST_T_LOAD || op == TRIOCT_ADMIN_REQUEST_T_UNLOAD;
+}
+
+static const request_codec admin_codec = {request_size, request_encode, request_is_change};
 
 static trioct_vec3 api_vec(trioct_vec3_t v)
 {
@@ -85,6 +91,8 @@ int client_world_info(trioct_world_info *out, const trioct_world_info_t *in, con
     out->bytes_triangles = in->bytes_triangles;
     out->bytes_effects = in->bytes_effects;
     out->bytes_total = in->bytes_total;
+    out->memory_bytes = in->memory_bytes;
+    out->memory_budget = in->memory_budget;
     out->build_seconds = in->build_seconds;
     out->objects = in->objects;
     out->queries = in->queries;

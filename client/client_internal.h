@@ -8,6 +8,7 @@
 #include <lcm/lcm.h>
 #include <stdint.h>
 
+#include "admin_key.h"
 #include "channels.h"
 #include "trioct.h"
 #include "trioct_reply_header_t.h"
@@ -85,6 +86,7 @@ struct trioct_client {
     uint64_t client_id;
     int64_t next_request_id;
     int send_deadlines;     /* requests carry deadline_utime = now + timeout */
+    trioct_admin_key admin_key; /* len 0: changes go unsigned */
     char url[256];
     char prefix[TRIOCT_MAX_PREFIX_LEN + 1];
     char reply_channel[TRIOCT_MAX_CHANNEL_LEN + 1];
@@ -134,6 +136,9 @@ int client_channel(trioct_client *c, trioct_channel_kind kind, const char *name,
 typedef struct request_codec {
     int (*encoded_size)(const void *msg);
     int (*encode)(void *buf, int size, const void *msg); /* bytes written or < 0 */
+    /* 1 when msg changes what a daemon serves, and so is signed (its auth_t last); NULL:
+     * never. */
+    int (*is_change)(const void *msg);
 } request_codec;
 
 /* A new request with the next request id, its deadline from timeout_ms, waiting for replies

@@ -40,7 +40,7 @@ static int request_encode(void *buf, int size, const void *msg)
     return trioct_mesh_request_t_encode(buf, 0, size, msg);
 }
 
-static const request_codec mesh_codec = {request_size, request_encode};
+static const request_codec mesh_codec = {request_size, request_encode, NULL};
 
 static trioct_vec3_t wire_vec(trioct_vec3 v)
 {

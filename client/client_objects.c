@@ -57,7 +57,12 @@ static int request_encode(void *buf, int size, const void *msg)
     return trioct_object_edit_request_t_encode(buf, 0, size, msg);
 }
 
-static const request_codec object_codec = {request_size, request_encode};
+static int request_is_change(const void *msg)
+{
+    return ((const trioct_object_edit_request_t *)msg)->num_edits > 0;
+}
+
+static const request_codec object_codec = {request_size, request_encode, request_is_change};
 
 static trioct_vec3_t wire_vec(trioct_vec3 v)
 {

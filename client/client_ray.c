@@ -50,7 +50,7 @@ static int request_encode(void *buf, int size, const void *msg)
     return trioct_ray_request_t_encode(buf, 0, size, msg);
 }
 
-static const request_codec ray_codec = {request_size, request_encode};
+static const request_codec ray_codec = {request_size, request_encode, NULL};
 
 trioct_ray_query trioct_ray_query_default(const char *world)
 {

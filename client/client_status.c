@@ -40,6 +40,8 @@ static int convert(trioct_daemon_status *out, const trioct_status_t *in)
     out->threads = in->threads;
     out->queue_depth = in->queue_depth;
     out->queue_capacity = in->queue_capacity;
+    out->memory_used = in->memory_used;
+    out->memory_budget = in->memory_budget;
     memcpy(out->served, in->served, sizeof out->served);
     out->malformed = in->malformed;
     out->latency_p50_us = in->latency_p50_us;

@@ -109,6 +109,11 @@ typedef struct trioct_connect_options {
      * TRIOCT_ERR_DEADLINE at once instead of working for a caller that has given up. Needs
      * the clocks of client and daemon hosts in step. 0: no deadline is sent. */
     int send_deadlines;
+    /* A file holding the daemon's admin key (hex, see trioctd(8)): LOAD, UNLOAD and object
+     * edits are signed with it, and a daemon refuses them unsigned (TRIOCT_ERR_DENIED).
+     * NULL: $TRIOCT_KEY_FILE when set; else requests go unsigned. A file that cannot be
+     * used (missing, not hex, readable by others) fails the connect. */
+    const char *admin_key_file;
 } trioct_connect_options;
 
 /* Connects (opt may be NULL for all defaults). On failure returns NULL, sets *status
@@ -440,6 +445,8 @@ typedef struct trioct_world_info {
     trioct_vec3 world_min;
 
     int64_t bytes_nodes, bytes_leaf_lists, bytes_triangles, bytes_effects, bytes_total;
+    int64_t memory_bytes;  /* its meshes and trees: what its memory_budget bounds */
+    int64_t memory_budget; /* the world's own budget; 0: only the daemon's bounds it */
     double build_seconds;
 
     int64_t objects;                             /* objects in this version */
@@ -518,6 +525,7 @@ typedef struct trioct_daemon_status {
     int64_t uptime_us;
     int state; /* TRIOCT_DAEMON_* */
     int threads, queue_depth, queue_capacity;
+    int64_t memory_used, memory_budget; /* bytes all worlds hold, and what they may */
     int64_t served[6]; /* answered requests: ray, triangle, mesh, admin, objects, state */
     int64_t malformed; /* messages the daemon dropped before decoding */
     size_t num_status_codes;

@@ -32,12 +32,13 @@ enum {
     MESH_PAIR_BYTES = 4 * 4,
     SEGMENT_BYTES = 2 * VEC3_BYTES,
     FINGERPRINT_BYTES = 8,
+    AUTH_BYTES = 8 + 16 + 32,
     /* The shortest string: a length of 1 and the NUL it counts. */
     MIN_STRING_BYTES = 4 + 1,
-    /* The shortest world_info_t: five empty strings, fourteen int64, four doubles, three
+    /* The shortest world_info_t: five empty strings, sixteen int64, four doubles, three
      * int32, three vec3 and no shapes. Only bounds a count early; each world is then walked
      * field by field. */
-    MIN_WORLD_INFO_BYTES = 5 * MIN_STRING_BYTES + 14 * 8 + 4 * 8 + 3 * 4 + 3 * VEC3_BYTES,
+    MIN_WORLD_INFO_BYTES = 5 * MIN_STRING_BYTES + 16 * 8 + 4 * 8 + 3 * 4 + 3 * VEC3_BYTES,
 };
 
 /* The generated code counts offsets in int: nothing larger can have come from it. */
@@ -280,6 +281,8 @@ static void walk_world_info(wire_cursor *c)
     cursor_int64(c, "bytes_triangles");
     cursor_int64(c, "bytes_effects");
     cursor_int64(c, "bytes_total");
+    cursor_int64(c, "memory_bytes");
+    cursor_int64(c, "memory_budget");
     cursor_double(c, "build_seconds");
     cursor_int64(c, "objects");
     cursor_int64(c, "queries");
@@ -354,6 +357,7 @@ static void walk_admin_request(wire_cursor *c)
     cursor_int8(c, "accuracy");
     cursor_double(c, "seed_epsilon");
     cursor_int32(c, "effects");
+    cursor_skip(c, AUTH_BYTES, "auth");
 }
 
 /* A reply's table of object names (chunk 0; empty in the others). */
@@ -386,6 +390,7 @@ static void walk_object_edit_request(wire_cursor *c)
         cursor_fixed_array(c, num_triangles, TRIANGLE_BYTES, "triangles");
     }
     c->scope = "";
+    cursor_skip(c, AUTH_BYTES, "auth");
 }
 
 /* The shortest object_info_t: two empty strings, two int64, a pose, two vec3, an int32. */
@@ -504,6 +509,8 @@ static void walk_status(wire_cursor *c)
     cursor_int32(c, "threads");
     cursor_int32(c, "queue_depth");
     cursor_int32(c, "queue_capacity");
+    cursor_int64(c, "memory_used");
+    cursor_int64(c, "memory_budget");
     cursor_skip(c, 6 * 8, "served");
     cursor_int64(c, "malformed");
     int32_t num_status_codes = cursor_count(c, "num_status_codes", 8);

@@ -35,11 +35,13 @@
 #include <lcm/eventlog.h>
 
 #include "service/daemon.h"
+#include "support/daemon_proc.h"
 #include "support/scratch.h"
 #include "service/dispatch.h"
 #include "service/log.h"
 #include "service/options.h"
 #include "trioct_admin_reply_t.h"
+#include "admin_key.h"
 #include "trioct_admin_request_t.h"
 #include "trioct_mesh_reply_t.h"
 #include "trioct_mesh_request_t.h"
@@ -54,6 +56,7 @@
 
 #define PREFIX "TLOG"
 #define DAEMON_NAME "d1"
+#define TEST_KEY_HEX "00112233445566778899aabbccddeeff00112233445566778899aabbccddeeff"
 #define CLIENT_ID 4242
 #define REPLY_RAY "CLIENT_RAY"
 #define REPLY_TRI "CLIENT_TRI"
@@ -75,13 +78,32 @@ static void scratch_setup(scratch *s)
 {
     scratch_init(s, "daemon_log");
     scratch_write(s, "box.obj", box_obj);
+    /* The daemon's admin key, which the logs' LOADs and UNLOADs are signed with. */
+    char path[256];
+    scratch_path(s, "admin.key", path, sizeof path);
+    FILE *f = fopen(path, "w");
+    assert_non_null(f);
+    fputs(TEST_KEY_HEX "\n", f);
+    assert_int_equal(fclose(f), 0);
+    assert_int_equal(chmod(path, 0600), 0);
+}
+
+static trioct_admin_key test_key(void)
+{
+    trioct_admin_key key = {{0}, 32};
+    for (size_t i = 0; i < key.len; i++) {
+        unsigned v;
+        sscanf(TEST_KEY_HEX + 2 * i, "%2x", &v);
+        key.bytes[i] = (unsigned char)v;
+    }
+    return key;
 }
 
 /* Only the names the tests write are removed. */
 static void scratch_teardown(const scratch *s)
 {
     static const char *const names[] = {"scene.ini", "scene.tmp", "box.obj", "big.obj", "in.log", "out.log",
-                                        "daemon.log", NULL};
+                                        "daemon.log", "admin.key", NULL};
     scratch_remove(s, names);
 }
 
@@ -197,6 +219,8 @@ static void log_admin(request_log *rl, int64_t at_us, const char *channel, int64
     uint8_t *buf = malloc((size_t)len);
     assert_non_null(buf);
     assert_int_equal(trioct_admin_request_t_encode(buf, 0, len, &m), len);
+    trioct_admin_key key = test_key();
+    trioct_admin_sign(&key, channel, buf, (size_t)len, rl->t0 + at_us);
     log_bytes(rl, at_us, channel, buf, len);
     free(buf);
 }
@@ -219,8 +243,9 @@ typedef struct run {
  * child's stdout (the daemon's log) goes to daemon.log. */
 static void daemon_start(run *r, const scratch *s, const char *in_query, const char *const *extra)
 {
-    char scene_file[256], in[256], out[256], in_url[320], out_url[320];
+    char scene_file[256], in[256], out[256], in_url[320], out_url[320], key_file[256];
     scratch_path(s, "scene.ini", scene_file, sizeof scene_file);
+    scratch_path(s, "admin.key", key_file, sizeof key_file);
     scratch_path(s, "in.log", in, sizeof in);
     scratch_path(s, "out.log", out, sizeof out);
     scratch_path(s, "daemon.log", r->log_path, sizeof r->log_path);
@@ -236,6 +261,10 @@ static void daemon_start(run *r, const scratch *s, const char *in_query, const c
     argv[argc++] = in_url;
     argv[argc++] = "--publish-url";
     argv[argc++] = out_url;
+    argv[argc++] = "--loader";
+    argv[argc++] = (char *)daemon_proc_loader();
+    argv[argc++] = "--admin-key-file";
+    argv[argc++] = key_file;
     for (int i = 0; extra != NULL && extra[i] != NULL; i++)
         argv[argc++] = (char *)extra[i];
     argv[argc] = NULL;

@@ -11,6 +11,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <cmocka.h>
@@ -46,6 +47,8 @@ static struct {
     registry *reg;
     dispatch_ctx ctx;
     int64_t next_request;
+    trioct_admin_key key; /* the daemon's; ask_at signs every admin and object request */
+    int unsigned_changes; /* 1: ask_at sends them as they are */
 } F;
 
 static void write_obj(const char *name, const mesh_data *m)
@@ -102,7 +105,7 @@ static void install_from_scene(const char *name)
     assert_non_null(spec);
     int status = -1;
     char err[512];
-    world *w = world_build(spec, F.dir, &status, err, sizeof err);
+    world *w = world_build(spec, F.dir, NULL, &status, err, sizeof err);
     if (!w)
         fail_msg("building %s: %s", name, err);
     assert_int_equal(registry_install(F.reg, w), 0);
@@ -158,6 +161,11 @@ static int setup(void **state)
     pthread_mutex_init(&F.ctx.scene_lock, NULL);
     F.ctx.scene = &F.sc;
     F.next_request = 1;
+    F.key.len = 32;
+    for (size_t i = 0; i < F.key.len; i++)
+        F.key.bytes[i] = (unsigned char)(7 * i + 1);
+    F.ctx.auth = admin_auth_create(&F.key, 1);
+    assert_non_null(F.ctx.auth);
     return 0;
 }
 
@@ -167,6 +175,7 @@ static int teardown(void **state)
     registry_free(F.reg);
     scene_free(&F.sc);
     pthread_mutex_destroy(&F.ctx.scene_lock);
+    admin_auth_free(F.ctx.auth);
     const char *files[] = {"sphere.obj", "cube.obj", "box.obj", "flat.obj", "layers.obj", "garbage.obj", "scene.ini"};
     char path[256];
     for (size_t i = 0; i < sizeof files / sizeof files[0]; i++) {
@@ -522,6 +531,8 @@ static int64_t request_id_of(const msg *m)
 
 static answer ask_at(const char *channel, msg m, request_type type, int64_t now)
 {
+    if ((type == REQUEST_ADMIN || type == REQUEST_OBJECTS) && !F.unsigned_changes)
+        trioct_admin_sign(&F.key, channel, m.data, m.size, now);
     dispatch_reply rep;
     assert_int_equal(dispatch_handle(&F.ctx, channel, m.data, m.size, now, &rep), 0);
     answer a = read_reply(&rep, type, request_id_of(&m));
@@ -552,7 +563,7 @@ static answer ask_mesh(const char *world, const trioct_mesh_request_t *r)
 
 static answer ask_objects(const char *world, int list, int n, const trioct_object_edit_t *edits)
 {
-    trioct_object_edit_request_t r = {header(world), (int8_t)list, n, (trioct_object_edit_t *)edits};
+    trioct_object_edit_request_t r = {header(world), (int8_t)list, n, (trioct_object_edit_t *)edits, {0}};
     return ask(channel_of(TRIOCT_CHANNEL_OBJECTS, world), ENCODE(trioct_object_edit_request_t, &r), REQUEST_OBJECTS);
 }
 
@@ -572,6 +583,7 @@ static trioct_admin_request_t admin_request(const char *world, int8_t op)
         .accuracy = TRIOCT_RAY_REQUEST_T_ACCURACY_WORLD,
         .seed_epsilon = 0,
         .effects = 0,
+        .auth = {0},
     };
 }
 
@@ -1905,6 +1917,20 @@ static void test_every_status_code(void **state)
     a = load_path("broken", "garbage.obj", 0, -1, 0);
     saw(&a, TRIOCT_ERR_LOAD_FAILED, "garbage.obj");
     answer_free(&a);
+    /* DENIED: a LOAD without the admin key's code. */
+    F.unsigned_changes = 1;
+    a = load_path("unsigned", "sphere.obj", 0, -1, 0);
+    F.unsigned_changes = 0;
+    saw(&a, TRIOCT_ERR_DENIED, "does not match the daemon's admin key");
+    answer_free(&a);
+
+    /* BUDGET: a LOAD past the daemon's memory budget. */
+    memory_account_init(&F.ctx.memory, 1000);
+    F.ctx.env.account = &F.ctx.memory;
+    a = load_path("toobig", "sphere.obj", 0, -1, 0);
+    saw(&a, TRIOCT_ERR_BUDGET, "the daemon's memory_budget is 1000 bytes");
+    answer_free(&a);
+    F.ctx.env = (world_env){0};
     trioct_admin_request_t ar = admin_request("sphere", TRIOCT_ADMIN_REQUEST_T_UNLOAD);
     a = ask_admin(TRIOCT_CHANNEL_LIST, NULL, &ar);
     saw(&a, TRIOCT_ERR_BAD_REQUEST, "admin op 3 (UNLOAD) is not served on this channel");
@@ -2277,12 +2303,21 @@ typedef struct saved_reply {
 
 /* Each allocation dispatch makes, failed in turn: a NOMEM reply every time, never a crash or
  * a leak, and once there is nothing left to fail, the very bytes of the normal answer. */
+/* A change sent again needs a new nonce: the guard refuses the same one twice. */
+static void sign_afresh(const char *channel, const msg *m, request_type type)
+{
+    if (type == REQUEST_ADMIN || type == REQUEST_OBJECTS)
+        trioct_admin_sign(&F.key, channel, m->data, m->size, NOW);
+}
+
 static void fail_every_allocation(const char *channel, const msg *m, request_type type, int same_bytes)
 {
     dispatch_reply base;
+    sign_afresh(channel, m, type);
     assert_int_equal(dispatch_handle(&F.ctx, channel, m->data, m->size, NOW, &base), 0);
     assert_int_equal(base.status, TRIOCT_OK);
     for (long nth = 1;; nth++) {
+        sign_afresh(channel, m, type);
         dispatch_fail_allocation(nth);
         dispatch_reply rep;
         assert_int_equal(dispatch_handle(&F.ctx, channel, m->data, m->size, NOW, &rep), 0);
@@ -2356,6 +2391,206 @@ static void test_out_of_memory_is_a_reply(void **state)
     assert_int_equal(registry_remove(F.reg, "oom"), 0);
 }
 
+/* Issue 20's guard: what changes the worlds needs the key's code, a fresh timestamp and an
+ * unseen nonce; reading needs nothing. */
+static void test_changes_need_the_admin_key(void **state)
+{
+    (void)state;
+    install_from_scene("edited");
+    world *before = held("edited");
+    uint64_t version = before->version;
+    world_release(before);
+
+    /* Unsigned, and signed with another key: refused, nothing changed. */
+    F.unsigned_changes = 1;
+    answer a = admin_op("edited", TRIOCT_ADMIN_REQUEST_T_UNLOAD);
+    expect_error(&a, TRIOCT_ERR_DENIED, "does not match the daemon's admin key");
+    answer_free(&a);
+    trioct_admin_request_t r = admin_request("edited", TRIOCT_ADMIN_REQUEST_T_UNLOAD);
+    msg m = ENCODE(trioct_admin_request_t, &r);
+    const char *ch = channel_of(TRIOCT_CHANNEL_ADMIN, "edited");
+    trioct_admin_key other = F.key;
+    other.bytes[5] ^= 1;
+    trioct_admin_sign(&other, ch, m.data, m.size, NOW);
+    a = ask(ch, m, REQUEST_ADMIN);
+    expect_error(&a, TRIOCT_ERR_DENIED, "does not match");
+    answer_free(&a);
+    /* Signed for another channel (the code covers the channel's name). */
+    r = admin_request("edited", TRIOCT_ADMIN_REQUEST_T_UNLOAD);
+    m = ENCODE(trioct_admin_request_t, &r);
+    trioct_admin_sign(&F.key, channel_of(TRIOCT_CHANNEL_ADMIN, "sphere"), m.data, m.size, NOW);
+    a = ask(ch, m, REQUEST_ADMIN);
+    expect_error(&a, TRIOCT_ERR_DENIED, "does not match");
+    answer_free(&a);
+    /* One flipped bit after signing: refused. */
+    r = admin_request("edited", TRIOCT_ADMIN_REQUEST_T_UNLOAD);
+    m = ENCODE(trioct_admin_request_t, &r);
+    trioct_admin_sign(&F.key, ch, m.data, m.size, NOW);
+    ((uint8_t *)m.data)[20] ^= 0x10;
+    a = ask(ch, m, REQUEST_ADMIN);
+    assert_int_equal(a.status == TRIOCT_ERR_DENIED || a.status == TRIOCT_ERR_BAD_REQUEST, 1);
+    answer_free(&a);
+    /* Stale and future timestamps, by more than the window. */
+    for (int sign = -1; sign <= 1; sign += 2) {
+        r = admin_request("edited", TRIOCT_ADMIN_REQUEST_T_UNLOAD);
+        m = ENCODE(trioct_admin_request_t, &r);
+        trioct_admin_sign(&F.key, ch, m.data, m.size, NOW + sign * (TRIOCT_ADMIN_WINDOW_US + 1000000));
+        a = ask(ch, m, REQUEST_ADMIN);
+        expect_error(&a, TRIOCT_ERR_DENIED, sign < 0 ? "31 s from the daemon's clock" : "-31 s from the daemon's clock");
+        answer_free(&a);
+    }
+    /* Reading stays open: INFO and a list without edits, unsigned. */
+    a = admin_op("edited", TRIOCT_ADMIN_REQUEST_T_INFO);
+    assert_int_equal(a.status, TRIOCT_OK);
+    answer_free(&a);
+    a = ask_objects("edited", 1, 0, NULL);
+    assert_int_equal(a.status, TRIOCT_OK);
+    answer_free(&a);
+    /* An unsigned edit is refused too. */
+    trioct_object_edit_t oe = wire_edit(TRIOCT_OBJECT_EDIT_T_MOVE, "edited", NULL, identity_pose);
+    a = ask_objects("edited", 0, 1, &oe);
+    expect_error(&a, TRIOCT_ERR_DENIED, "admin key");
+    answer_free(&a);
+    F.unsigned_changes = 0;
+    world *still = held("edited");
+    assert_int_equal(still->version, version);
+    world_release(still);
+
+    /* Signed, within the window: the edit applies. The same bytes again: a replay, refused. */
+    ch = channel_of(TRIOCT_CHANNEL_OBJECTS, "edited");
+    trioct_object_edit_request_t er = {header("edited"), 0, 1, &oe, {0}};
+    m = ENCODE(trioct_object_edit_request_t, &er);
+    trioct_admin_sign(&F.key, ch, m.data, m.size, NOW - TRIOCT_ADMIN_WINDOW_US + 1000);
+    msg again = {malloc(m.size), m.size};
+    assert_non_null(again.data);
+    memcpy(again.data, m.data, m.size);
+    F.unsigned_changes = 1; /* keep the signature made above */
+    a = ask(ch, m, REQUEST_OBJECTS);
+    assert_int_equal(a.status, TRIOCT_OK);
+    answer_free(&a);
+    a = ask(ch, again, REQUEST_OBJECTS);
+    expect_error(&a, TRIOCT_ERR_DENIED, "nonce was seen before");
+    answer_free(&a);
+    F.unsigned_changes = 0;
+    still = held("edited");
+    assert_int_equal(still->version, version + 1);
+    world_release(still);
+
+    /* A daemon without a key refuses every change, and says how to change worlds. */
+    admin_auth *keyed = F.ctx.auth;
+    F.ctx.auth = NULL;
+    a = admin_op("edited", TRIOCT_ADMIN_REQUEST_T_UNLOAD);
+    expect_error(&a, TRIOCT_ERR_DENIED, "no admin key (admin_key_file in [daemon])");
+    answer_free(&a);
+    F.ctx.auth = keyed;
+    a = admin_op("edited", TRIOCT_ADMIN_REQUEST_T_UNLOAD);
+    assert_int_equal(a.status, TRIOCT_OK);
+    answer_free(&a);
+}
+
+/* The loader beside the daemon in this build: build/tests/.. */
+static void use_the_loader(void)
+{
+    char self[512];
+    ssize_t n = readlink("/proc/self/exe", self, sizeof self - 1);
+    assert_true(n > 0);
+    self[n] = '\0';
+    *strrchr(self, '/') = '\0';
+    *strrchr(self, '/') = '\0';
+    F.ctx.loader = (mesh_loader){.memory_bytes = (size_t)512 << 20, .cpu_seconds = 30, .wall_seconds = 60};
+    snprintf(F.ctx.loader.program, sizeof F.ctx.loader.program, "%s/trioct-load", self);
+    assert_int_equal(access(F.ctx.loader.program, X_OK), 0);
+    F.ctx.env.loader = &F.ctx.loader;
+}
+
+/* Issue 20's hostile files, each a LOAD under the name of a world that serves: each gets an
+ * error reply naming the file, the world keeps its version and answers as before, and the
+ * daemon's account holds what its worlds hold, no more. */
+static void test_hostile_loads_leave_the_world_serving(void **state)
+{
+    (void)state;
+    use_the_loader();
+    memory_account_init(&F.ctx.memory, (size_t)1 << 30);
+    F.ctx.env.account = &F.ctx.memory;
+    install_from_scene("spare");
+    world *before = held("spare");
+    uint64_t version = before->version;
+
+    /* 100,000 nested COLLADA nodes: assimp's recursion overflows the child's stack. */
+    char path[512];
+    snprintf(path, sizeof path, "%s/deep.dae", F.dir);
+    FILE *f = fopen(path, "w");
+    assert_non_null(f);
+    fputs("<?xml version=\"1.0\"?>\n<COLLADA xmlns=\"http://www.collada.org/2005/11/COLLADASchema\" "
+          "version=\"1.4.1\">\n<library_visual_scenes><visual_scene id=\"s\">\n", f);
+    for (int i = 0; i < 100000; i++)
+        fputs("<node>", f);
+    for (int i = 0; i < 100000; i++)
+        fputs("</node>", f);
+    fputs("\n</visual_scene></library_visual_scenes>\n<scene><instance_visual_scene url=\"#s\"/></scene>\n"
+          "</COLLADA>\n", f);
+    assert_int_equal(fclose(f), 0);
+    answer a = load_path("spare", "deep.dae", 0, -1, TRIOCT_WORLD_INFO_T_EFFECT_RAYS);
+    expect_error(&a, TRIOCT_ERR_LOAD_FAILED, "deep.dae");
+    answer_free(&a);
+
+    /* A 177-byte PLY header claiming 268 million vertices. */
+    write_text("lying.ply", "ply\nformat binary_little_endian 1.0\nelement vertex 268435456\n"
+                            "property float x\nproperty float y\nproperty float z\nelement face 1\n"
+                            "property list uchar int vertex_indices\nend_header\n0123456789ab");
+    a = load_path("spare", "lying.ply", 0, -1, TRIOCT_WORLD_INFO_T_EFFECT_RAYS);
+    expect_error(&a, TRIOCT_ERR_LOAD_FAILED, "lying.ply");
+    answer_free(&a);
+
+    /* A FIFO: refused on its type, no worker blocked on it. */
+    snprintf(path, sizeof path, "%s/pipe.obj", F.dir);
+    assert_int_equal(mkfifo(path, 0600), 0);
+    a = load_path("spare", "pipe.obj", 0, -1, TRIOCT_WORLD_INFO_T_EFFECT_RAYS);
+    expect_error(&a, TRIOCT_ERR_LOAD_FAILED, "FIFO");
+    answer_free(&a);
+
+    /* A real mesh at a resolution whose tree passes the daemon's budget: ERR_BUDGET naming
+     * the budget, and the account back where it was. */
+    size_t used = memory_account_used(&F.ctx.memory);
+    F.ctx.memory.limit = used + ((size_t)4 << 20);
+    a = load_path("spare", "sphere.obj", 0.0005, -1, TRIOCT_WORLD_INFO_T_EFFECT_RAYS);
+    expect_error(&a, TRIOCT_ERR_BUDGET, "memory_budget is 4 MiB");
+    answer_free(&a);
+    assert_int_equal(memory_account_used(&F.ctx.memory), used);
+    /* And one whose mesh alone passes it, refused before the tree. */
+    F.ctx.memory.limit = used + 1000;
+    a = load_path("spare", "sphere.obj", 0, -1, TRIOCT_WORLD_INFO_T_EFFECT_RAYS);
+    expect_error(&a, TRIOCT_ERR_BUDGET, "its mesh of");
+    answer_free(&a);
+    assert_int_equal(memory_account_used(&F.ctx.memory), used);
+
+    world *after = held("spare");
+    assert_ptr_equal(after, before);
+    assert_int_equal(after->version, version);
+    world_release(after);
+    world_release(before);
+
+    /* With room, the same file loads through the loader, and the account holds exactly the
+     * new world's bytes once the old version is gone. */
+    F.ctx.memory.limit = (size_t)1 << 30;
+    a = load_path("fresh", "sphere.obj", 0, -1, TRIOCT_WORLD_INFO_T_EFFECT_RAYS);
+    assert_int_equal(a.status, TRIOCT_OK);
+    answer_free(&a);
+    world *fresh = held("fresh");
+    assert_int_equal(memory_account_used(&F.ctx.memory), used + world_memory_bytes(fresh));
+    world_release(fresh);
+    assert_int_equal(registry_remove(F.reg, "fresh"), 0);
+    assert_int_equal(memory_account_used(&F.ctx.memory), used);
+    assert_int_equal(registry_remove(F.reg, "spare"), 0);
+
+    F.ctx.env = (world_env){0};
+    const char *made[] = {"deep.dae", "lying.ply", "pipe.obj"};
+    for (size_t i = 0; i < 3; i++) {
+        snprintf(path, sizeof path, "%s/%s", F.dir, made[i]);
+        unlink(path);
+    }
+}
+
 int main(void)
 {
     const char *s = getenv("TRIOCT_SEED");
@@ -2364,6 +2599,8 @@ int main(void)
     printf("test_dispatch seed %llu (set TRIOCT_SEED to rerun)\n", (unsigned long long)base_seed);
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_peek_reads_the_header),
+        cmocka_unit_test(test_hostile_loads_leave_the_world_serving),
+        cmocka_unit_test(test_changes_need_the_admin_key),
         cmocka_unit_test(test_hostile_bytes_are_dropped),
         cmocka_unit_test(test_peek_measures_the_request_for_the_estimate),
         cmocka_unit_test(test_small_requests_follow_the_threshold),

@@ -37,6 +37,7 @@
 #include <lcm/eventlog.h>
 
 #include "service/daemon.h"
+#include "support/daemon_proc.h"
 #include "support/scratch.h"
 #include "service/log.h"
 #include "service/notify.h"
@@ -452,7 +453,7 @@ static void daemon_start(run *r, const scratch *s, const char *url, const char *
     scratch_path(s, "daemon.log", r->log_path, sizeof r->log_path);
     char *argv[] = {"trioctd", "--scene", scene_file, "--url", (char *)url, "--publish-url",
                     (char *)publish_url, "--status-interval", "100", "--log-level", "debug",
-                    NULL};
+                    "--loader", (char *)daemon_proc_loader(), NULL};
     int argc = (int)(sizeof argv / sizeof argv[0]) - 1;
 
     fflush(NULL); /* the child must not write the parent's buffered output again */

@@ -408,7 +408,7 @@ typedef struct log_case {
 
 /* OK, BAD_REQUEST, UNKNOWN_WORLD, NONFINITE, ZERO_DIRECTION, OVER_CAP, EFFECT, BAD_PATH,
  * DEADLINE, BUSY, LOAD_FAILED, STOPPING, UNKNOWN_SHAPE, NOMEM, UNKNOWN_OBJECT,
- * OBJECT_EXISTS, BAD_POSE */
+ * OBJECT_EXISTS, BAD_POSE, BUDGET, DENIED */
 static const log_case cases[] = {
     {"queries", "scene.ini", "requests 29 (0 malformed), replies 29: 29 matched, 0 mismatched, 0 missing, 0 extra (0 to nobody)",
      {29}},
@@ -416,8 +416,8 @@ static const log_case cases[] = {
      {3}},
     {"burst", "scene.ini", "requests 144 (0 malformed), replies 144: 144 matched, 0 mismatched, 0 missing, 0 extra (0 to nobody)",
      {126, 0, 0, 0, 0, 0, 18}},
-    {"admin", "scene.ini", "requests 33 (0 malformed), replies 31: 31 matched, 0 mismatched, 0 missing, 0 extra (0 to nobody)",
-     {13, 7, 3, 1, 0, 0, 1, 3, 1, 0, 2}},
+    {"admin", "scene.ini", "requests 40 (0 malformed), replies 38: 38 matched, 0 mismatched, 0 missing, 0 extra (0 to nobody)",
+     {16, 7, 3, 1, 0, 0, 1, 3, 1, 0, 2, 0, 0, 0, 0, 0, 0, 1, 3}},
     {"reload", "scene.ini", "requests 12 (0 malformed), replies 12: 12 matched, 0 mismatched, 0 missing, 0 extra (0 to nobody)",
      {11, 0, 1}},
     {"busy", "busy.ini", "requests 30 (0 malformed), replies 30: 30 matched, 0 mismatched, 0 missing, 0 extra (0 to nobody)",

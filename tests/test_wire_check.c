@@ -534,7 +534,7 @@ static int world_info_middle_bytes(const trioct_world_info_t *w)
            __trioct_vec3_t_encoded_array_size(&w->bbox_max, 1) +
            __int64_t_encoded_array_size(&w->nodes, 2) + __int32_t_encoded_array_size(&w->max_level, 1) +
            __double_encoded_array_size(&w->resolution, 2) + __trioct_vec3_t_encoded_array_size(&w->world_min, 1) +
-           __int64_t_encoded_array_size(&w->bytes_nodes, 5) + __double_encoded_array_size(&w->build_seconds, 1) +
+           __int64_t_encoded_array_size(&w->bytes_nodes, 7) + __double_encoded_array_size(&w->build_seconds, 1) +
            __int64_t_encoded_array_size(&w->objects, 1) + __int64_t_encoded_array_size(&w->queries, 1);
 }
 
@@ -602,6 +602,7 @@ static void lay_admin_request(layout *l, const trioct_admin_request_t *m)
     lay_bytes(l, 1);
     lay_string(l, "mesh_path", &m->mesh_path);
     lay_bytes(l, 8 + 1 + 8 + 4);
+    lay_bytes(l, 8 + 16 + 32); /* auth */
 }
 
 static void lay_ray_reply(layout *l, const trioct_ray_reply_t *m)
@@ -668,6 +669,7 @@ static void lay_object_edit_request(layout *l, const trioct_object_edit_request_
         lay_bytes(l, __trioct_triangle_t_encoded_array_size(e->triangles, e->num_triangles));
         l->scope[0] = '\0';
     }
+    lay_bytes(l, 8 + 16 + 32); /* auth */
 }
 
 static void lay_object_reply(layout *l, const trioct_object_reply_t *m)
@@ -729,7 +731,7 @@ static void lay_status(layout *l, const trioct_status_t *m)
     lay_bytes(l, 8);
     lay_string(l, "daemon", &m->daemon);
     lay_string(l, "version", &m->version);
-    lay_bytes(l, 8 + 1 + 3 * 4 + 6 * 8 + 8);
+    lay_bytes(l, 8 + 1 + 3 * 4 + 2 * 8 + 6 * 8 + 8);
     lay_count(l, "num_status_codes", m->num_status_codes);
     lay_bytes(l, __int64_t_encoded_array_size(m->replies_by_status, m->num_status_codes));
     lay_bytes(l, 3 * 8);
@@ -988,7 +990,7 @@ static void test_smallest_elements_fill_the_message_exactly(void **state)
     }
     int size = trioct_admin_reply_t_encoded_size(&reply);
     int worlds_bytes = __trioct_world_info_t_encoded_array_size(reply.worlds, reply.num_worlds);
-    assert_int_equal(worlds_bytes, 253 * reply.num_worlds);
+    assert_int_equal(worlds_bytes, 269 * reply.num_worlds);
     uint8_t *bytes = malloc((size_t)size);
     assert_non_null(bytes);
     assert_int_equal(trioct_admin_reply_t_encode(bytes, 0, size, &reply), size);

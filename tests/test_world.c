@@ -100,7 +100,7 @@ static world *build_ok(const world_spec *spec, const char *dir)
 {
     int status = -1;
     char err[512];
-    world *w = world_build(spec, dir, &status, err, sizeof err);
+    world *w = world_build(spec, dir, NULL, &status, err, sizeof err);
     if (!w)
         fail_msg("world_build failed (%d): %s", status, err);
     assert_int_equal(status, TRIOCT_OK);
@@ -111,7 +111,7 @@ static world *build_ok(const world_spec *spec, const char *dir)
 static void build_fails(const world_spec *spec, const char *dir, int want_status, char *err, size_t err_len)
 {
     int status = -1;
-    world *w = world_build(spec, dir, &status, err, err_len);
+    world *w = world_build(spec, dir, NULL, &status, err, err_len);
     if (w)
         fail_msg("world_build of '%s' should have failed", spec->name);
     assert_int_equal(status, want_status);
@@ -537,7 +537,7 @@ static void test_build_refuses_bad_paths_and_bad_specs(void **state)
     spec.effects = 8;
     build_fails(&spec, s.dir, TRIOCT_ERR_BAD_REQUEST, err, sizeof err);
     int status = 0;
-    assert_null(world_build(NULL, s.dir, &status, err, sizeof err));
+    assert_null(world_build(NULL, s.dir, NULL, &status, err, sizeof err));
     assert_int_equal(status, TRIOCT_ERR_BAD_REQUEST);
     scratch_remove(&s);
 }

@@ -31,6 +31,7 @@ typedef struct cli_context {
     const char *url;     /* --url; NULL: $LCM_DEFAULT_URL, else LCM's default */
     const char *prefix;  /* --prefix; NULL: TRIOCT */
     int timeout_ms;      /* --timeout; -1: the command's default */
+    const char *key_file; /* --key-file; NULL: $TRIOCT_KEY_FILE, else changes go unsigned */
     int json;            /* --json */
     int progress;        /* --progress: progress lines even when stderr is not a terminal */
     int help, version;   /* --help, --version seen */

@@ -72,6 +72,8 @@ static void daemon_json(cli_json *j, const trioct_daemon_status *s)
     cli_json_key_int(j, "threads", s->threads);
     cli_json_key_int(j, "queue_depth", s->queue_depth);
     cli_json_key_int(j, "queue_capacity", s->queue_capacity);
+    cli_json_key_int(j, "memory_used", s->memory_used);
+    cli_json_key_int(j, "memory_budget", s->memory_budget);
     cli_json_key(j, "served");
     cli_json_object_begin(j);
     cli_json_key_int(j, "ray", s->served[0]);
@@ -138,6 +140,9 @@ static int daemon_print(cli_context *ctx, const trioct_daemon_status *s)
     fprintf(out, "daemon %s: %s, trioctd %s, up %.1f s, %d threads\n", s->reply.daemon,
             cli_daemon_state_name(s->state), s->version, (double)s->uptime_us / 1e6, s->threads);
     fprintf(out, "  queue     %d of %d\n", s->queue_depth, s->queue_capacity);
+    char used[32], budget[32];
+    fprintf(out, "  memory    %s of %s\n", cli_format_bytes(s->memory_used, used),
+            cli_format_bytes(s->memory_budget, budget));
     fprintf(out,
             "  served    ray %" PRId64 ", triangle %" PRId64 ", mesh %" PRId64 ", admin %" PRId64
             ", objects %" PRId64 ", state %" PRId64 "\n",

@@ -8,12 +8,13 @@
 
 #include "cli.h"
 
-enum { OPT_URL, OPT_PREFIX, OPT_TIMEOUT, OPT_JSON, OPT_PROGRESS, OPT_HELP, OPT_VERSION };
+enum { OPT_URL, OPT_PREFIX, OPT_TIMEOUT, OPT_KEY_FILE, OPT_JSON, OPT_PROGRESS, OPT_HELP, OPT_VERSION };
 
 const cli_option cli_global_options[] = {
     {"url", 0, 1, OPT_URL},
     {"prefix", 0, 1, OPT_PREFIX},
     {"timeout", 0, 1, OPT_TIMEOUT},
+    {"key-file", 0, 1, OPT_KEY_FILE},
     {"json", 0, 0, OPT_JSON},
     {"progress", 0, 0, OPT_PROGRESS},
     {"help", 'h', 0, OPT_HELP},
@@ -48,6 +49,13 @@ int cli_global_option(void *user, int id, const char *value, char *err, size_t e
             return -1;
         }
         ctx->timeout_ms = (int)v;
+        return 0;
+    case OPT_KEY_FILE:
+        if (value[0] == '\0') {
+            snprintf(err, err_len, "--key-file: the path is empty");
+            return -1;
+        }
+        ctx->key_file = value;
         return 0;
     case OPT_JSON:
         ctx->json = 1;
@@ -143,7 +151,7 @@ void cli_close_input(FILE *file)
 
 int cli_connect(cli_context *ctx)
 {
-    trioct_connect_options opt = {.url = ctx->url, .prefix = ctx->prefix};
+    trioct_connect_options opt = {.url = ctx->url, .prefix = ctx->prefix, .admin_key_file = ctx->key_file};
     int status = 0;
     char err[TRIOCT_MAX_MESSAGE_LEN + 1];
     ctx->client = trioct_connect(&opt, &status, err, sizeof err);

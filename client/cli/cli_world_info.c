@@ -80,6 +80,8 @@ void cli_world_info_json(cli_json *j, const trioct_world_info *w)
     cli_json_key_int(j, "effects", w->bytes_effects);
     cli_json_key_int(j, "total", w->bytes_total);
     cli_json_object_end(j);
+    cli_json_key_int(j, "memory_bytes", w->memory_bytes);
+    cli_json_key_int(j, "memory_budget", w->memory_budget);
     cli_json_key_double(j, "build_seconds", w->build_seconds);
     cli_json_key_int(j, "objects", w->objects);
     cli_json_key_int(j, "queries", w->queries);
@@ -129,6 +131,12 @@ void cli_world_info_print(FILE *out, const trioct_world_info *w, const char *ind
             cli_format_bytes(w->bytes_total, a), cli_format_bytes(w->bytes_nodes, b),
             cli_format_bytes(w->bytes_leaf_lists, c), cli_format_bytes(w->bytes_triangles, d),
             cli_format_bytes(w->bytes_effects, e));
+    if (w->memory_budget > 0)
+        fprintf(out, "%sbudget      %s of %s (meshes and trees)\n", indent, cli_format_bytes(w->memory_bytes, a),
+                cli_format_bytes(w->memory_budget, b));
+    else
+        fprintf(out, "%sbudget      %s (meshes and trees; no budget of its own)\n", indent,
+                cli_format_bytes(w->memory_bytes, a));
     fprintf(out, "%sbuild       %.3f s\n", indent, w->build_seconds);
     fprintf(out, "%sobjects     %" PRId64 " (trioct objects %s lists them)\n", indent, w->objects, w->name);
     fprintf(out, "%squeries     %" PRId64 "\n", indent, w->queries);

@@ -10,6 +10,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <unistd.h>
 #include <time.h>
 #include <uv.h>
 
@@ -139,6 +140,7 @@ typedef struct request_job {
     struct request_job *next; /* --ordered: the next one held */
     int alone;                /* --ordered: an admin request or a reload runs by itself */
     int reload;               /* --ordered: no request, the reload channel's mark */
+    int64_t heard_utime;      /* the bus's receive time, or the log's time of the event */
     size_t size;
     uint8_t bytes[];
 } request_job;
@@ -331,10 +333,10 @@ static int answers_inline(daemon *d, const dispatch_request *req)
 }
 
 static void answer_inline(daemon *d, const dispatch_request *req, const char *channel, const void *bytes,
-                          size_t size, uint64_t received_hr)
+                          size_t size, uint64_t received_hr, int64_t heard_utime)
 {
     dispatch_reply reply;
-    int rc = dispatch_handle(&d->ctx, channel, bytes, size, wall_utime(), &reply);
+    int rc = dispatch_handle_heard(&d->ctx, channel, bytes, size, wall_utime(), heard_utime, &reply);
     (void)deliver(d, req, channel, received_hr, rc, &reply, "on the loop thread");
 }
 
@@ -342,8 +344,8 @@ static void work_request(uv_work_t *work)
 {
     request_job *job = work->data;
     daemon *d = job->d;
-    job->rc = dispatch_handle(&d->ctx, job->channel, job->bytes, job->size, wall_utime(),
-                              &job->reply);
+    job->rc = dispatch_handle_heard(&d->ctx, job->channel, job->bytes, job->size, wall_utime(), job->heard_utime,
+                                    &job->reply);
 }
 
 static void after_request(uv_work_t *work, int status)
@@ -411,7 +413,7 @@ static void on_message(const lcm_recv_buf_t *rbuf, const char *channel, void *us
     }
     if (!d->opt.ordered && answers_inline(d, &req)) {
         d->inline_taken++;
-        answer_inline(d, &req, channel, rbuf->data, size, received_hr);
+        answer_inline(d, &req, channel, rbuf->data, size, received_hr, rbuf->recv_utime);
         return;
     }
     request_job *job = malloc(sizeof *job + size);
@@ -423,6 +425,7 @@ static void on_message(const lcm_recv_buf_t *rbuf, const char *channel, void *us
     job->work.data = job;
     job->d = d;
     job->received_hr = received_hr;
+    job->heard_utime = rbuf->recv_utime;
     job->req = req;
     memcpy(job->channel, channel, channel_len + 1);
     job->size = size;
@@ -684,7 +687,7 @@ static void ordered_run(daemon *d)
         }
         if (!job->alone && answers_inline(d, &job->req)) {
             /* A query among queries: answering it now is answering it side by side. */
-            answer_inline(d, &job->req, job->channel, job->bytes, job->size, job->received_hr);
+            answer_inline(d, &job->req, job->channel, job->bytes, job->size, job->received_hr, job->heard_utime);
             d->in_flight--;
             free(job);
             continue;
@@ -709,10 +712,23 @@ static void ordered_run(daemon *d)
     maybe_finish(d);
 }
 
+/* A mark changes what is served (a reload) or stops the daemon: like any change over the
+ * bus it must carry the admin key's code (its bytes end in an auth_t's 56). One that does
+ * not is ignored, and said so. */
+static int mark_authorized(daemon *d, const lcm_recv_buf_t *rbuf, const char *channel)
+{
+    char why[256];
+    if (admin_auth_check(d->ctx.auth, channel, rbuf->data, rbuf->data_size, rbuf->recv_utime, why, sizeof why) == 0)
+        return 1;
+    LOG(LOG_WARN, "%s: mark ignored: %s", channel, why);
+    return 0;
+}
+
 static void on_reload_message(const lcm_recv_buf_t *rbuf, const char *channel, void *user)
 {
-    (void)rbuf;
     daemon *d = user;
+    if (!mark_authorized(d, rbuf, channel))
+        return;
     request_job *mark = calloc(1, sizeof *mark);
     if (mark == NULL) {
         LOG(LOG_ERROR, "out of memory: the reload asked on %s is not done", channel);
@@ -733,8 +749,9 @@ static void on_reload_message(const lcm_recv_buf_t *rbuf, const char *channel, v
  * follows it gets the same answer whenever it is read. */
 static void on_stop_message(const lcm_recv_buf_t *rbuf, const char *channel, void *user)
 {
-    (void)rbuf;
     daemon *d = user;
+    if (!mark_authorized(d, rbuf, channel))
+        return;
     if (d->state == TRIOCT_STATUS_T_STOPPING) {
         LOG(LOG_INFO, "%s: already stopping", channel);
         return;
@@ -787,7 +804,7 @@ static void work_build(uv_work_t *work)
     build_job *job = work->data;
     uint64_t t0 = uv_hrtime();
     job->status = TRIOCT_OK;
-    job->result = world_build(&job->spec, job->world_dir, &job->status, job->err, sizeof job->err);
+    job->result = world_build(&job->spec, job->world_dir, &job->d->ctx.env, &job->status, job->err, sizeof job->err);
     job->seconds = (double)(uv_hrtime() - t0) / 1e9;
 }
 
@@ -1131,6 +1148,8 @@ static void publish_status(daemon *d)
     msg.threads = d->opt.threads;
     msg.queue_depth = d->in_flight;
     msg.queue_capacity = d->opt.queue_depth;
+    msg.memory_used = (int64_t)memory_account_used(&d->ctx.memory);
+    msg.memory_budget = (int64_t)d->ctx.memory.limit;
     memcpy(msg.served, d->st.served, sizeof msg.served);
     msg.malformed = d->st.malformed;
     msg.num_status_codes = TRIOCT_WIRE_STATUS_COUNT;
@@ -1397,6 +1416,7 @@ static void destroy(daemon *d)
         free(d->scene);
     }
     pthread_mutex_destroy(&d->ctx.scene_lock);
+    admin_auth_free(d->ctx.auth);
     stats_free(&d->st);
     while (d->held != NULL) {
         request_job *job = d->held;
@@ -1407,6 +1427,63 @@ static void destroy(daemon *d)
     free(d->failed);
     free(d->unload);
     free(d);
+}
+
+/* Changes over the bus need the key of admin_key_file; without one they are all refused,
+ * and a key file that cannot be used stops the start (a configuration error). */
+static int setup_admin_auth(daemon *d)
+{
+    const char *path = d->opt.admin_key_file;
+    trioct_admin_key key;
+    char err[TRIOCT_MAX_PATH_LEN + 256];
+    if (path[0] != '\0' && trioct_admin_key_load(path, &key, err, sizeof err) != 0) {
+        LOG(LOG_ERROR, "%s", err);
+        return -1;
+    }
+    d->ctx.auth = admin_auth_create(path[0] != '\0' ? &key : NULL, !d->input_is_file);
+    memset(&key, 0, sizeof key);
+    if (!d->ctx.auth) {
+        LOG(LOG_ERROR, "out of memory for the change guard");
+        return -1;
+    }
+    if (path[0] != '\0')
+        LOG(LOG_INFO, "changes over the bus are accepted when signed with the key of %s", path);
+    else
+        LOG(LOG_INFO, "no admin_key_file: LOAD, UNLOAD and object edits over the bus are refused");
+    return 0;
+}
+
+/* Every mesh file is parsed in the loader child, within limits drawn from the budget;
+ * a daemon that cannot find its loader does not start (a configuration error, exit 2). */
+static int setup_world_env(daemon *d)
+{
+    const daemon_options *opt = &d->opt;
+    char err[TRIOCT_MAX_PATH_LEN * 2 + 128];
+    mesh_loader *ld = &d->ctx.loader;
+    if (opt->loader[0] != '\0') {
+        if (access(opt->loader, X_OK) != 0) {
+            LOG(LOG_ERROR, "the mesh loader %s is not an executable: %s", opt->loader, strerror(errno));
+            return -1;
+        }
+        snprintf(ld->program, sizeof ld->program, "%s", opt->loader);
+    } else if (mesh_loader_find(ld->program, sizeof ld->program, err, sizeof err) != 0) {
+        LOG(LOG_ERROR, "%s (give --loader or loader in [daemon])", err);
+        return -1;
+    }
+    /* What the parser may take while it reads a file: never more than the budget, never
+     * less than a parser needs for the libraries and a middling mesh. */
+    size_t memory = opt->memory_budget < MESH_LOADER_MAX_MEMORY ? opt->memory_budget : MESH_LOADER_MAX_MEMORY;
+    ld->memory_bytes = memory < MESH_LOADER_MIN_MEMORY ? MESH_LOADER_MIN_MEMORY : memory;
+    ld->cpu_seconds = MESH_LOADER_CPU_SECONDS;
+    ld->wall_seconds = MESH_LOADER_WALL_SECONDS;
+    memory_account_init(&d->ctx.memory, opt->memory_budget);
+    if (setup_admin_auth(d) != 0)
+        return -1;
+    d->ctx.env.loader = ld;
+    d->ctx.env.account = &d->ctx.memory;
+    LOG(LOG_INFO, "memory budget %zu MiB; meshes parsed by %s (at most %zu MiB, %u s of CPU each)",
+        opt->memory_budget >> 20, ld->program, ld->memory_bytes >> 20, ld->cpu_seconds);
+    return 0;
 }
 
 int daemon_run(const daemon_options *opt, scene *sc)
@@ -1448,6 +1525,10 @@ int daemon_run(const daemon_options *opt, scene *sc)
     snprintf(d->ctx.prefix, sizeof d->ctx.prefix, "%s", opt->prefix);
     snprintf(d->ctx.daemon, sizeof d->ctx.daemon, "%s", opt->name);
     snprintf(d->ctx.world_dir, sizeof d->ctx.world_dir, "%s", opt->world_dir);
+    if (setup_world_env(d) != 0) {
+        destroy(d);
+        return 2;
+    }
     d->ctx.worlds = registry_create();
     if (d->ctx.worlds == NULL) {
         LOG(LOG_ERROR, "out of memory");

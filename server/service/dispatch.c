@@ -494,11 +494,26 @@ static int run_request(job *j, const void *bytes, size_t size)
     return job_fail(j, TRIOCT_ERR_BAD_REQUEST, "the request passed the validator but not the decoder");
 }
 
+int dispatch_authorize(job *j)
+{
+    char why[TRIOCT_MAX_MESSAGE_LEN];
+    if (admin_auth_check(j->ctx->auth, j->channel, j->bytes, j->size, j->heard_utime, why, sizeof why) != 0)
+        return job_fail(j, TRIOCT_ERR_DENIED, "%s", why);
+    return TRIOCT_OK;
+}
+
 int dispatch_handle(dispatch_ctx *ctx, const char *channel, const void *bytes, size_t size, int64_t now_utime,
                     dispatch_reply *out)
 {
+    return dispatch_handle_heard(ctx, channel, bytes, size, now_utime, now_utime, out);
+}
+
+int dispatch_handle_heard(dispatch_ctx *ctx, const char *channel, const void *bytes, size_t size, int64_t now_utime,
+                          int64_t heard_utime, dispatch_reply *out)
+{
     memset(out, 0, sizeof *out);
-    job j = {.ctx = ctx, .out = out, .status = TRIOCT_OK, .failed_edit = -1};
+    job j = {.ctx = ctx, .out = out, .status = TRIOCT_OK, .failed_edit = -1, .channel = channel, .bytes = bytes,
+             .size = size, .heard_utime = heard_utime};
     if (peek(ctx, channel, bytes, size, &j.req, &j.hdr) != PEEK_REQUEST)
         return -1;
     reply_start(out, &j.req);

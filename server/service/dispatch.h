@@ -13,12 +13,21 @@
 #include "../../common/channels.h"
 #include "../world/registry.h"
 #include "../world/scene.h"
+#include "../world/world.h"
+#include "admin_auth.h"
 
 typedef struct dispatch_ctx {
     registry *worlds;
     char prefix[TRIOCT_MAX_PREFIX_LEN + 1];
     char daemon[TRIOCT_MAX_NAME_LEN + 1];
     char world_dir[TRIOCT_MAX_PATH_LEN];
+    /* Where builds get meshes and memory: env points into loader and memory, or is zero
+     * (files parsed in process, no budget: tests). */
+    world_env env;
+    mesh_loader loader;
+    memory_account memory;
+    /* The guard on changes over the bus; NULL refuses them all (no key). */
+    admin_auth *auth;
     /* The scene LOAD reads sections from; swapped by the loop thread on SIGHUP. */
     pthread_mutex_t scene_lock;
     const scene *scene;
@@ -92,6 +101,11 @@ typedef struct dispatch_reply {
  * allocated. now_utime is the clock the deadline is checked against. */
 int dispatch_handle(dispatch_ctx *ctx, const char *channel, const void *bytes, size_t size,
                     int64_t now_utime, dispatch_reply *out);
+/* The same, with heard_utime the clock a change's timestamp is checked against: when the
+ * bus delivered the message, or, for a file:// input, the log's timestamp of the event
+ * (dispatch_handle takes now_utime for both). */
+int dispatch_handle_heard(dispatch_ctx *ctx, const char *channel, const void *bytes, size_t size, int64_t now_utime,
+                          int64_t heard_utime, dispatch_reply *out);
 
 /* Small requests: the daemon answers them on its loop thread as they are read, instead of
  * handing them to a worker and the reply back (two thread wake-ups, which on a small

@@ -73,7 +73,15 @@ typedef struct job {
     dispatch_reply *out;
     int counted;                   /* the request was answered on w (w->queries) */
     int32_t failed_edit;           /* object edits: the edit an error is about, or -1 */
+    /* The request as heard, for the change guard (admin_auth.h). */
+    const char *channel;
+    const void *bytes;
+    size_t size;
+    int64_t heard_utime;
 } job;
+
+/* A change (LOAD, UNLOAD, edits) passes the change guard, or gets ERR_DENIED saying why. */
+int dispatch_authorize(job *j);
 
 /* Records an error (status and a printf message) and returns status, so a check reads
  * `return job_fail(j, TRIOCT_ERR_..., "...", ...)`. */

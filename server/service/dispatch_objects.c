@@ -108,7 +108,7 @@ static int load_models(job *j, const trioct_object_edit_request_t *m, object_edi
         int status = TRIOCT_OK;
         char why[TRIOCT_MAX_MESSAGE_LEN];
         if (e->mesh[0] != '\0') {
-            edits[i].model = world_model_from_file(j->w, j->ctx->world_dir, e->mesh, &status, why, sizeof why);
+            edits[i].model = world_model_from_file(j->w, j->ctx->world_dir, &j->ctx->env, e->mesh, &status, why, sizeof why);
         } else {
             size_t n = (size_t)e->num_triangles;
             vec3(*tris)[3] = dispatch_malloc(n * sizeof *tris);
@@ -120,7 +120,7 @@ static int load_models(job *j, const trioct_object_edit_request_t *m, object_edi
                 tris[t][1] = (vec3){tri->b.x, tri->b.y, tri->b.z};
                 tris[t][2] = (vec3){tri->c.x, tri->c.y, tri->c.z};
             }
-            edits[i].model = world_model_from_triangles(j->w, e->name, (const vec3(*)[3])tris, n, &status, why,
+            edits[i].model = world_model_from_triangles(j->w, &j->ctx->env, e->name, (const vec3(*)[3])tris, n, &status, why,
                                                         sizeof why);
             free(tris);
         }
@@ -204,6 +204,8 @@ int dispatch_objects(job *j, const trioct_object_edit_request_t *m)
         return job_fail(j, TRIOCT_ERR_OVER_CAP, "num_edits %d is over TRIOCT_MAX_EDITS=%d; split the list",
                         m->num_edits, TRIOCT_MAX_EDITS);
     size_t n = (size_t)m->num_edits;
+    if (n > 0 && dispatch_authorize(j) != TRIOCT_OK)
+        return j->status;
     object_edit *edits = dispatch_calloc(n, sizeof *edits);
     if (!edits)
         return job_fail(j, TRIOCT_ERR_NOMEM, "out of memory for %zu edits", n);

@@ -515,6 +515,8 @@ static void expect_text(const char *text, const char *needle)
 /* The scene                                                                                */
 /* ====================================================================================== */
 
+static char key_file[320]; /* the daemon's admin key; TRIOCT_KEY_FILE names it */
+
 static void path_in_dir(char *out, size_t len, const char *name)
 {
     snprintf(out, len, "%s/%s", dir, name);
@@ -561,7 +563,10 @@ static int group_setup(void **state)
     char scene[320], log[320];
     path_in_dir(scene, sizeof scene, "scene.ini");
     path_in_dir(log, sizeof log, "daemon.log");
-    const char *extra[] = {"--threads", "2", "--status-interval", "200", NULL};
+    path_in_dir(key_file, sizeof key_file, "admin.key");
+    if (daemon_proc_write_key(key_file) != 0)
+        return -1;
+    const char *extra[] = {"--threads", "2", "--status-interval", "200", "--admin-key-file", key_file, NULL};
     daemon_pid = daemon_proc_start(daemon_bin, scene, BUS_URL, DAEMON, extra, log);
     if (daemon_pid < 0)
         return -1;

@@ -17,6 +17,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include <time.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <cmocka.h>
@@ -27,6 +28,9 @@
 #include "support/meshgen.h"
 #include "support/obj_write.h"
 #include "trioct.h"
+#include "admin_key.h"
+#include "trioct_admin_reply_t.h"
+#include "trioct_admin_request_t.h"
 #include "trioct_ray_request_t.h"
 #include "world/scene.h"
 #include "world/world.h"
@@ -48,6 +52,8 @@ static void write_file(const char *path, const char *text)
     fputs(text, f);
     assert_int_equal(fclose(f), 0);
 }
+
+static char key_file[320]; /* the daemons' admin key; TRIOCT_KEY_FILE names it */
 
 static void path_in_dir(char *out, size_t len, const char *name)
 {
@@ -85,7 +91,7 @@ static world *build_truth(const char *scene_path, const char *name)
     const world_spec *spec = scene_find(&s, name);
     assert_non_null(spec);
     int status = 0;
-    world *w = world_build(spec, dir, &status, err, sizeof err);
+    world *w = world_build(spec, dir, NULL, &status, err, sizeof err);
     if (w == NULL)
         fail_msg("%s", err);
     scene_free(&s);
@@ -110,7 +116,11 @@ static int group_setup(void **state)
     char log_a[320], log_b[320];
     path_in_dir(log_a, sizeof log_a, "a.log");
     path_in_dir(log_b, sizeof log_b, "b.log");
-    const char *extra[] = {"--threads", "2", "--status-interval", "200", "--log-level", "info", NULL};
+    path_in_dir(key_file, sizeof key_file, "admin.key");
+    if (daemon_proc_write_key(key_file) != 0)
+        return -1;
+    const char *extra[] = {"--threads", "2", "--status-interval", "200", "--log-level", "info",
+                           "--admin-key-file", key_file, NULL};
     daemon_a = daemon_proc_start(daemon_bin, scene_a, BUS_URL, "dA", extra, log_a);
     daemon_b = daemon_proc_start(daemon_bin, scene_b, BUS_URL, "dB", extra, log_b);
     if (daemon_a < 0 || daemon_b < 0)
@@ -392,7 +402,9 @@ static void test_error_replies(void **state)
 
     trioct_load_options lo = {.world = "escape", .daemon = "dA", .mesh_path = "../etc/passwd"};
     trioct_admin_result ares;
-    assert_int_equal(trioct_load(c, &lo, TIMEOUT_MS, &ares), TRIOCT_ERR_BAD_PATH);
+    int st = trioct_load(c, &lo, TIMEOUT_MS, &ares);
+    if (st != TRIOCT_ERR_BAD_PATH) print_error("load: %s\n", ares.reply.message);
+    assert_int_equal(st, TRIOCT_ERR_BAD_PATH);
     trioct_admin_result_free(&ares);
     trioct_disconnect(c);
 }
@@ -449,6 +461,178 @@ static void test_hostile_bytes_counted(void **state)
     assert_true(after.malformed - before.malformed == HOSTILE);
     trioct_daemon_status_free(&before);
     trioct_daemon_status_free(&after);
+    trioct_disconnect(c);
+}
+
+/* ---------- only the key holder changes worlds ---------- */
+
+typedef struct admin_replies {
+    int count;
+    int status[4];
+    char message[4][256];
+} admin_replies;
+
+static void on_admin_reply(const lcm_recv_buf_t *rbuf, const char *channel, const trioct_admin_reply_t *m,
+                           void *user)
+{
+    (void)rbuf;
+    (void)channel;
+    admin_replies *got = user;
+    if (got->count < 4) {
+        got->status[got->count] = m->header.status;
+        snprintf(got->message[got->count], sizeof got->message[0], "%s", m->header.message);
+        got->count++;
+    }
+}
+
+static int64_t ground_version(trioct_client *c)
+{
+    trioct_admin_result info;
+    assert_int_equal(trioct_info(c, "ground", TIMEOUT_MS, &info), TRIOCT_OK);
+    assert_int_equal(info.num_worlds, 1);
+    int64_t v = info.worlds[0].version;
+    assert_true(info.worlds[0].triangles > 12);
+    trioct_admin_result_free(&info);
+    return v;
+}
+
+/* Issue 20: a second process on the bus with another key, or none, cannot unload ground or
+ * load a 12-triangle cube under its name; and a change captured off the bus and sent
+ * again is refused, though the first copy was honoured. */
+static void test_changes_need_the_key_over_the_bus(void **state)
+{
+    (void)state;
+    trioct_client *c = connect_bus();
+    int64_t version = ground_version(c);
+
+    char other[320];
+    path_in_dir(other, sizeof other, "other.key");
+    FILE *f = fopen(other, "w");
+    assert_non_null(f);
+    fputs("0123456789abcdef0123456789abcdef0123456789abcdef0123456789abcdef\n", f);
+    assert_int_equal(fclose(f), 0);
+    assert_int_equal(chmod(other, 0600), 0);
+    const char *keys[] = {other, ""}; /* another key; no key */
+    for (int k = 0; k < 2; k++) {
+        trioct_connect_options opt = {.url = BUS_URL, .admin_key_file = keys[k]};
+        trioct_client *intruder = trioct_connect(&opt, NULL, NULL, 0);
+        assert_non_null(intruder);
+        trioct_admin_result ar;
+        assert_int_equal(trioct_unload(intruder, "ground", TIMEOUT_MS, &ar), TRIOCT_ERR_DENIED);
+        assert_non_null(strstr(ar.reply.message, "does not match the daemon's admin key"));
+        trioct_admin_result_free(&ar);
+        trioct_load_options lo = {.world = "ground", .daemon = "dA", .mesh_path = "cube.obj"};
+        assert_int_equal(trioct_load(intruder, &lo, TIMEOUT_MS, &ar), TRIOCT_ERR_DENIED);
+        trioct_admin_result_free(&ar);
+        trioct_disconnect(intruder);
+    }
+    assert_int_equal(ground_version(c), version);
+
+    /* A signed LOAD, published twice, byte for byte (on the daemon's LOAD channel, which
+     * it keeps hearing whatever the load does). */
+    trioct_load_options lo = {.world = "scratch_w", .daemon = "dA", .mesh_path = "cube.obj"};
+    trioct_admin_result ar;
+    assert_int_equal(trioct_load(c, &lo, TIMEOUT_MS, &ar), TRIOCT_OK);
+    trioct_admin_result_free(&ar);
+    trioct_admin_key key;
+    char err[256];
+    assert_int_equal(trioct_admin_key_load(key_file, &key, err, sizeof err), 0);
+    trioct_admin_request_t req = {
+        .header = {.client_id = 77, .request_id = 1, .reply_channel = "E2E_REPLAYED", .world = "scratch_w"},
+        .op = TRIOCT_ADMIN_REQUEST_T_LOAD, .mesh_path = "cube.obj", .accuracy = TRIOCT_RAY_REQUEST_T_ACCURACY_WORLD};
+    uint8_t bytes[512];
+    int size = trioct_admin_request_t_encode(bytes, 0, sizeof bytes, &req);
+    assert_true(size > TRIOCT_ADMIN_AUTH_BYTES);
+    struct timespec now;
+    clock_gettime(CLOCK_REALTIME, &now);
+    trioct_admin_sign(&key, "TRIOCT_LOAD_dA", bytes, (size_t)size,
+                      (int64_t)now.tv_sec * 1000000 + now.tv_nsec / 1000);
+    lcm_t *raw = lcm_create(BUS_URL);
+    assert_non_null(raw);
+    admin_replies got = {0};
+    trioct_admin_reply_t_subscription_t *sub = trioct_admin_reply_t_subscribe(raw, "E2E_REPLAYED", on_admin_reply, &got);
+    for (int copy = 0; copy < 2; copy++) {
+        assert_int_equal(lcm_publish(raw, "TRIOCT_LOAD_dA", bytes, (unsigned)size), 0);
+        for (int waited = 0; got.count <= copy && waited < 50; waited++)
+            lcm_handle_timeout(raw, 100);
+    }
+    trioct_admin_reply_t_unsubscribe(raw, sub);
+    lcm_destroy(raw);
+    assert_int_equal(got.count, 2);
+    assert_int_equal(got.status[0], TRIOCT_OK);
+    assert_int_equal(got.status[1], TRIOCT_ERR_DENIED);
+    assert_non_null(strstr(got.message[1], "nonce was seen before"));
+    assert_int_equal(trioct_unload(c, "scratch_w", TIMEOUT_MS, &ar), TRIOCT_OK);
+    trioct_admin_result_free(&ar);
+    trioct_disconnect(c);
+}
+
+/* ---------- hostile files ---------- */
+
+static long rss_kib(pid_t pid)
+{
+    char path[64], line[256];
+    snprintf(path, sizeof path, "/proc/%d/status", (int)pid);
+    FILE *f = fopen(path, "r");
+    assert_non_null(f);
+    long kib = -1;
+    while (fgets(line, sizeof line, f))
+        if (sscanf(line, "VmRSS: %ld kB", &kib) == 1)
+            break;
+    fclose(f);
+    return kib;
+}
+
+/* Issue 20's files, each LOADed over the bus under ground's name: a COLLADA of 100,000
+ * nested nodes (it crashed the daemon), a PLY header claiming 268 million vertices (it
+ * filled the daemon to 3.2 GB), a FIFO (it hung a worker). Each is an error reply naming
+ * the file, ground keeps its version, and the daemon's memory stays where it was. */
+static void test_hostile_files_leave_the_daemon_serving(void **state)
+{
+    (void)state;
+    trioct_client *c = connect_bus();
+    int64_t version = ground_version(c);
+    long before = rss_kib(daemon_a);
+
+    char path[320];
+    path_in_dir(path, sizeof path, "deep.dae");
+    FILE *f = fopen(path, "w");
+    assert_non_null(f);
+    fputs("<?xml version=\"1.0\"?>\n<COLLADA xmlns=\"http://www.collada.org/2005/11/COLLADASchema\" "
+          "version=\"1.4.1\">\n<library_visual_scenes><visual_scene id=\"s\">\n", f);
+    for (int i = 0; i < 100000; i++)
+        fputs("<node>", f);
+    for (int i = 0; i < 100000; i++)
+        fputs("</node>", f);
+    fputs("\n</visual_scene></library_visual_scenes>\n<scene><instance_visual_scene url=\"#s\"/></scene>\n"
+          "</COLLADA>\n", f);
+    assert_int_equal(fclose(f), 0);
+    path_in_dir(path, sizeof path, "lying.ply");
+    write_file(path, "ply\nformat binary_little_endian 1.0\nelement vertex 268435456\nproperty float x\n"
+                     "property float y\nproperty float z\nelement face 1\nproperty list uchar int vertex_indices\n"
+                     "end_header\n0123456789ab");
+    path_in_dir(path, sizeof path, "pipe.obj");
+    assert_int_equal(mkfifo(path, 0600), 0);
+
+    const char *files[] = {"deep.dae", "lying.ply", "pipe.obj"};
+    for (int i = 0; i < 3; i++) {
+        trioct_load_options lo = {.world = "ground", .daemon = "dA", .mesh_path = files[i]};
+        trioct_admin_result ar;
+        int st = trioct_load(c, &lo, 60000, &ar);
+        if (st != TRIOCT_ERR_LOAD_FAILED || !strstr(ar.reply.message, files[i]))
+            print_error("%s: status %d: %s\n", files[i], st, ar.reply.message);
+        assert_int_equal(st, TRIOCT_ERR_LOAD_FAILED);
+        assert_non_null(strstr(ar.reply.message, files[i]));
+        trioct_admin_result_free(&ar);
+    }
+    assert_int_equal(ground_version(c), version);
+    trioct_vec3 o[RAYS], d[RAYS];
+    trioct_ray_result res;
+    assert_int_equal(ask_rays(c, "ground", 9, o, d, &res), TRIOCT_OK);
+    trioct_ray_result_free(&res);
+    long after = rss_kib(daemon_a);
+    print_message("daemon RSS %ld KiB before the hostile loads, %ld KiB after\n", before, after);
+    assert_true(after - before < 64 * 1024);
     trioct_disconnect(c);
 }
 
@@ -583,6 +767,8 @@ int main(int argc, char **argv)
         cmocka_unit_test(test_two_daemons_answer_once),
         cmocka_unit_test(test_error_replies),
         cmocka_unit_test(test_hostile_bytes_counted),
+        cmocka_unit_test(test_changes_need_the_key_over_the_bus),
+        cmocka_unit_test(test_hostile_files_leave_the_daemon_serving),
         cmocka_unit_test(test_sighup_reload_under_load),
         cmocka_unit_test(test_sigterm_answers_in_flight),
     };

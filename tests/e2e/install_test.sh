@@ -8,7 +8,7 @@
 #     compile against the installed header alone and link with one line against the shared
 #     and against the static library, and run: no daemon on a private memq:// bus, so each
 #     says so and exits 1;
-#   - the shared library's soname is libtrioct.so.1 and it exports exactly the functions
+#   - the shared library's soname is libtrioct.so.2 and it exports exactly the functions
 #     trioct.h declares (TRIOCT_API), nothing of the generated wire code or common/.
 # Prints "install_test: N passed, M failed" and exits 1 when anything failed.
 #   tests/e2e/install_test.sh [BUILD_DIR]
@@ -65,10 +65,13 @@ usr/include/trioct d
 usr/include/trioct/trioct.h f 644
 usr/include/trioct/trioct_limits.h f 644
 usr/include/trioct/trioct_status.h f 644
+usr/libexec d
+usr/libexec/trioct d
+usr/libexec/trioct/trioct-load f 755
 usr/lib d
 usr/lib/libtrioct.a f 644
-usr/lib/libtrioct.so l -> libtrioct.so.1
-usr/lib/libtrioct.so.1 f 644
+usr/lib/libtrioct.so l -> libtrioct.so.2
+usr/lib/libtrioct.so.2 f 644
 usr/lib/pkgconfig d
 usr/lib/pkgconfig/trioct.pc f 644
 EOF
@@ -101,8 +104,9 @@ else
     not_ok "the installed tree differs from the expected one (- expected, + installed)"
 fi
 
-for pair in "$build/trioctd usr/bin/trioctd" "$build/trioct usr/bin/trioct" \
-    "$build/libtrioct.a usr/lib/libtrioct.a" "$build/libtrioct.so.1 usr/lib/libtrioct.so.1" \
+for pair in "$build/trioctd usr/bin/trioctd" "$build/trioct-load usr/libexec/trioct/trioct-load" \
+    "$build/trioct usr/bin/trioct" \
+    "$build/libtrioct.a usr/lib/libtrioct.a" "$build/libtrioct.so.2 usr/lib/libtrioct.so.2" \
     "client/trioct.h usr/include/trioct/trioct.h" \
     "common/trioct_limits.h usr/include/trioct/trioct_limits.h" \
     "common/trioct_status.h usr/include/trioct/trioct_status.h"; do
@@ -122,7 +126,7 @@ Description: Client library of trioctd, the collision-query daemon
 Version: ${version:-0}
 Cflags: -I\${includedir}/trioct
 Libs: -L\${libdir} -ltrioct
-Libs.private: -llcm -lm
+Libs.private: -llcm -lsodium -lm
 EOF
 if diff -u "$tmp/pc.want" "$dest/usr/lib/pkgconfig/trioct.pc"; then
     ok "trioct.pc names /usr and /usr/lib, version ${version:-0}"
@@ -135,7 +139,7 @@ if quiet $make -s --no-print-directory BUILD="$build" install-lib DESTDIR="$tmp/
     grep -qx 'prefix=/usr/local' "$tmp/dest-local/usr/local/lib/pkgconfig/trioct.pc" &&
     grep -qx 'libdir=/usr/local/lib' "$tmp/dest-local/usr/local/lib/pkgconfig/trioct.pc" &&
     [ -f "$tmp/dest-local/usr/local/include/trioct/trioct.h" ] &&
-    [ -f "$tmp/dest-local/usr/local/lib/libtrioct.so.1" ]; then
+    [ -f "$tmp/dest-local/usr/local/lib/libtrioct.so.2" ]; then
     ok "without PREFIX: /usr/local, written into trioct.pc"
 else
     not_ok "without PREFIX: not installed under /usr/local, or trioct.pc says otherwise"
@@ -145,7 +149,7 @@ fi
 export PKG_CONFIG_PATH="$dest/usr/lib/pkgconfig" PKG_CONFIG_SYSROOT_DIR="$dest"
 pc() { pkg-config "$@" trioct 2>&1; }
 for check in "--cflags|-I$dest/usr/include/trioct" "--libs|-L$dest/usr/lib -ltrioct" \
-    "--static --libs|-L$dest/usr/lib -ltrioct -llcm -lm" "--modversion|${version:-0}"; do
+    "--static --libs|-L$dest/usr/lib -ltrioct -llcm -lsodium -lm" "--modversion|${version:-0}"; do
     args=${check%%|*}
     want=${check#*|}
     got=$(pc $args | sed 's/ *$//')
@@ -166,21 +170,21 @@ if printf '#include <trioct/trioct.h>\nint main(void) { return trioct_status_tex
 else
     not_ok "<trioct/trioct.h> does not compile on its own"
 fi
-# One line each; static: libtrioct from its archive, LCM and libm (Libs.private) shared.
+# One line each; static: libtrioct from its archive, LCM, libsodium and libm (Libs.private) shared.
 link_c_shared="cc -std=c11 -Wall -Wextra -Werror $san ray_example.c $cflags $libs -o c_shared"
-link_c_static="cc -std=c11 -Wall -Wextra -Werror $san ray_example.c $cflags -Wl,-Bstatic $libs -Wl,-Bdynamic -llcm -lm -o c_static"
+link_c_static="cc -std=c11 -Wall -Wextra -Werror $san ray_example.c $cflags -Wl,-Bstatic $libs -Wl,-Bdynamic -llcm -lsodium -lm -o c_static"
 link_cxx_shared="g++ -std=c++11 -pedantic -Wall -Wextra -Werror $san ray_example.cpp $cflags $libs -o cxx_shared"
-link_cxx_static="g++ -std=c++11 -pedantic -Wall -Wextra -Werror $san ray_example.cpp $cflags -Wl,-Bstatic $libs -Wl,-Bdynamic -llcm -lm -o cxx_static"
+link_cxx_static="g++ -std=c++11 -pedantic -Wall -Wextra -Werror $san ray_example.cpp $cflags -Wl,-Bstatic $libs -Wl,-Bdynamic -llcm -lsodium -lm -o cxx_static"
 for name in c_shared c_static cxx_shared cxx_static; do
     eval "line=\$link_$name"
     if quiet $line; then ok "$name: $line"; else not_ok "$name: $line"; fi
 done
 for name in c_shared cxx_shared; do
-    if readelf -d $name 2>/dev/null | grep -q 'NEEDED.*\[libtrioct\.so\.1\]' &&
-        LD_LIBRARY_PATH="$dest/usr/lib" ldd ./$name | grep -q "libtrioct.so.1 => $dest/usr/lib/libtrioct.so.1"; then
-        ok "$name loads the installed libtrioct.so.1"
+    if readelf -d $name 2>/dev/null | grep -q 'NEEDED.*\[libtrioct\.so\.2\]' &&
+        LD_LIBRARY_PATH="$dest/usr/lib" ldd ./$name | grep -q "libtrioct.so.2 => $dest/usr/lib/libtrioct.so.2"; then
+        ok "$name loads the installed libtrioct.so.2"
     else
-        not_ok "$name does not load the installed libtrioct.so.1"
+        not_ok "$name does not load the installed libtrioct.so.2"
     fi
 done
 for name in c_static cxx_static; do
@@ -210,8 +214,8 @@ done
 cd - >/dev/null
 
 # ---- what the shared library exports -------------------------------------------------------
-so="$dest/usr/lib/libtrioct.so.1"
-if readelf -d "$so" | grep -q 'SONAME.*\[libtrioct\.so\.1\]'; then ok "soname libtrioct.so.1"; else not_ok "the soname is not libtrioct.so.1"; fi
+so="$dest/usr/lib/libtrioct.so.2"
+if readelf -d "$so" | grep -q 'SONAME.*\[libtrioct\.so\.2\]'; then ok "soname libtrioct.so.2"; else not_ok "the soname is not libtrioct.so.2"; fi
 sed -n 's/^TRIOCT_API[^(]*[ *]\(trioct_[a-z0-9_]*\)(.*/\1/p' "$dest/usr/include/trioct/trioct.h" |
     LC_ALL=C sort -u >"$tmp/api.want"
 nm -D --defined-only "$so" | awk '{ print $3 }' | LC_ALL=C sort -u >"$tmp/api.got"

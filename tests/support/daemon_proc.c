@@ -4,6 +4,7 @@
 #include <fcntl.h>
 #include <signal.h>
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 #include <sys/wait.h>
 #include <time.h>
@@ -93,4 +94,33 @@ int daemon_proc_stop(pid_t pid, int sig, int timeout_ms)
     if (kill(pid, sig) != 0)
         return -1;
     return daemon_proc_wait_exit(pid, timeout_ms);
+}
+
+const char *daemon_proc_loader(void)
+{
+    static char path[4096];
+    ssize_t n = readlink("/proc/self/exe", path, sizeof path - 32);
+    if (n <= 0)
+        return "trioct-load";
+    path[n] = '\0';
+    for (int up = 0; up < 2; up++) {
+        char *slash = strrchr(path, '/');
+        if (slash)
+            *slash = '\0';
+    }
+    strcat(path, "/trioct-load");
+    return path;
+}
+
+int daemon_proc_write_key(const char *path)
+{
+    int fd = open(path, O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0600);
+    if (fd < 0)
+        return -1;
+    static const char text[] = DAEMON_PROC_KEY_HEX "\n";
+    ssize_t n = write(fd, text, sizeof text - 1);
+    close(fd);
+    if (n != (ssize_t)(sizeof text - 1))
+        return -1;
+    return setenv("TRIOCT_KEY_FILE", path, 1);
 }

@@ -23,4 +23,16 @@ int daemon_proc_stop(pid_t pid, int sig, int timeout_ms);
 /* Waits for an exit already under way; same returns as daemon_proc_stop. */
 int daemon_proc_wait_exit(pid_t pid, int timeout_ms);
 
+/* The admin key the end-to-end daemons and their clients share, as hex. */
+#define DAEMON_PROC_KEY_HEX "e2e0e2e1e2e2e2e3e2e4e2e5e2e6e2e7e2e8e2e9e2eae2ebe2ece2ede2eee2ef"
+
+/* Writes DAEMON_PROC_KEY_HEX to path, readable by its owner only, and points
+ * TRIOCT_KEY_FILE at it, so every client of this process and its children signs with it.
+ * 0 or -1. */
+int daemon_proc_write_key(const char *path);
+
+/* This build's mesh loader, for a daemon_run inside a test program (which finds no loader
+ * beside itself): BUILD/trioct-load for a program in BUILD/tests or BUILD/bench. */
+const char *daemon_proc_loader(void);
+
 #endif

@@ -96,6 +96,19 @@ int logs_write_admin(const char *dir)
     lr_admin(&w, &q, INFO, NULL);
 
     lr_admin(&w, (q = ask(C, R, 33, ""), &q), LIST, NULL);
+
+    /* The guard and the budget (issue 20). A section whose meshes pass its memory_budget:
+     * BUDGET, as at start. A LOAD and an UNLOAD without the admin key's code: DENIED, and
+     * yard stays. A signed LOAD, then the very same bytes again: the second is a replay. */
+    lr_admin(&w, (q = ask(C, R, 34, "tight"), &q), LOAD, "");
+    w.unsigned_changes = 1;
+    lr_admin(&w, (q = ask(C, R, 35, "yard"), &q), LOAD, "ball.obj");
+    lr_admin(&w, (q = ask(C, R, 36, "yard"), &q), UNLOAD, NULL);
+    w.unsigned_changes = 0;
+    lr_admin(&w, (q = ask(C, R, 37, "yard"), &q), INFO, NULL);
+    lr_admin(&w, (q = ask(C, R, 38, "again"), &q), LOAD, "ball.obj");
+    lw_repeat_last(&w);
+    lr_admin(&w, (q = ask(C, R, 39, ""), &q), LIST, NULL);
     return lw_save(&w, dir, "admin");
 }
 

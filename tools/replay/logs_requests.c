@@ -185,12 +185,12 @@ void lr_admin(logs_writer *w, const lr_req *q, int8_t op, const char *mesh_path)
 
 void lr_reload(logs_writer *w)
 {
-    /* Any bytes: the daemon reads only that the message came. */
-    lw_raw(w, lw_mark_channel(TRIOCT_MARK_RELOAD), "reload", 6);
+    /* The daemon reads only that the message came, signed. */
+    lw_mark(w, lw_mark_channel(TRIOCT_MARK_RELOAD), "reload");
 }
 
 void lr_stop(logs_writer *w)
 {
-    /* Any bytes, as for the reload mark. */
-    lw_raw(w, lw_mark_channel(TRIOCT_MARK_STOP), "stop", 4);
+    /* Signed, as the reload mark. */
+    lw_mark(w, lw_mark_channel(TRIOCT_MARK_STOP), "stop");
 }

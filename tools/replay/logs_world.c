@@ -53,7 +53,9 @@ static const char scene_head[] =
     "; beside it; regenerate with `make logs`.\n"
     "[daemon]\n"
     "prefix = TRIOCT\n"
-    "name = replayd\n";
+    "name = replayd\n"
+    "; Set, so that messages naming it read the same on every machine.\n"
+    "memory_budget = 1G\n";
 
 static const char scene_worlds[] =
     "\n"
@@ -79,6 +81,11 @@ static const char scene_worlds[] =
     "[spare]\n"
     "mesh = crates.obj\n"
     "accuracy = fast\n"
+    "effects = rays\n"
+    "\n"
+    "[tight]\n"
+    "mesh = terrain.obj\n"
+    "memory_budget = 64K\n"
     "effects = rays\n"
     "\n"
     "[shop]\n"

@@ -5,6 +5,7 @@
 #include <string.h>
 
 #include "channels.h"
+#include "replay_key.h"
 
 void lw_init(logs_writer *w)
 {
@@ -46,6 +47,18 @@ void lw_raw(logs_writer *w, const char *channel, const void *data, size_t size)
     if (copy != NULL && size > 0)
         memcpy(copy, data, size);
     push(w, channel, copy, size);
+}
+
+void lw_repeat_last(logs_writer *w)
+{
+    if (w->count == 0) {
+        w->failed = 1;
+        return;
+    }
+    const replay_event *last = &w->events[w->count - 1];
+    char channel[256];
+    snprintf(channel, sizeof channel, "%s", last->channel);
+    lw_raw(w, channel, last->data, last->size);
 }
 
 /* One function per type: the generated code has no common signature to share. */
@@ -124,10 +137,25 @@ void lw_mesh(logs_writer *w, const char *channel, const trioct_mesh_request_t *m
     push(w, channel, b, n);
 }
 
+/* Signed as a trusted client signs: the event's own time, and a nonce that is the event's
+ * number (unique in a log, and the same bytes every time the log is written). */
+static void sign(logs_writer *w, const char *channel, uint8_t *b, size_t n)
+{
+    if (b == NULL || w->unsigned_changes)
+        return;
+    trioct_admin_key key = replay_logs_key();
+    unsigned char nonce[TRIOCT_ADMIN_NONCE_BYTES] = {'l', 'o', 'g', 's'};
+    uint64_t serial = (uint64_t)w->count;
+    for (int i = 0; i < 8; i++)
+        nonce[8 + i] = (unsigned char)(serial >> (8 * i));
+    trioct_admin_sign_nonce(&key, channel, b, n, w->clock, nonce);
+}
+
 void lw_admin(logs_writer *w, const char *channel, const trioct_admin_request_t *m)
 {
     size_t n;
     uint8_t *b = encode_admin(m, &n);
+    sign(w, channel, b, n);
     push(w, channel, b, n);
 }
 
@@ -135,6 +163,17 @@ void lw_objects(logs_writer *w, const char *channel, const trioct_object_edit_re
 {
     size_t n;
     uint8_t *b = encode_objects(m, &n);
+    sign(w, channel, b, n);
+    push(w, channel, b, n);
+}
+
+void lw_mark(logs_writer *w, const char *channel, const char *word)
+{
+    size_t len = strlen(word), n = len + TRIOCT_ADMIN_AUTH_BYTES;
+    uint8_t *b = calloc(1, n);
+    if (b != NULL)
+        memcpy(b, word, len);
+    sign(w, channel, b, n);
     push(w, channel, b, n);
 }
 

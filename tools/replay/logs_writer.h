@@ -34,6 +34,7 @@ typedef struct logs_writer {
     size_t count, cap;
     int64_t clock;
     int failed; /* out of memory or an encoder refused: saving fails */
+    int unsigned_changes; /* 1: lw_admin, lw_objects and lw_mark leave auth zero */
 } logs_writer;
 
 void lw_init(logs_writer *w);
@@ -49,6 +50,12 @@ void lw_mesh(logs_writer *w, const char *channel, const trioct_mesh_request_t *m
 void lw_admin(logs_writer *w, const char *channel, const trioct_admin_request_t *m);
 void lw_objects(logs_writer *w, const char *channel, const trioct_object_edit_request_t *m);
 void lw_state(logs_writer *w, const char *channel, const trioct_state_request_t *m);
+/* An ordered daemon's mark: the word, then an auth_t's bytes signed with the logs' key.
+ * lw_admin and lw_objects sign with it too (replay_key.h). */
+void lw_mark(logs_writer *w, const char *channel, const char *word);
+
+/* The last event again, byte for byte, a step later: a replayed message. */
+void lw_repeat_last(logs_writer *w);
 
 /* The encoding of a request, for hostile variations of it (caller frees); NULL on failure. */
 uint8_t *lw_encode_ray(const trioct_ray_request_t *m, size_t *size);

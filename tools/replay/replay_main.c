@@ -38,6 +38,8 @@ static void usage(FILE *f)
             "  -o, --output FILE      record: the golden log to write\n"
             "  -t, --threads N        the daemon's worker threads (default: its own default)\n"
             "  -d, --daemon PATH      the trioctd to run (default: the one beside this program)\n"
+            "      --key-file FILE    the daemon's admin key (default: the key tests/logs are\n"
+            "                         signed with)\n"
             "  -i, --ignore FIELD     do not compare FIELD: queries, version or message (repeat)\n"
             "  -m, --max-lines N      difference lines printed per reply (default %d)\n"
             "      --timeout S        seconds the daemon has to answer everything (default %d)\n"
@@ -51,7 +53,7 @@ static void usage(FILE *f)
             DEFAULT_MAX_LINES, DEFAULT_TIMEOUT_S);
 }
 
-enum { OPT_TIMEOUT = 256, OPT_SPEED, OPT_HOST_NETWORK };
+enum { OPT_TIMEOUT = 256, OPT_SPEED, OPT_HOST_NETWORK, OPT_KEY_FILE };
 
 static int parse_count(const char *text, long lo, long hi, long *out)
 {
@@ -75,6 +77,7 @@ static int parse(int argc, char **argv, replay_options *o)
         {"verbose", no_argument, NULL, 'v'},
         {"url", required_argument, NULL, 'u'},       {"speed", required_argument, NULL, OPT_SPEED},
         {"host-network", no_argument, NULL, OPT_HOST_NETWORK},
+        {"key-file", required_argument, NULL, OPT_KEY_FILE},
         {"help", no_argument, NULL, 'h'},            {NULL, 0, NULL, 0},
     };
     memset(o, 0, sizeof *o);
@@ -107,6 +110,7 @@ static int parse(int argc, char **argv, replay_options *o)
         case 'u': o->url = optarg; break;
         case OPT_SPEED: o->speed = optarg; break;
         case OPT_HOST_NETWORK: o->host_network = 1; break;
+        case OPT_KEY_FILE: o->key_file = optarg; break;
         case 't':
             if (parse_count(optarg, 1, 1024, &v) < 0) {
                 fprintf(stderr, "trioct-replay: --threads: '%s' is not in 1..1024\n", optarg);

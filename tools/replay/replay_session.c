@@ -5,12 +5,14 @@
 
 #include <dirent.h>
 #include <errno.h>
+#include <fcntl.h>
 #include <signal.h>
 #include <stdarg.h>
 #include <stdlib.h>
 #include <string.h>
 #include <unistd.h>
 
+#include "replay_key.h"
 #include "replay_proc.h"
 
 static int fail(const char *fmt, ...) __attribute__((format(printf, 1, 2)));
@@ -113,6 +115,26 @@ static int write_input(replay_session *s)
     return rc;
 }
 
+/* The daemon checks the logs' signed changes with their key, written where only this user
+ * reads it (a key file others may read is refused); or with the one --key-file names. */
+static int write_key(replay_session *s)
+{
+    if (s->opt->key_file) {
+        snprintf(s->key_path, sizeof s->key_path, "%s", s->opt->key_file);
+        return 0;
+    }
+    snprintf(s->key_path, sizeof s->key_path, "%s/admin.key", s->dir);
+    int fd = open(s->key_path, O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0600);
+    if (fd < 0)
+        return fail("cannot write %s: %s", s->key_path, strerror(errno));
+    const char *text = REPLAY_LOGS_KEY_HEX "\n";
+    ssize_t n = write(fd, text, strlen(text));
+    close(fd);
+    if (n != (ssize_t)strlen(text))
+        return fail("cannot write %s", s->key_path);
+    return 0;
+}
+
 int replay_session_open(replay_session *s, const replay_options *opt)
 {
     memset(s, 0, sizeof *s);
@@ -146,6 +168,8 @@ int replay_session_open(replay_session *s, const replay_options *opt)
     snprintf(s->input_path, sizeof s->input_path, "%s/input.lcmlog", s->dir);
     snprintf(s->out_path, sizeof s->out_path, "%s/out.lcmlog", s->dir);
     snprintf(s->daemon_log, sizeof s->daemon_log, "%s/daemon.log", s->dir);
+    if (write_key(s) != 0)
+        return -1;
     return write_input(s);
 }
 
@@ -205,6 +229,8 @@ void replay_session_daemon_argv(const replay_session *s, const char *url, const 
     if (exit_at_eof)
         ARG("--exit-at-eof");
     ARG("--ordered");
+    ARG("--admin-key-file");
+    ARG("%s", s->key_path);
     if (s->opt->threads > 0) {
         ARG("--threads");
         ARG("%d", s->opt->threads);

@@ -36,6 +36,7 @@ typedef struct replay_options {
     const char *scene;
     const char *world_dir; /* NULL: the scene's directory */
     const char *daemon;    /* NULL: trioctd beside this program */
+    const char *key_file;  /* the daemon's admin key; NULL: the logs' (replay_key.h) */
     int threads;           /* 0: the daemon's own default */
     unsigned ignore;       /* REPLAY_IGNORE_* */
     size_t max_lines;      /* difference lines per reply */
@@ -59,6 +60,7 @@ typedef struct replay_session {
     char daemon_bin[REPLAY_PATH_LEN];
     char world_dir[REPLAY_PATH_LEN];      /* absolute */
     char scene_arg[REPLAY_PATH_LEN];      /* relative to world_dir when inside it */
+    char key_path[REPLAY_PATH_LEN];       /* the key file given to the daemon */
     replay_log script_log, golden_log, out_log;
     replay_book script, golden, got;
     const replay_book *expected;          /* &golden, or &script when it holds the replies */
