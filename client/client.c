@@ -362,7 +362,39 @@ void client_pending_free(pending *p)
         free(p->assemblies[i].daemon);
     }
     free(p->assemblies);
+    free(p->sent);
     free(p);
+}
+
+/* ---- retries ------------------------------------------------------------------------- */
+
+#define RETRY_FIRST_NS ((int64_t)250 * 1000000)
+#define RETRY_MAX_GAP_NS ((int64_t)4000 * 1000000)
+
+void client_retry_due(trioct_client *c, int64_t now)
+{
+    for (pending *p = c->waiting; p != NULL; p = p->next) {
+        if (p->sent == NULL || p->done || p->next_retry > now)
+            continue;
+        /* A retry past the deadline would only be answered for nobody. */
+        if (p->deadline != INT64_MAX && now + p->retry_gap / 4 >= p->deadline) {
+            p->next_retry = INT64_MAX;
+            continue;
+        }
+        if (lcm_publish(c->lcm, p->sent_channel, p->sent, (unsigned)p->sent_size) == 0)
+            c->stats.retries++;
+        p->next_retry = now + p->retry_gap;
+        p->retry_gap = p->retry_gap * 2 > RETRY_MAX_GAP_NS ? RETRY_MAX_GAP_NS : p->retry_gap * 2;
+    }
+}
+
+int64_t client_next_retry(const trioct_client *c)
+{
+    int64_t next = INT64_MAX;
+    for (const pending *p = c->waiting; p != NULL; p = p->next)
+        if (p->sent != NULL && !p->done && p->next_retry < next)
+            next = p->next_retry;
+    return next;
 }
 
 /* ---- the drain ----------------------------------------------------------------------- */
@@ -408,9 +440,13 @@ int client_wait_flag(trioct_client *c, const int *flag, int64_t deadline)
         int64_t now = client_now_ns();
         if (now >= deadline)
             return 0;
+        client_retry_due(c, now);
+        int64_t wake = client_next_retry(c);
+        if (deadline < wake)
+            wake = deadline;
         int timeout = -1;
-        if (deadline != INT64_MAX) {
-            int64_t ms = (deadline - now + 999999) / 1000000; /* round up: never wake early */
+        if (wake != INT64_MAX) {
+            int64_t ms = wake <= now ? 0 : (wake - now + 999999) / 1000000; /* round up: never wake early */
             timeout = ms > INT_MAX ? INT_MAX : (int)ms;
         }
         struct pollfd pfd = {.fd = fd, .events = POLLIN};
@@ -479,6 +515,17 @@ int client_pending_send(trioct_client *c, pending *p, const char *channel,
             c->stats.requests_sent++;
             rc = TRIOCT_OK;
         }
+    }
+    /* Kept to send again while no answer comes; LIST gathers every daemon's answer and is
+     * not retried (a retry would only ask the ones that answered again). */
+    if (rc == TRIOCT_OK && c->retries && !p->gather && p->timeout_ms != 0) {
+        p->sent = buf;
+        p->sent_size = (size_t)size;
+        snprintf(p->sent_channel, sizeof p->sent_channel, "%s", channel);
+        p->retry_gap = RETRY_FIRST_NS;
+        p->next_retry = client_now_ns() + RETRY_FIRST_NS;
+        p->retry_gap *= 2;
+        buf = NULL;
     }
     free(buf);
     if (rc != TRIOCT_OK) {
@@ -593,6 +640,7 @@ trioct_client *trioct_connect(const trioct_connect_options *opt, int *status, ch
         return connect_fail(NULL, status, err, err_len, TRIOCT_ERR_NOMEM, "out of memory");
     client_copy(c->prefix, sizeof c->prefix, prefix);
     c->send_deadlines = o.send_deadlines != 0;
+    c->retries = o.no_retries == 0;
     const char *key_file = o.admin_key_file ? o.admin_key_file : getenv("TRIOCT_KEY_FILE");
     if (key_file && key_file[0] != '\0') {
         char why[TRIOCT_MAX_MESSAGE_LEN];

@@ -39,9 +39,10 @@ void client_pending_ready(trioct_client *c, pending *p)
 }
 
 /* The earliest deadline of an async request still waiting; INT64_MAX when none has one. */
+/* The next moment something is due: an async request's deadline, or a retry. */
 static int64_t next_deadline(const trioct_client *c)
 {
-    int64_t next = INT64_MAX;
+    int64_t next = client_next_retry(c);
     for (const pending *p = c->waiting; p != NULL; p = p->next)
         if (p->is_async && !p->done && p->deadline < next)
             next = p->deadline;
@@ -135,6 +136,7 @@ int trioct_pump(trioct_client *c)
     int handled = client_drain(c, NULL, INT64_MAX);
     if (handled < 0)
         set_error(c, -1, "the LCM bus %s failed", c->url);
+    client_retry_due(c, client_now_ns());
     expire_due(c, client_now_ns()); /* a failed bus still lets the timeouts fire */
     dispatch_ready(c);
     if (c->closing)
@@ -168,6 +170,7 @@ int trioct_poll(trioct_client *c, int timeout_ms)
         if (client_drain(c, NULL, wake) < 0)
             failed = 1;
         int64_t now = client_now_ns();
+        client_retry_due(c, now);
         expire_due(c, now);
         ran += dispatch_ready(c);
         if (ran > 0 || failed || c->closing || now >= until)

@@ -73,6 +73,13 @@ struct pending {
     size_t count2;          /* states: the links of each */
     char no_daemon[TRIOCT_MAX_MESSAGE_LEN + 1]; /* the message of an unanswered request */
 
+    /* What was sent, kept to send again while no answer comes (retries); NULL: never. */
+    uint8_t *sent;
+    size_t sent_size;
+    char sent_channel[TRIOCT_MAX_CHANNEL_LEN + 1];
+    int64_t next_retry;     /* monotonic ns */
+    int64_t retry_gap;      /* ns until the next one after it */
+
     int is_async;
     pending_complete_fn complete;
     void (*cb)(void);       /* the caller's callback; complete casts it back to its type */
@@ -87,6 +94,7 @@ struct trioct_client {
     int64_t next_request_id;
     int send_deadlines;     /* requests carry deadline_utime = now + timeout */
     trioct_admin_key admin_key; /* len 0: changes go unsigned */
+    int retries;            /* requests without an answer are sent again */
     char url[256];
     char prefix[TRIOCT_MAX_PREFIX_LEN + 1];
     char reply_channel[TRIOCT_MAX_CHANNEL_LEN + 1];
@@ -165,6 +173,11 @@ void client_destroy(trioct_client *c);
 /* Handles what is queued on the bus without blocking, until nothing is, *flag is set (flag
  * may be NULL) or the deadline passes. Returns messages handled, or -1 when the bus failed. */
 int client_drain(trioct_client *c, const int *flag, int64_t deadline);
+/* Sends again every request due for a retry at now. */
+void client_retry_due(trioct_client *c, int64_t now);
+/* When the next retry is due (monotonic ns), INT64_MAX when none is. */
+int64_t client_next_retry(const trioct_client *c);
+
 /* Handles messages until *flag is set or the deadline passes. 0, or -1 when the bus failed. */
 int client_wait_flag(trioct_client *c, const int *flag, int64_t deadline);
 

@@ -44,6 +44,8 @@ static int convert(trioct_daemon_status *out, const trioct_status_t *in)
     out->memory_budget = in->memory_budget;
     memcpy(out->served, in->served, sizeof out->served);
     out->malformed = in->malformed;
+    out->duplicates_answered = in->duplicates_answered;
+    out->duplicates_joined = in->duplicates_joined;
     out->latency_p50_us = in->latency_p50_us;
     out->latency_p99_us = in->latency_p99_us;
     out->latency_count = in->latency_count;

@@ -114,6 +114,11 @@ typedef struct trioct_connect_options {
      * NULL: $TRIOCT_KEY_FILE when set; else requests go unsigned. A file that cannot be
      * used (missing, not hex, readable by others) fails the connect. */
     const char *admin_key_file;
+    /* A request whose answer has not come is sent again, the same bytes, after 250 ms, then
+     * after twice as long each time (at most 4 s apart), until its timeout: UDP drops
+     * messages on a busy host, and a daemon answers a retry from its reply cache without
+     * working it twice. Nonzero: never (each request is sent once). */
+    int no_retries;
 } trioct_connect_options;
 
 /* Connects (opt may be NULL for all defaults). On failure returns NULL, sets *status
@@ -154,6 +159,8 @@ typedef struct trioct_client_stats {
     uint64_t unmatched;          /* replies to no request waiting (another or a past one) */
     uint64_t duplicate_chunks;   /* chunks already received (or of a finished answer) */
     uint64_t malformed;          /* replies failing the wire check; dropped */
+    uint64_t retries;            /* requests sent again because no answer had come (the
+                                    same bytes: a daemon answers a retry from its cache) */
 } trioct_client_stats;
 
 TRIOCT_API void trioct_client_get_stats(const trioct_client *c, trioct_client_stats *out);
@@ -528,6 +535,9 @@ typedef struct trioct_daemon_status {
     int64_t memory_used, memory_budget; /* bytes all worlds hold, and what they may */
     int64_t served[6]; /* answered requests: ray, triangle, mesh, admin, objects, state */
     int64_t malformed; /* messages the daemon dropped before decoding */
+    /* Retries (same client, request id and bytes) answered from the daemon's reply cache,
+     * and those that came while the original was in work, answered by its one reply. */
+    int64_t duplicates_answered, duplicates_joined;
     size_t num_status_codes;
     int64_t *replies_by_status; /* indexed by status code */
     int64_t latency_p50_us, latency_p99_us, latency_count;

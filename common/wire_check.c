@@ -513,6 +513,8 @@ static void walk_status(wire_cursor *c)
     cursor_int64(c, "memory_budget");
     cursor_skip(c, 6 * 8, "served");
     cursor_int64(c, "malformed");
+    cursor_int64(c, "duplicates_answered");
+    cursor_int64(c, "duplicates_joined");
     int32_t num_status_codes = cursor_count(c, "num_status_codes", 8);
     cursor_fixed_array(c, num_status_codes, 8, "replies_by_status");
     cursor_int64(c, "latency_p50_us");

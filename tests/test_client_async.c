@@ -82,6 +82,7 @@ typedef struct fake {
     int num_held;
     int requests, bad_requests;
     int64_t last_deadline_utime;
+    int drop;       /* ignore this many requests first, as a lossy bus would */
 } fake;
 
 static void put_blob(blob *b, int size)
@@ -293,6 +294,10 @@ static void on_request(const lcm_recv_buf_t *rbuf, const char *channel, void *us
 {
     fake *f = user;
     f->requests++;
+    if (f->drop > 0) {
+        f->drop--;
+        return;
+    }
     trioct_channel_kind kind;
     char name[TRIOCT_MAX_NAME_LEN + 1];
     static const wire_type wires[] = {
@@ -369,9 +374,11 @@ typedef struct env {
 static const char *const d1_channels[] = {"TRIOCT_RAY_w1",   "TRIOCT_TRI_w1",  "TRIOCT_MESH_w1",
                                           "TRIOCT_ADMIN_w1", "TRIOCT_LOAD_d1", NULL};
 
+/* Without retries: these tests hold and count each request the fake hears (the retries
+ * have their own test). */
 static trioct_client *connect_to(lcm_t *lcm, int send_deadlines)
 {
-    trioct_connect_options opt = {.url = "memq://", .lcm = lcm, .send_deadlines = send_deadlines};
+    trioct_connect_options opt = {.url = "memq://", .lcm = lcm, .send_deadlines = send_deadlines, .no_retries = 1};
     int status = -1;
     char err[200];
     trioct_client *c = trioct_connect(&opt, &status, err, sizeof err);
@@ -1260,6 +1267,60 @@ static void on_watchdog(uv_timer_t *t)
     close_all(t->data);
 }
 
+/* A lost request is sent again after 250 ms, the same bytes, and the answer to the copy
+ * completes it; next_timeout_ms says when the retry is due, so a caller's own loop makes it
+ * happen. A synchronous call retries on its own. */
+static void test_lost_requests_are_sent_again(void **state)
+{
+    env *e = *state;
+    trioct_connect_options opt = {.url = "memq://", .lcm = e->lcm};
+    trioct_client *c = trioct_connect(&opt, NULL, NULL, 0);
+    assert_non_null(c);
+    static seen log;
+    memset(&log, 0, sizeof log);
+    static ray_job job;
+    ray_job_init(&job, &log, 1, 3);
+    trioct_ray_query q = ray_job_query(&job, "w1");
+    e->d1.drop = 1;
+    int before = e->d1.requests;
+    double t0 = now_ms();
+    assert_int_equal(trioct_rays_async(c, &q, 5000, on_rays, &job, NULL), TRIOCT_OK);
+    int next = trioct_next_timeout_ms(c);
+    assert_true(next > 200 && next <= 250);
+    while (log.count == 0 && now_ms() - t0 < 3000)
+        trioct_poll(c, 100);
+    assert_int_equal(log.count, 1);
+    assert_int_equal(log.status[0], TRIOCT_OK);
+    assert_true(job.checked);
+    assert_true(now_ms() - t0 >= 250.0);
+    assert_int_equal(e->d1.requests - before, 2);
+    trioct_client_stats st;
+    trioct_client_get_stats(c, &st);
+    assert_int_equal(st.retries, 1);
+    assert_int_equal(st.requests_sent, 1);
+
+    /* Synchronous: two copies lost, the third answered (after 250 + 500 ms). */
+    e->d1.drop = 2;
+    trioct_ray_result res;
+    t0 = now_ms();
+    assert_int_equal(trioct_rays(c, &q, 5000, &res), TRIOCT_OK);
+    assert_true(now_ms() - t0 >= 750.0);
+    trioct_ray_result_free(&res);
+    trioct_client_get_stats(c, &st);
+    assert_int_equal(st.retries, 3);
+
+    /* With no_retries, a lost request stays lost: the timeout says so. */
+    trioct_connect_options once = {.url = "memq://", .lcm = e->lcm, .no_retries = 1};
+    trioct_client *c1 = trioct_connect(&once, NULL, NULL, 0);
+    e->d1.drop = 1;
+    assert_int_equal(trioct_rays(c1, &q, 600, &res), TRIOCT_ERR_NO_DAEMON);
+    trioct_ray_result_free(&res);
+    trioct_client_get_stats(c1, &st);
+    assert_int_equal(st.retries, 0);
+    trioct_disconnect(c1);
+    trioct_disconnect(c);
+}
+
 static void test_driven_from_a_libuv_loop(void **state)
 {
     env *e = *state;
@@ -1332,6 +1393,7 @@ int main(void)
                                         teardown),
         cmocka_unit_test_setup_teardown(test_send_deadlines_option, setup, teardown),
         cmocka_unit_test_setup_teardown(test_driven_from_a_libuv_loop, setup, teardown),
+        cmocka_unit_test_setup_teardown(test_lost_requests_are_sent_again, setup, teardown),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -731,7 +731,7 @@ static void lay_status(layout *l, const trioct_status_t *m)
     lay_bytes(l, 8);
     lay_string(l, "daemon", &m->daemon);
     lay_string(l, "version", &m->version);
-    lay_bytes(l, 8 + 1 + 3 * 4 + 2 * 8 + 6 * 8 + 8);
+    lay_bytes(l, 8 + 1 + 3 * 4 + 2 * 8 + 6 * 8 + 3 * 8);
     lay_count(l, "num_status_codes", m->num_status_codes);
     lay_bytes(l, __int64_t_encoded_array_size(m->replies_by_status, m->num_status_codes));
     lay_bytes(l, 3 * 8);

@@ -74,6 +74,8 @@ static void daemon_json(cli_json *j, const trioct_daemon_status *s)
     cli_json_key_int(j, "queue_capacity", s->queue_capacity);
     cli_json_key_int(j, "memory_used", s->memory_used);
     cli_json_key_int(j, "memory_budget", s->memory_budget);
+    cli_json_key_int(j, "duplicates_answered", s->duplicates_answered);
+    cli_json_key_int(j, "duplicates_joined", s->duplicates_joined);
     cli_json_key(j, "served");
     cli_json_object_begin(j);
     cli_json_key_int(j, "ray", s->served[0]);
@@ -143,6 +145,8 @@ static int daemon_print(cli_context *ctx, const trioct_daemon_status *s)
     char used[32], budget[32];
     fprintf(out, "  memory    %s of %s\n", cli_format_bytes(s->memory_used, used),
             cli_format_bytes(s->memory_budget, budget));
+    fprintf(out, "  retries   %" PRId64 " answered again from the reply cache, %" PRId64 " joined to one in work\n",
+            s->duplicates_answered, s->duplicates_joined);
     fprintf(out,
             "  served    ray %" PRId64 ", triangle %" PRId64 ", mesh %" PRId64 ", admin %" PRId64
             ", objects %" PRId64 ", state %" PRId64 "\n",

@@ -21,6 +21,7 @@
 #include "../world/world.h"
 #include "dispatch.h"
 #include "lcm_selftest.h"
+#include "reply_cache.h"
 #include "log.h"
 #include "notify.h"
 #include "stats.h"
@@ -73,6 +74,7 @@ typedef struct daemon {
     daemon_options opt;
     dispatch_ctx ctx;
     scene *scene; /* owned; ctx.scene points at it */
+    reply_cache *replies; /* recent answers, for clients' retries (loop thread only) */
 
     lcm_t *lcm_in;
     lcm_t *lcm_out; /* lcm_in unless --publish-url differs */
@@ -141,6 +143,7 @@ typedef struct request_job {
     int alone;                /* --ordered: an admin request or a reload runs by itself */
     int reload;               /* --ordered: no request, the reload channel's mark */
     int64_t heard_utime;      /* the bus's receive time, or the log's time of the event */
+    uint64_t digest;          /* of the bytes: the reply cache's key with the ids */
     size_t size;
     uint8_t bytes[];
 } request_job;
@@ -267,6 +270,7 @@ static void reply_now(daemon *d, const dispatch_request *req, const char *channe
     }
     publish_reply(d, &reply);
     count_reply(d, &reply);
+    reply_cache_forget(d->replies, req->client_id, req->request_id); /* a retry is worked afresh */
     LOG(LOG_DEBUG, "%s request %" PRId64 " of client %" PRId64 " on %s answered %s on %s at once",
         type_name(req->type), req->request_id, req->client_id, channel, trioct_status_name(status),
         reply.channel);
@@ -286,7 +290,7 @@ static void start_polling(daemon *d);
  * received_hr, and counts it; where says on which thread it was answered, for the log.
  * Returns whether the reply changed the worlds held (a LOAD or an UNLOAD). */
 static int deliver(daemon *d, const dispatch_request *req, const char *channel, uint64_t received_hr, int rc,
-                   dispatch_reply *reply, const char *where)
+                   dispatch_reply *reply, uint64_t digest, const char *where)
 {
     if (rc != 0) {
         /* The peek took these bytes, so dispatch_handle's -1 means it could not even encode
@@ -303,6 +307,8 @@ static int deliver(daemon *d, const dispatch_request *req, const char *channel, 
         trioct_status_name(reply->status), reply->channel, us, reply->chunk_count,
         reply->chunk_count == 1 ? "" : "s", where);
     int changed = reply->worlds_changed;
+    /* Kept for a retry of this very request; what the cache does not keep is freed. */
+    reply_cache_finish(d->replies, req->client_id, req->request_id, digest, reply);
     dispatch_reply_free(reply);
     return changed;
 }
@@ -333,11 +339,11 @@ static int answers_inline(daemon *d, const dispatch_request *req)
 }
 
 static void answer_inline(daemon *d, const dispatch_request *req, const char *channel, const void *bytes,
-                          size_t size, uint64_t received_hr, int64_t heard_utime)
+                          size_t size, uint64_t received_hr, int64_t heard_utime, uint64_t digest)
 {
     dispatch_reply reply;
     int rc = dispatch_handle_heard(&d->ctx, channel, bytes, size, wall_utime(), heard_utime, &reply);
-    (void)deliver(d, req, channel, received_hr, rc, &reply, "on the loop thread");
+    (void)deliver(d, req, channel, received_hr, rc, &reply, digest, "on the loop thread");
 }
 
 static void work_request(uv_work_t *work)
@@ -362,7 +368,7 @@ static void after_request(uv_work_t *work, int status)
     if (status != 0) {
         /* Only uv_cancel makes this happen, and nothing cancels requests. */
         LOG(LOG_ERROR, "a request on %s was not run: %s", job->channel, uv_strerror(status));
-    } else if (deliver(d, &job->req, job->channel, job->received_hr, job->rc, &job->reply, "on a worker") &&
+    } else if (deliver(d, &job->req, job->channel, job->received_hr, job->rc, &job->reply, job->digest, "on a worker") &&
                d->state != TRIOCT_STATUS_T_STOPPING) {
         sync_subscriptions(d);
     }
@@ -397,6 +403,24 @@ static void on_message(const lcm_recv_buf_t *rbuf, const char *channel, void *us
     case PEEK_REQUEST:
         break;
     }
+    /* A retry (the same client, request id and bytes) is answered by the original. */
+    uint64_t digest = reply_cache_digest(rbuf->data, size);
+    const dispatch_reply *cached = NULL;
+    switch (reply_cache_find(d->replies, req.client_id, req.request_id, digest, &cached)) {
+    case REPLY_CACHE_DONE:
+        publish_reply(d, cached);
+        d->st.duplicates_answered++;
+        LOG(LOG_DEBUG, "request %" PRId64 " of client %" PRId64 " on %s again: its reply sent again",
+            req.request_id, req.client_id, channel);
+        return;
+    case REPLY_CACHE_IN_WORK:
+        d->st.duplicates_joined++;
+        LOG(LOG_DEBUG, "request %" PRId64 " of client %" PRId64 " on %s again while in work: the one reply answers both",
+            req.request_id, req.client_id, channel);
+        return;
+    case REPLY_CACHE_NEW:
+        break;
+    }
 
     if (d->state == TRIOCT_STATUS_T_STOPPING) {
         reply_now(d, &req, channel, TRIOCT_ERR_STOPPING,
@@ -413,7 +437,8 @@ static void on_message(const lcm_recv_buf_t *rbuf, const char *channel, void *us
     }
     if (!d->opt.ordered && answers_inline(d, &req)) {
         d->inline_taken++;
-        answer_inline(d, &req, channel, rbuf->data, size, received_hr, rbuf->recv_utime);
+        reply_cache_start(d->replies, req.client_id, req.request_id, digest);
+        answer_inline(d, &req, channel, rbuf->data, size, received_hr, rbuf->recv_utime, digest);
         return;
     }
     request_job *job = malloc(sizeof *job + size);
@@ -426,6 +451,8 @@ static void on_message(const lcm_recv_buf_t *rbuf, const char *channel, void *us
     job->d = d;
     job->received_hr = received_hr;
     job->heard_utime = rbuf->recv_utime;
+    job->digest = digest;
+    reply_cache_start(d->replies, req.client_id, req.request_id, digest);
     job->req = req;
     memcpy(job->channel, channel, channel_len + 1);
     job->size = size;
@@ -687,7 +714,8 @@ static void ordered_run(daemon *d)
         }
         if (!job->alone && answers_inline(d, &job->req)) {
             /* A query among queries: answering it now is answering it side by side. */
-            answer_inline(d, &job->req, job->channel, job->bytes, job->size, job->received_hr, job->heard_utime);
+            answer_inline(d, &job->req, job->channel, job->bytes, job->size, job->received_hr, job->heard_utime,
+                          job->digest);
             d->in_flight--;
             free(job);
             continue;
@@ -1152,6 +1180,8 @@ static void publish_status(daemon *d)
     msg.memory_budget = (int64_t)d->ctx.memory.limit;
     memcpy(msg.served, d->st.served, sizeof msg.served);
     msg.malformed = d->st.malformed;
+    msg.duplicates_answered = d->st.duplicates_answered;
+    msg.duplicates_joined = d->st.duplicates_joined;
     msg.num_status_codes = TRIOCT_WIRE_STATUS_COUNT;
     msg.replies_by_status = d->st.replies_by_status;
     msg.latency_p50_us = lat.p50_us;
@@ -1417,6 +1447,7 @@ static void destroy(daemon *d)
     }
     pthread_mutex_destroy(&d->ctx.scene_lock);
     admin_auth_free(d->ctx.auth);
+    reply_cache_free(d->replies);
     stats_free(&d->st);
     while (d->held != NULL) {
         request_job *job = d->held;
@@ -1530,7 +1561,8 @@ int daemon_run(const daemon_options *opt, scene *sc)
         return 2;
     }
     d->ctx.worlds = registry_create();
-    if (d->ctx.worlds == NULL) {
+    d->replies = reply_cache_create(REPLY_CACHE_ENTRIES, REPLY_CACHE_BYTES);
+    if (d->ctx.worlds == NULL || d->replies == NULL) {
         LOG(LOG_ERROR, "out of memory");
         destroy(d);
         return 1;

@@ -25,6 +25,8 @@ typedef struct stats {
     int64_t served[STATS_REQUEST_TYPES];          /* replies published, by request type */
     int64_t replies_by_status[TRIOCT_WIRE_STATUS_COUNT];
     int64_t malformed;                            /* messages dropped before decoding */
+    int64_t duplicates_answered; /* retries answered from the reply cache, not worked again */
+    int64_t duplicates_joined;   /* retries that came while the original was in work */
 
     /* The current interval's latencies, in microseconds. */
     int64_t *samples;

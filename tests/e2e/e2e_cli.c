@@ -1415,7 +1415,9 @@ static void test_exit_bad_reply(void **state)
     pthread_join(thread, NULL);
     lcm_unsubscribe(f.lcm, sub);
     lcm_destroy(f.lcm);
-    assert_int_equal(atomic_load(&f.answered), 1);
+    /* Junk is no answer: the command sent the request again (after 250 and 750 ms) within
+     * its timeout, and every copy got junk back. */
+    assert_true(atomic_load(&f.answered) >= 2);
 }
 
 /* Runs after the others: the heartbeat counts what they asked. */

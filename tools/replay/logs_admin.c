@@ -99,7 +99,9 @@ int logs_write_admin(const char *dir)
 
     /* The guard and the budget (issue 20). A section whose meshes pass its memory_budget:
      * BUDGET, as at start. A LOAD and an UNLOAD without the admin key's code: DENIED, and
-     * yard stays. A signed LOAD, then the very same bytes again: the second is a replay. */
+     * yard stays. A signed LOAD, then the very same bytes again (a retry, or a replay
+     * captured off the bus): the reply cache answers it with the first reply, and the world
+     * is built once (its nonce would refuse it once the cache has let it go). */
     lr_admin(&w, (q = ask(C, R, 34, "tight"), &q), LOAD, "");
     w.unsigned_changes = 1;
     lr_admin(&w, (q = ask(C, R, 35, "yard"), &q), LOAD, "ball.obj");
