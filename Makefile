@@ -317,3 +317,32 @@ clean:
 	rm -rf build build-asan
 
 -include $(shell find $(BUILD) -name '*.d' 2>/dev/null)
+
+# Issue 20: fuzzing with libFuzzer (clang, ASan + UBSan). `make fuzz` installs clang and its
+# fuzzer runtime when they are missing (as root), builds every target into build-fuzz/ and
+# runs each for FUZZ_SECONDS (default 60) from seed corpora made of tests/logs' requests and
+# mesh files (scripts/run_fuzz.sh). One target per request type's bytes-to-reply path, one
+# for the loader child's parsing, one for what the daemon reads back from the child.
+FUZZ_BUILD    := build-fuzz
+FUZZ_SECONDS  ?= 60
+FUZZ_REQUESTS := ray triangle mesh admin objects state
+FUZZ_TARGETS  := $(FUZZ_REQUESTS:%=fuzz_%) fuzz_mesh_file fuzz_mesh_frame
+FUZZ_LIBS     := $(SERVICE_LIB) $(WORLD_LIB) $(PROTO_LIB) $(ENGINE_LIB)
+.PHONY: fuzz fuzz-build
+fuzz:
+	sh scripts/fuzz_deps.sh
+	$(MAKE) BUILD=$(FUZZ_BUILD) CC=clang OPT="-O1 -g -fno-omit-frame-pointer" \
+	    SAN="-fsanitize=address,undefined,fuzzer-no-link -fno-sanitize-recover=all" fuzz-build
+	sh scripts/run_fuzz.sh $(FUZZ_BUILD) $(FUZZ_SECONDS) $(FUZZ_TARGETS)
+
+fuzz-build: $(FUZZ_TARGETS:%=$(BUILD)/fuzz/%) $(BUILD)/fuzz/make_corpus $(LOADER_BIN)
+$(BUILD)/fuzz/%.o: CFLAGS += -Itools/replay
+$(BUILD)/fuzz/request_%.o: fuzz/fuzz_request.c | $(DEPS_STAMP) $(GEN_STAMP)
+	@mkdir -p $(dir $@)
+	$(CC) $(ALL_CFLAGS) -Itools/replay -DFUZZ_TYPE=REQUEST_$(shell echo $* | tr a-z A-Z) -MMD -MP -c $< -o $@
+$(FUZZ_REQUESTS:%=$(BUILD)/fuzz/fuzz_%): $(BUILD)/fuzz/fuzz_%: $(BUILD)/fuzz/request_%.o $(FUZZ_LIBS)
+	$(CC) $(ALL_CFLAGS) -fsanitize=fuzzer $< $(FUZZ_LIBS) $(SYS_LIBS) -o $@
+$(BUILD)/fuzz/fuzz_mesh_file $(BUILD)/fuzz/fuzz_mesh_frame: $(BUILD)/fuzz/%: $(BUILD)/fuzz/%.o $(WORLD_LIB) $(ENGINE_LIB)
+	$(CC) $(ALL_CFLAGS) -fsanitize=fuzzer $< $(WORLD_LIB) $(ENGINE_LIB) -lassimp $(LDLIBS_ENGINE) -o $@
+$(BUILD)/fuzz/make_corpus: $(BUILD)/fuzz/make_corpus.o $(REPLAY_LIB) $(PROTO_LIB)
+	$(CC) $(ALL_CFLAGS) $< $(REPLAY_LIB) $(PROTO_LIB) -llcm $(LDLIBS_ENGINE) -o $@

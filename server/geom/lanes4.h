@@ -21,13 +21,15 @@ typedef uint8_t bytes16 __attribute__((vector_size(16)));
 /* Four bytes as doubles, exactly: each byte spread to the low end of a 32-bit lane (one
  * byte shuffle under AVX2), then converted. A macro, since a function returning a vector
  * would take a different calling convention in each target. */
-#define LANES4_SPREAD_BYTES ((bytes16){0, 16, 16, 16, 1, 16, 16, 16, 2, 16, 16, 16, 3, 16, 16, 16})
+/* __builtin_shufflevector (GCC 12 and clang alike): index 16 is the first byte of the zero
+ * vector. */
+#define LANES4_SPREAD_BYTES 0, 16, 16, 16, 1, 16, 16, 16, 2, 16, 16, 16, 3, 16, 16, 16
 #define BYTES4(p)                                                                                            \
     (__extension__({                                                                                         \
         uint32_t w_;                                                                                         \
         memcpy(&w_, (p), sizeof w_);                                                                         \
         ints4 packed_ = {(int32_t)w_, 0, 0, 0};                                                              \
-        __builtin_convertvector((ints4)__builtin_shuffle((bytes16)packed_, (bytes16){0}, LANES4_SPREAD_BYTES), \
+        __builtin_convertvector((ints4)__builtin_shufflevector((bytes16)packed_, (bytes16){0}, LANES4_SPREAD_BYTES), \
                                 lanes4);                                                                     \
     }))
 

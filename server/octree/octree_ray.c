@@ -1016,7 +1016,8 @@ FLOAT_WALK_AVX2 static inline unsigned node_children_met_avx2(const traversal_no
 
 /* The same test one lane at a time, for targets without SSE2; it computes exactly what the
  * lanes compute (plain comparisons keep the running value where a crossing is NaN). */
-static inline unsigned node_children_met_scalar(const traversal_node *n, const float_ray *f, float lo, float hi,
+/* Unused where the lanes are compiled (clang says so; GCC does not for inline). */
+static inline __attribute__((unused)) unsigned node_children_met_scalar(const traversal_node *n, const float_ray *f, float lo, float hi,
                                                 float tnear[8])
 {
     unsigned met = 0;

@@ -244,6 +244,25 @@ static mesh_load_outcome read_mesh_frame(child *c, const mesh_load_frame_head *h
     return MESH_LOAD_OK;
 }
 
+mesh_load_outcome mesh_load_frame_read(int fd, const char *path, size_t max_mesh_bytes, mesh_data *out,
+                                       mesh_load_report *report, char *err, size_t err_len)
+{
+    memset(out, 0, sizeof *out);
+    if (report)
+        memset(report, 0, sizeof *report);
+    child c = {.path = path, .pid = -1, .fd = fd, .deadline = INT64_MAX, .err = err, .err_len = err_len};
+    mesh_load_frame_head head;
+    if (read_full(&c, &head, sizeof head) != 0 || head.magic != MESH_LOAD_FRAME_MAGIC ||
+        (head.kind != MESH_LOAD_FRAME_MESH && head.kind != MESH_LOAD_FRAME_ERROR))
+        return error_text(err, err_len, "cannot load %s: the loader sent a malformed reply", path);
+    if (head.kind == MESH_LOAD_FRAME_ERROR)
+        return read_error_frame(&c, &head);
+    mesh_load_outcome outcome = read_mesh_frame(&c, &head, max_mesh_bytes, out);
+    if (outcome == MESH_LOAD_OK && report)
+        *report = head.report;
+    return outcome;
+}
+
 static int spawn(child *c)
 {
     int pipe_fds[2];

@@ -40,6 +40,12 @@ int mesh_loader_find(char *out, size_t out_len, char *err, size_t err_len);
 mesh_load_outcome mesh_load_child(const mesh_loader *loader, const char *path, size_t max_mesh_bytes,
                                   mesh_data *out, mesh_load_report *report, char *err, size_t err_len);
 
+/* Reads one frame from fd as mesh_load_child reads its child's, with every check: the way
+ * in for a fuzz target, which has the bytes but no child. MESH_LOAD_OK with the mesh (and
+ * nothing after it), or an outcome with err. */
+mesh_load_outcome mesh_load_frame_read(int fd, const char *path, size_t max_mesh_bytes, mesh_data *out,
+                                       mesh_load_report *report, char *err, size_t err_len);
+
 /* The bytes a mesh of these counts holds in a mesh_data (what max_mesh_bytes bounds), or
  * SIZE_MAX when that overflows. */
 size_t mesh_data_bytes_for(size_t vertex_count, size_t triangle_count);
