@@ -330,7 +330,7 @@ FUZZ_TARGETS  := $(FUZZ_REQUESTS:%=fuzz_%) fuzz_mesh_file fuzz_mesh_frame
 FUZZ_LIBS     := $(SERVICE_LIB) $(WORLD_LIB) $(PROTO_LIB) $(ENGINE_LIB)
 .PHONY: fuzz fuzz-build
 fuzz:
-	sh scripts/fuzz_deps.sh
+	sh scripts/deps.sh clang libclang-rt-dev
 	$(MAKE) BUILD=$(FUZZ_BUILD) CC=clang OPT="-O1 -g -fno-omit-frame-pointer" \
 	    SAN="-fsanitize=address,undefined,fuzzer-no-link -fno-sanitize-recover=all" fuzz-build
 	sh scripts/run_fuzz.sh $(FUZZ_BUILD) $(FUZZ_SECONDS) $(FUZZ_TARGETS)

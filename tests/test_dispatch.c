@@ -21,6 +21,7 @@
 #include "service/dispatch.h"
 #include "service/dispatch_internal.h"
 #include "support/brute_force.h"
+#include "support/hostile_files.h"
 #include "support/meshgen.h"
 #include "trioct_limits.h"
 #include "trioct_status.h"
@@ -2519,25 +2520,14 @@ static void test_hostile_loads_leave_the_world_serving(void **state)
     /* 100,000 nested COLLADA nodes: assimp's recursion overflows the child's stack. */
     char path[512];
     snprintf(path, sizeof path, "%s/deep.dae", F.dir);
-    FILE *f = fopen(path, "w");
-    assert_non_null(f);
-    fputs("<?xml version=\"1.0\"?>\n<COLLADA xmlns=\"http://www.collada.org/2005/11/COLLADASchema\" "
-          "version=\"1.4.1\">\n<library_visual_scenes><visual_scene id=\"s\">\n", f);
-    for (int i = 0; i < 100000; i++)
-        fputs("<node>", f);
-    for (int i = 0; i < 100000; i++)
-        fputs("</node>", f);
-    fputs("\n</visual_scene></library_visual_scenes>\n<scene><instance_visual_scene url=\"#s\"/></scene>\n"
-          "</COLLADA>\n", f);
-    assert_int_equal(fclose(f), 0);
+    assert_int_equal(hostile_write_deep_collada(path, 100000), 0);
     answer a = load_path("spare", "deep.dae", 0, -1, TRIOCT_WORLD_INFO_T_EFFECT_RAYS);
     expect_error(&a, TRIOCT_ERR_LOAD_FAILED, "deep.dae");
     answer_free(&a);
 
     /* A 177-byte PLY header claiming 268 million vertices. */
-    write_text("lying.ply", "ply\nformat binary_little_endian 1.0\nelement vertex 268435456\n"
-                            "property float x\nproperty float y\nproperty float z\nelement face 1\n"
-                            "property list uchar int vertex_indices\nend_header\n0123456789ab");
+    snprintf(path, sizeof path, "%s/lying.ply", F.dir);
+    assert_int_equal(hostile_write_lying_ply(path), 0);
     a = load_path("spare", "lying.ply", 0, -1, TRIOCT_WORLD_INFO_T_EFFECT_RAYS);
     expect_error(&a, TRIOCT_ERR_LOAD_FAILED, "lying.ply");
     answer_free(&a);

@@ -25,6 +25,7 @@
 #include <unistd.h>
 
 #include "loader/loader_confine.h"
+#include "support/hostile_files.h"
 #include "world/mesh_load.h"
 #include "world/mesh_load_child.h"
 #include "world/mesh_load_frame.h"
@@ -204,30 +205,6 @@ static void expect_failure(loaded *l, const char *path, const char *words)
     assert_null(l->mesh.indices);
 }
 
-static void write_file(const char *path, const void *data, size_t len)
-{
-    FILE *f = fopen(path, "wb");
-    assert_non_null(f);
-    assert_int_equal(fwrite(data, 1, len, f), len);
-    assert_int_equal(fclose(f), 0);
-}
-
-/* COLLADA nodes nested depth deep: assimp's reader recurses once per level. */
-static void write_deep_collada(const char *path, size_t depth)
-{
-    FILE *f = fopen(path, "w");
-    assert_non_null(f);
-    fputs("<?xml version=\"1.0\"?>\n<COLLADA xmlns=\"http://www.collada.org/2005/11/COLLADASchema\" "
-          "version=\"1.4.1\">\n<library_visual_scenes><visual_scene id=\"s\">\n", f);
-    for (size_t i = 0; i < depth; i++)
-        fputs("<node>", f);
-    for (size_t i = 0; i < depth; i++)
-        fputs("</node>", f);
-    fputs("\n</visual_scene></library_visual_scenes>\n<scene><instance_visual_scene url=\"#s\"/></scene>\n"
-          "</COLLADA>\n", f);
-    assert_int_equal(fclose(f), 0);
-}
-
 /* ---------- tests ---------- */
 
 /* The child's mesh is the in-process load's, vertex for vertex and index for index. */
@@ -276,7 +253,7 @@ static void test_deep_collada_crashes_only_the_child(void **state)
     (void)state;
     char path[PATH_MAX];
     snprintf(path, sizeof path, "%s/deep.dae", tmp_dir);
-    write_deep_collada(path, 100000);
+    assert_int_equal(hostile_write_deep_collada(path, 100000), 0);
     mesh_loader ld = real_loader();
     loaded l = load_with(&ld, path, SIZE_MAX);
     expect_failure(&l, path, NULL);
@@ -294,15 +271,9 @@ static void test_deep_collada_crashes_only_the_child(void **state)
 static void test_lying_ply_stays_in_its_limit(void **state)
 {
     (void)state;
-    static const char header[] = "ply\nformat binary_little_endian 1.0\nelement vertex 268435456\n"
-                                 "property float x\nproperty float y\nproperty float z\nelement face 1\n"
-                                 "property list uchar int vertex_indices\nend_header\n";
-    char body[sizeof header - 1 + 12];
-    memcpy(body, header, sizeof header - 1);
-    memset(body + sizeof header - 1, 0, 12);
     char path[PATH_MAX];
     snprintf(path, sizeof path, "%s/lying.ply", tmp_dir);
-    write_file(path, body, sizeof body);
+    assert_int_equal(hostile_write_lying_ply(path), 0);
     mesh_loader ld = real_loader();
     ld.memory_bytes = (size_t)512 << 20;
     loaded l = load_with(&ld, path, SIZE_MAX);

@@ -25,6 +25,7 @@
 
 #include "engine.h"
 #include "support/daemon_proc.h"
+#include "support/hostile_files.h"
 #include "support/meshgen.h"
 #include "support/obj_write.h"
 #include "trioct.h"
@@ -607,21 +608,9 @@ static void test_hostile_files_leave_the_daemon_serving(void **state)
 
     char path[320];
     path_in_dir(path, sizeof path, "deep.dae");
-    FILE *f = fopen(path, "w");
-    assert_non_null(f);
-    fputs("<?xml version=\"1.0\"?>\n<COLLADA xmlns=\"http://www.collada.org/2005/11/COLLADASchema\" "
-          "version=\"1.4.1\">\n<library_visual_scenes><visual_scene id=\"s\">\n", f);
-    for (int i = 0; i < 100000; i++)
-        fputs("<node>", f);
-    for (int i = 0; i < 100000; i++)
-        fputs("</node>", f);
-    fputs("\n</visual_scene></library_visual_scenes>\n<scene><instance_visual_scene url=\"#s\"/></scene>\n"
-          "</COLLADA>\n", f);
-    assert_int_equal(fclose(f), 0);
+    assert_int_equal(hostile_write_deep_collada(path, 100000), 0);
     path_in_dir(path, sizeof path, "lying.ply");
-    write_file(path, "ply\nformat binary_little_endian 1.0\nelement vertex 268435456\nproperty float x\n"
-                     "property float y\nproperty float z\nelement face 1\nproperty list uchar int vertex_indices\n"
-                     "end_header\n0123456789ab");
+    assert_int_equal(hostile_write_lying_ply(path), 0);
     path_in_dir(path, sizeof path, "pipe.obj");
     assert_int_equal(mkfifo(path, 0600), 0);
 
