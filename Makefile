@@ -125,6 +125,15 @@ test: $(CLI_BIN) $(E2E_CLI_BIN)
 EDITS_BENCH_BIN := $(BUILD)/bench/edits_bench
 $(EDITS_BENCH_BIN): $(BUILD)/bench/edits_bench.o $(ALL_LIBS)
 	$(CC) $(ALL_CFLAGS) $< $(ALL_LIBS) $(SYS_LIBS) -o $@
+# Issue 20: the daemon under sustained load (bench/load_bench.c), three phases of
+# LOAD_BENCH_SECONDS (default 60): steady, reloads every 2 s, a kill -9 and restart.
+LOAD_BENCH_BIN := $(BUILD)/bench/load_bench
+LOAD_BENCH_SECONDS ?= 60
+$(LOAD_BENCH_BIN): $(BUILD)/bench/load_bench.o $(ALL_LIBS)
+	$(CC) $(ALL_CFLAGS) $< $(ALL_LIBS) $(SYS_LIBS) -o $@
+.PHONY: bench-load
+bench-load: $(LOAD_BENCH_BIN) $(DAEMON_BIN)
+	tests/e2e/netns.sh $(LOAD_BENCH_BIN) $(DAEMON_BIN) $(LOAD_BENCH_SECONDS)
 DAEMON_BENCH_BIN := $(BUILD)/bench/daemon_bench
 $(DAEMON_BENCH_BIN): $(BUILD)/bench/daemon_bench.o $(ALL_LIBS)
 	$(CC) $(ALL_CFLAGS) $< $(ALL_LIBS) $(SYS_LIBS) -o $@
