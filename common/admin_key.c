@@ -31,6 +31,23 @@ static int hex_value(char c)
     return -1;
 }
 
+int trioct_admin_key_from_hex(const char *hex, size_t len, trioct_admin_key *key)
+{
+    memset(key, 0, sizeof *key);
+    if (len % 2 != 0 || len < 2 * TRIOCT_ADMIN_KEY_MIN_BYTES || len > 2 * TRIOCT_ADMIN_KEY_MAX_BYTES)
+        return -1;
+    for (size_t i = 0; i < len; i += 2) {
+        int hi = hex_value(hex[i]), lo = hex_value(hex[i + 1]);
+        if (hi < 0 || lo < 0) {
+            sodium_memzero(key, sizeof *key);
+            return -1;
+        }
+        key->bytes[i / 2] = (unsigned char)(hi << 4 | lo);
+    }
+    key->len = len / 2;
+    return 0;
+}
+
 int trioct_admin_key_load(const char *path, trioct_admin_key *key, char *err, size_t err_len)
 {
     memset(key, 0, sizeof *key);
@@ -72,21 +89,13 @@ int trioct_admin_key_load(const char *path, trioct_admin_key *key, char *err, si
         len--;
     if (len > 0 && text[len - 1] == '\r')
         len--;
-    if (len % 2 != 0 || len < 2 * TRIOCT_ADMIN_KEY_MIN_BYTES || len > 2 * TRIOCT_ADMIN_KEY_MAX_BYTES) {
-        sodium_memzero(text, sizeof text);
-        return key_fail(err, err_len, path, "the key must be 64 to 256 hex digits (32 to 128 bytes), and nothing else");
-    }
-    for (size_t i = 0; i < len; i += 2) {
-        int hi = hex_value(text[i]), lo = hex_value(text[i + 1]);
-        if (hi < 0 || lo < 0) {
-            sodium_memzero(text, sizeof text);
-            memset(key, 0, sizeof *key);
-            return key_fail(err, err_len, path, "the key must be hex digits only (a trailing newline is allowed)");
-        }
-        key->bytes[i / 2] = (unsigned char)(hi << 4 | lo);
-    }
-    key->len = len / 2;
+    int sized = len % 2 == 0 && len >= 2 * TRIOCT_ADMIN_KEY_MIN_BYTES && len <= 2 * TRIOCT_ADMIN_KEY_MAX_BYTES;
+    int rc = trioct_admin_key_from_hex(text, len, key);
     sodium_memzero(text, sizeof text);
+    if (!sized)
+        return key_fail(err, err_len, path, "the key must be 64 to 256 hex digits (32 to 128 bytes), and nothing else");
+    if (rc != 0)
+        return key_fail(err, err_len, path, "the key must be hex digits only (a trailing newline is allowed)");
     return 0;
 }
 

@@ -30,6 +30,9 @@ typedef struct trioct_admin_key {
  * file and what is wrong with it. */
 int trioct_admin_key_load(const char *path, trioct_admin_key *key, char *err, size_t err_len);
 
+/* A key from len hex digits (64 to 256, nothing else): 0, or -1 with *key empty. */
+int trioct_admin_key_from_hex(const char *hex, size_t len, trioct_admin_key *key);
+
 /* The code of a request: HMAC-SHA256 under key of channel, a zero byte, and len bytes. */
 void trioct_admin_mac(const trioct_admin_key *key, const char *channel, const void *bytes, size_t len,
                       unsigned char mac[TRIOCT_ADMIN_MAC_BYTES]);

@@ -112,6 +112,10 @@ typedef struct octree_def {
 #define OCTREE_DEFAULT_BUDGET_PER_TRIANGLE ((size_t)4096)
 
 octree_def octree_default_def(void);
+/* The budget a build of this many triangles has when budget_bytes is 0:
+ * OCTREE_DEFAULT_BUDGET_BASE + OCTREE_DEFAULT_BUDGET_PER_TRIANGLE a triangle, or SIZE_MAX
+ * when that does not fit. */
+size_t octree_default_budget(size_t triangles);
 
 /* Input mesh: vertex array plus three vertex indices per triangle. */
 typedef struct mesh_view {

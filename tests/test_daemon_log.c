@@ -90,12 +90,8 @@ static void scratch_setup(scratch *s)
 
 static trioct_admin_key test_key(void)
 {
-    trioct_admin_key key = {{0}, 32};
-    for (size_t i = 0; i < key.len; i++) {
-        unsigned v;
-        sscanf(TEST_KEY_HEX + 2 * i, "%2x", &v);
-        key.bytes[i] = (unsigned char)v;
-    }
+    trioct_admin_key key;
+    assert_int_equal(trioct_admin_key_from_hex(TEST_KEY_HEX, sizeof TEST_KEY_HEX - 1, &key), 0);
     return key;
 }
 

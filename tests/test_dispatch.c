@@ -21,6 +21,7 @@
 #include "service/dispatch.h"
 #include "service/dispatch_internal.h"
 #include "support/brute_force.h"
+#include "support/daemon_proc.h"
 #include "support/hostile_files.h"
 #include "support/meshgen.h"
 #include "trioct_limits.h"
@@ -2489,17 +2490,11 @@ static void test_changes_need_the_admin_key(void **state)
     answer_free(&a);
 }
 
-/* The loader beside the daemon in this build: build/tests/.. */
+/* The loader of this build (daemon_proc_loader). */
 static void use_the_loader(void)
 {
-    char self[512];
-    ssize_t n = readlink("/proc/self/exe", self, sizeof self - 1);
-    assert_true(n > 0);
-    self[n] = '\0';
-    *strrchr(self, '/') = '\0';
-    *strrchr(self, '/') = '\0';
     F.ctx.loader = (mesh_loader){.memory_bytes = (size_t)512 << 20, .cpu_seconds = 30, .wall_seconds = 60};
-    snprintf(F.ctx.loader.program, sizeof F.ctx.loader.program, "%s/trioct-load", self);
+    snprintf(F.ctx.loader.program, sizeof F.ctx.loader.program, "%s", daemon_proc_loader());
     assert_int_equal(access(F.ctx.loader.program, X_OK), 0);
     F.ctx.env.loader = &F.ctx.loader;
 }

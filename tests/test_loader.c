@@ -25,6 +25,7 @@
 #include <unistd.h>
 
 #include "loader/loader_confine.h"
+#include "support/daemon_proc.h"
 #include "support/hostile_files.h"
 #include "world/mesh_load.h"
 #include "world/mesh_load_child.h"
@@ -372,15 +373,7 @@ int main(int argc, char **argv)
     if (n <= 0)
         return 1;
     self_path[n] = '\0';
-    snprintf(loader_path, sizeof loader_path, "%s", self_path);
-    char *slash = strrchr(loader_path, '/');
-    if (!slash)
-        return 1;
-    *slash = '\0';
-    slash = strrchr(loader_path, '/');
-    if (!slash)
-        return 1;
-    strcpy(slash, "/trioct-load");
+    snprintf(loader_path, sizeof loader_path, "%s", daemon_proc_loader());
     if (access(loader_path, X_OK) != 0) {
         fprintf(stderr, "%s: the loader %s is missing (make all builds it)\n", argv[0], loader_path);
         return 1;

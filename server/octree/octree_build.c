@@ -47,9 +47,7 @@ const char *octree_status_text(octree_status status)
 /* Default depth cap: 2^16 leaves a side is already ~2.8e14 leaf cells. */
 #define OCTREE_DEFAULT_MAX_DEPTH 16
 
-/* OCTREE_DEFAULT_BUDGET_BASE + OCTREE_DEFAULT_BUDGET_PER_TRIANGLE a triangle, or SIZE_MAX
- * when that does not fit. */
-static size_t default_budget(size_t triangles)
+size_t octree_default_budget(size_t triangles)
 {
     if (triangles > (SIZE_MAX - OCTREE_DEFAULT_BUDGET_BASE) / OCTREE_DEFAULT_BUDGET_PER_TRIANGLE)
         return SIZE_MAX;
@@ -773,7 +771,7 @@ octree *octree_build(const mesh_view *mesh, const octree_def *def_in, octree_err
      * renumbering holds two copies of the triangles and two key arrays beside the bounds),
      * then for the rest of the build (one copy, the ids, the bounds, the boxes). */
     size_t n = mesh->triangle_count;
-    size_t budget = def.budget_bytes ? def.budget_bytes : default_budget(n);
+    size_t budget = def.budget_bytes ? def.budget_bytes : octree_default_budget(n);
     size_t peak = sizeof(octree) + n * (2 * sizeof(vec3[3]) + 2 * sizeof(keyed_id) + sizeof(uint32_t) +
                                         sizeof(triangle_bounds));
     size_t steady = sizeof(octree) + 1024 * sizeof(octree_node) +

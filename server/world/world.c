@@ -223,11 +223,7 @@ static void hand_mesh_to_model(world_builder *b, object_model *m)
 /* The tree budget of a mesh of n triangles: the engine's own, within what is left. */
 static void budget_tree(world_builder *b, octree_def *def, size_t n)
 {
-    size_t engine = def->budget_bytes;
-    if (engine == 0)
-        engine = n > (SIZE_MAX - OCTREE_DEFAULT_BUDGET_BASE) / OCTREE_DEFAULT_BUDGET_PER_TRIANGLE
-                     ? SIZE_MAX
-                     : OCTREE_DEFAULT_BUDGET_BASE + n * OCTREE_DEFAULT_BUDGET_PER_TRIANGLE;
+    size_t engine = def->budget_bytes ? def->budget_bytes : octree_default_budget(n);
     size_t world_left = b->budget > b->world_bytes ? b->budget - b->world_bytes : 0;
     def->budget_bytes = engine < world_left ? engine : world_left;
     if (def->budget_bytes == 0)

@@ -11,16 +11,8 @@
 /* The key's bytes from its hex. */
 static inline trioct_admin_key replay_logs_key(void)
 {
-    trioct_admin_key key = {{0}, 0};
-    const char *hex = REPLAY_LOGS_KEY_HEX;
-    for (size_t i = 0; hex[2 * i] && hex[2 * i + 1]; i++) {
-        unsigned v = 0;
-        for (int k = 0; k < 2; k++) {
-            char c = hex[2 * i + (size_t)k];
-            v = v << 4 | (unsigned)(c <= '9' ? c - '0' : c - 'a' + 10);
-        }
-        key.bytes[key.len++] = (unsigned char)v;
-    }
+    trioct_admin_key key;
+    trioct_admin_key_from_hex(REPLAY_LOGS_KEY_HEX, sizeof REPLAY_LOGS_KEY_HEX - 1, &key);
     return key;
 }
 
