@@ -1,0 +1,117 @@
+/* The status message, on every heartbeat and at each change of state. */
+
+#include "daemon_internal.h"
+
+#include <inttypes.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "../../common/wire_check.h"
+#include "../world/registry.h"
+#include "log.h"
+#include "trioct_world_info_t.h"
+
+
+/* A world whose build failed and that is not held: what status can say about it. */
+static void failed_info(daemon *d, const failed_world *f, trioct_world_info_t *info)
+{
+    static char empty[] = "";
+    memset(info, 0, sizeof *info);
+    info->name = (char *)f->name;
+    info->daemon = d->opt.name;
+    info->version = 0;
+    info->source = (char *)f->source;
+    info->accuracy = empty;
+    info->last_error = (char *)f->error;
+    info->num_shapes = 0;
+    info->shapes = NULL;
+}
+
+typedef struct world_info_space {
+    char *shapes[TRIOCT_MAX_SHAPES];
+} world_info_space;
+
+void daemon_publish_status(daemon *d)
+{
+    latency_summary lat;
+    stats_take_interval(&d->st, &lat);
+
+    registry_entry entries[TRIOCT_MAX_WORLDS];
+    size_t held = registry_entries(d->ctx.worlds, entries, TRIOCT_MAX_WORLDS);
+    if (held > TRIOCT_MAX_WORLDS)
+        held = TRIOCT_MAX_WORLDS;
+    size_t total = held + d->failed_count;
+    trioct_world_info_t *infos = calloc(total ? total : 1, sizeof *infos);
+    world_info_space *space = calloc(held ? held : 1, sizeof *space);
+
+    trioct_status_t msg;
+    memset(&msg, 0, sizeof msg);
+    msg.utime = daemon_wall_utime();
+    msg.daemon = d->opt.name;
+    msg.version = TRIOCT_VERSION;
+    msg.uptime_us = (int64_t)((uv_hrtime() - d->start_hr) / 1000);
+    msg.state = (int8_t)d->state;
+    msg.threads = d->opt.threads;
+    msg.queue_depth = d->in_flight;
+    msg.queue_capacity = d->opt.queue_depth;
+    msg.memory_used = (int64_t)memory_account_used(&d->ctx.memory);
+    msg.memory_budget = (int64_t)d->ctx.memory.limit;
+    memcpy(msg.served, d->st.served, sizeof msg.served);
+    msg.malformed = d->st.malformed;
+    msg.duplicates_answered = d->st.duplicates_answered;
+    msg.duplicates_joined = d->st.duplicates_joined;
+    msg.num_status_codes = TRIOCT_WIRE_STATUS_COUNT;
+    msg.replies_by_status = d->st.replies_by_status;
+    msg.latency_p50_us = lat.p50_us;
+    msg.latency_p99_us = lat.p99_us;
+    msg.latency_count = lat.count;
+    msg.num_worlds = 0;
+    msg.worlds = infos;
+    if (infos != NULL && space != NULL) {
+        for (size_t i = 0; i < held; i++)
+            dispatch_world_info(&d->ctx, &entries[i], &infos[msg.num_worlds++], space[i].shapes);
+        for (size_t i = 0; i < d->failed_count; i++)
+            failed_info(d, &d->failed[i], &infos[msg.num_worlds++]);
+    }
+
+    /* One datagram or nothing: a status that LCM had to fragment could be lost whole. With
+     * long sources and errors 64 worlds may not fit; the ones left out are logged. */
+    int size = trioct_status_t_encoded_size(&msg);
+    size_t all = (size_t)msg.num_worlds;
+    while (size > TRIOCT_MAX_CHUNK_BYTES && msg.num_worlds > 0) {
+        msg.num_worlds--;
+        size = trioct_status_t_encoded_size(&msg);
+    }
+    size_t left_out = all - (size_t)msg.num_worlds;
+    if (left_out != d->status_worlds_left_out) {
+        if (left_out > 0)
+            LOG(LOG_WARN, "status: %zu of %zu worlds left out to fit one datagram", left_out, all);
+        d->status_worlds_left_out = left_out;
+    }
+
+    void *buf = malloc((size_t)size);
+    if (buf != NULL && trioct_status_t_encode(buf, 0, size, &msg) == size) {
+        if (lcm_publish(d->lcm_out, d->status_channel, buf, (unsigned)size) < 0)
+            LOG(LOG_WARN, "could not publish the status on %s", d->status_channel);
+    } else {
+        LOG(LOG_ERROR, "could not encode the status message (%d bytes)", size);
+    }
+    free(buf);
+
+    LOG(LOG_DEBUG, "status: %s, %zu worlds (%zu failed), queue %d/%d, served ray %" PRId64
+        " triangle %" PRId64 " mesh %" PRId64 " admin %" PRId64 ", malformed %" PRId64
+        ", latency p50 %" PRId64 " us p99 %" PRId64 " us over %" PRId64,
+        daemon_state_name(d->state), held, d->failed_count, d->in_flight, d->opt.queue_depth,
+        d->st.served[0], d->st.served[1], d->st.served[2], d->st.served[3], d->st.malformed,
+        lat.p50_us, lat.p99_us, lat.count);
+
+    free(space);
+    free(infos);
+    registry_entries_free(entries, held);
+    daemon_tell_systemd(d, TELL_STATUS);
+}
+
+void daemon_on_heartbeat(uv_timer_t *timer)
+{
+    daemon_publish_status(timer->data);
+}
