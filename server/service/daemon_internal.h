@@ -189,6 +189,8 @@ void daemon_start_polling(daemon *d);
 /* daemon_subscriptions.c */
 /* LCM's queue in front of the daemon's for one subscription. */
 int daemon_lcm_queue_capacity(int queue_depth);
+/* Subscribes handler to channel with the LCM queue d->opt.queue_depth asks. */
+lcm_subscription_t *daemon_subscribe_to(daemon *d, const char *channel, lcm_msg_handler_t handler);
 /* The list, load and (--ordered) mark channels, heard from the start. */
 int daemon_subscribe_fixed(daemon *d);
 /* Makes the per-world subscriptions those of the worlds the registry holds. Never from

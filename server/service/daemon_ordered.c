@@ -141,20 +141,13 @@ int daemon_ordered_stop_waits(const daemon *d)
 
 static lcm_subscription_t *ordered_listen(daemon *d, trioct_mark_kind kind, lcm_msg_handler_t handler)
 {
-    /* prefix and name are checked names: this fits, and is its own regular expression. */
+    /* prefix and name are checked names: this fits. */
     char ch[TRIOCT_MAX_CHANNEL_LEN + 1];
     if (trioct_mark_channel_name(ch, d->opt.prefix, kind, d->opt.name) < 0) {
         LOG(LOG_ERROR, "prefix %s and name %s make no mark channel", d->opt.prefix, d->opt.name);
         return NULL;
     }
-    lcm_subscription_t *sub = lcm_subscribe(d->lcm_in, ch, handler, d);
-    if (sub == NULL) {
-        LOG(LOG_ERROR, "could not subscribe to %s", ch);
-        return NULL;
-    }
-    lcm_subscription_set_queue_capacity(sub, daemon_lcm_queue_capacity(d->opt.queue_depth));
-    LOG(LOG_DEBUG, "ordered: subscribed to %s", ch);
-    return sub;
+    return daemon_subscribe_to(d, ch, handler);
 }
 
 int daemon_ordered_subscribe(daemon *d)

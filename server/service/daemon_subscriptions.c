@@ -37,11 +37,11 @@ int daemon_lcm_queue_capacity(int queue_depth)
                                                            : queue_depth * DAEMON_LCM_QUEUE_FACTOR;
 }
 
-static lcm_subscription_t *subscribe(daemon *d, const char *channel)
+lcm_subscription_t *daemon_subscribe_to(daemon *d, const char *channel, lcm_msg_handler_t handler)
 {
     /* Channel names are [A-Za-z0-9_], so the regular expression LCM makes of them matches
      * exactly themselves. */
-    lcm_subscription_t *sub = lcm_subscribe(d->lcm_in, channel, daemon_on_message, d);
+    lcm_subscription_t *sub = lcm_subscribe(d->lcm_in, channel, handler, d);
     if (sub == NULL) {
         LOG(LOG_ERROR, "could not subscribe to %s", channel);
         return NULL;
@@ -49,6 +49,11 @@ static lcm_subscription_t *subscribe(daemon *d, const char *channel)
     lcm_subscription_set_queue_capacity(sub, daemon_lcm_queue_capacity(d->opt.queue_depth));
     LOG(LOG_DEBUG, "subscribed to %s", channel);
     return sub;
+}
+
+static lcm_subscription_t *subscribe(daemon *d, const char *channel)
+{
+    return daemon_subscribe_to(d, channel, daemon_on_message);
 }
 
 int daemon_subscribe_fixed(daemon *d)
