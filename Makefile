@@ -110,17 +110,23 @@ $(E2E_BIN): $(BUILD)/tests/e2e/e2e_daemon.o $(ALL_LIBS)
 # test_cli_parse; e2e_cli runs the command against a real daemon inside netns.sh.
 CLI_SRC      := $(wildcard client/cli/*.c)
 CLI_OBJ      := $(CLI_SRC:%.c=$(BUILD)/%.o)
-CLI_PURE_OBJ := $(addprefix $(BUILD)/client/cli/,cli_args.o cli_csv.o cli_pose.o cli_json.o cli_text.o cli_progress.o)
+CLI_PURE_OBJ := $(addprefix $(BUILD)/client/cli/,cli_args.o cli_csv.o cli_pose.o cli_json.o cli_text.o cli_progress.o \
+                  cli_camera.o cli_render.o cli_png.o)
 CLI_BIN      := $(BUILD)/trioct
 E2E_CLI_BIN  := $(BUILD)/tests/e2e_cli
 all: $(CLI_BIN)
 $(CLI_BIN): $(CLI_OBJ) $(CLIENT_LIB)
-	$(CC) $(ALL_CFLAGS) $(CLI_OBJ) $(CLIENT_LIB) -llcm -lsodium -lm -pthread -o $@
+	$(CC) $(ALL_CFLAGS) $(CLI_OBJ) $(CLIENT_LIB) -llcm -lsodium -lpng -lm -pthread -o $@
 $(BUILD)/tests/test_cli_parse: $(BUILD)/tests/test_cli_parse.o $(CLI_PURE_OBJ)
-	$(CC) $(ALL_CFLAGS) $< $(CLI_PURE_OBJ) -lcmocka -lm -o $@
-$(E2E_CLI_BIN): $(BUILD)/tests/e2e/e2e_cli.o $(ALL_LIBS)
-	$(CC) $(ALL_CFLAGS) $< $(ALL_LIBS) -lcmocka $(SYS_LIBS) -o $@
-test: $(CLI_BIN) $(E2E_CLI_BIN)
+	$(CC) $(ALL_CFLAGS) $< $(CLI_PURE_OBJ) -lcmocka -lpng -lm -o $@
+$(E2E_CLI_BIN): $(BUILD)/tests/e2e/e2e_cli.o $(BUILD)/client/cli/cli_png.o $(ALL_LIBS)
+	$(CC) $(ALL_CFLAGS) $< $(BUILD)/client/cli/cli_png.o $(ALL_LIBS) -lcmocka -lpng $(SYS_LIBS) -o $@
+# A depth picture checked pixel by pixel against the daemon's rays (tests/e2e/demo_test.sh).
+RENDER_CHECK_BIN := $(BUILD)/tests/render_check
+RENDER_CHECK_OBJ := $(addprefix $(BUILD)/client/cli/,cli_args.o cli_camera.o cli_png.o cli_render.o)
+$(RENDER_CHECK_BIN): $(BUILD)/tests/e2e/render_check.o $(RENDER_CHECK_OBJ) $(CLIENT_LIB)
+	$(CC) $(ALL_CFLAGS) $< $(RENDER_CHECK_OBJ) $(CLIENT_LIB) -llcm -lsodium -lpng -lm -pthread -o $@
+test: $(CLI_BIN) $(E2E_CLI_BIN) $(RENDER_CHECK_BIN) $(DEMO_BIN) $(DEMO_DIR)/.stamp
 
 EDITS_BENCH_BIN := $(BUILD)/bench/edits_bench
 $(EDITS_BENCH_BIN): $(BUILD)/bench/edits_bench.o $(ALL_LIBS)
@@ -167,8 +173,9 @@ all: $(LOADER_BIN)
 $(BUILD)/tests/test_loader: $(BUILD)/tests/test_loader.o $(LOADER_CONFINE_OBJ) $(ALL_LIBS) | $(LOADER_BIN)
 	$(CC) $(ALL_CFLAGS) $< $(LOADER_CONFINE_OBJ) $(ALL_LIBS) -lcmocka $(SYS_LIBS) -lseccomp -o $@
 
-# The daemon on the demo scene, in a private network namespace, after a demo client's questions.
-run: $(DAEMON_BIN) $(DEMO_BIN) $(DEMO_DIR)/.stamp
+# The daemon on the demo scene, in a private network namespace, after a demo client's
+# questions. Every program is built first, so scripts/demo-shell finds trioct and the rest.
+run: all $(DEMO_DIR)/.stamp
 	sh scripts/run_demo.sh $(BUILD)
 
 # Every test program runs even when one fails, and the target fails if any did; the last
@@ -225,6 +232,12 @@ $(PEER_BIN): $(PEER_OBJ) $(ALL_LIBS)
 # Issue 3: what accuracy costs in time. Writes docs/accuracy.md and its plots.
 accuracy-report: $(ACC_BIN)
 	sh scripts/accuracy_report.sh $(ACC_BIN) $(BUILD)/accuracy
+
+# The README's picture of the demo yard: `trioct render` against the demo daemon, in the
+# demo's private namespace (scripts/render_demo.sh).
+.PHONY: demo-picture
+demo-picture: all $(DEMO_DIR)/.stamp
+	sh scripts/render_demo.sh $(BUILD) docs/demo-yard.png
 
 # Issue 7: the systemd unit, the example scene and the man pages; `make install` runs it.
 # The unit goes to $(PREFIX)/lib/systemd/system, which systemd reads for /usr and
@@ -317,7 +330,7 @@ $(MAKE_LOGS_BIN): $(MAKE_LOGS_OBJ) $(REPLAY_LIB) $(ALL_LIBS)
 	$(CC) $(ALL_CFLAGS) $(MAKE_LOGS_OBJ) $(REPLAY_LIB) $(ALL_LIBS) $(SYS_LIBS) -o $@
 $(BUILD)/tests/test_replay: $(BUILD)/tests/test_replay.o $(REPLAY_LIB) $(ALL_LIBS)
 	$(CC) $(ALL_CFLAGS) $< $(REPLAY_LIB) $(ALL_LIBS) -lcmocka $(SYS_LIBS) -o $@
-test: $(REPLAY_BIN) $(MAKE_LOGS_BIN)
+all test: $(REPLAY_BIN) $(MAKE_LOGS_BIN)
 .PHONY: logs
 logs: $(MAKE_LOGS_BIN) $(REPLAY_BIN) $(DAEMON_BIN)
 	sh tools/replay/make_logs.sh $(BUILD) tests/logs

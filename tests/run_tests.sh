@@ -58,6 +58,8 @@ run systemd_test.sh "tests/e2e/systemd_test.sh (the unit, its sandbox score, man
     env MAKE="$MAKE" sh tests/e2e/systemd_test.sh "$build"
 run install_test.sh "tests/e2e/install_test.sh (make install into a DESTDIR, pkg-config, C and C++ users)" \
     env MAKE="$MAKE" TRIOCT_TEST_SAN="$SAN" sh tests/e2e/install_test.sh "$build"
+run demo_test.sh "tests/e2e/demo_test.sh (make run's path: the demo up, demo-shell, trioct render checked against the daemon)" \
+    sh tests/e2e/demo_test.sh "$build"
 run "$E2E_BIN" "$E2E_BIN (udpm in a private network namespace)" tests/e2e/netns.sh "$E2E_BIN" "$DAEMON_BIN"
 run "$E2E_CLI_BIN" "$E2E_CLI_BIN (the trioct command against trioctd, udpm in a private network namespace)" \
     tests/e2e/netns.sh "$E2E_CLI_BIN" "$DAEMON_BIN" "$CLI_BIN"

@@ -9,10 +9,14 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <unistd.h>
 
 #include <cmocka.h>
 
 #include "cli/cli_args.h"
+#include "cli/cli_camera.h"
+#include "cli/cli_png.h"
+#include "cli/cli_render.h"
 #include "cli/cli_csv.h"
 #include "cli/cli_json.h"
 #include "cli/cli_pose.h"
@@ -64,7 +68,7 @@ typedef struct seen {
     int calls;
 } seen;
 
-enum { ID_FLAG, ID_VALUE, ID_REFUSE };
+enum { ID_FLAG, ID_VALUE, ID_REFUSE, ID_TRIPLE };
 
 static int record(void *user, int id, const char *value, char *err, size_t err_len)
 {
@@ -72,7 +76,7 @@ static int record(void *user, int id, const char *value, char *err, size_t err_l
     s->calls++;
     if (id == ID_FLAG)
         s->flag++;
-    if (id == ID_VALUE)
+    if (id == ID_VALUE || id == ID_TRIPLE)
         snprintf(s->value, sizeof s->value, "%s", value);
     if (id == ID_REFUSE) {
         snprintf(err, err_len, "refused '%s'", value);
@@ -85,6 +89,7 @@ static const cli_option test_options[] = {
     {"flag", 'f', 0, ID_FLAG},
     {"value", 0, 1, ID_VALUE},
     {"refuse", 0, 1, ID_REFUSE},
+    {"triple", 0, 3, ID_TRIPLE},
     {NULL, 0, 0, 0},
 };
 
@@ -456,6 +461,209 @@ static void test_read_poses(void **state)
     cli_pose_list_free(&list);
 }
 
+/* ---------- several values, cameras and pictures (trioct render) ---------- */
+
+static void test_scan_option_with_three_values(void **state)
+{
+    (void)state;
+    seen s;
+    char *pos[4], err[256];
+    int n;
+    /* Negative numbers among the values are values, not options or positionals. */
+    char *argv[] = {"w", "--triple", "0", "-40", "12.5", "x"};
+    assert_int_equal(scan(argv, 6, &s, pos, 4, &n, err), 0);
+    assert_string_equal(s.value, "0 -40 12.5");
+    assert_int_equal(n, 2);
+    assert_string_equal(pos[1], "x");
+    char *inline_form[] = {"--triple=1,2,3"};
+    assert_int_equal(scan(inline_form, 1, &s, pos, 4, &n, err), 0);
+    assert_string_equal(s.value, "1,2,3");
+    char *short_of_values[] = {"--triple", "1", "2"};
+    assert_int_equal(scan(short_of_values, 3, &s, pos, 4, &n, err), -1);
+    assert_string_equal(err, "option --triple needs 3 values");
+
+    double v[3];
+    assert_int_equal(cli_parse_vec3("0 -40 12.5", v), 0);
+    assert_true(v[0] == 0.0 && v[1] == -40.0 && v[2] == 12.5);
+    assert_int_equal(cli_parse_vec3("1,2,3", v), 0);
+    assert_true(v[0] == 1.0 && v[1] == 2.0 && v[2] == 3.0);
+    assert_int_equal(cli_parse_vec3("1 2", v), -1);
+    assert_int_equal(cli_parse_vec3("1 2 3 4", v), -1);
+    assert_int_equal(cli_parse_vec3("1 nan 3", v), -1);
+    assert_int_equal(cli_parse_vec3("1 inf 3", v), -1);
+    assert_int_equal(cli_parse_vec3("", v), -1);
+}
+
+static void test_parse_size_and_shade(void **state)
+{
+    (void)state;
+    int w = 0, h = 0;
+    assert_int_equal(cli_parse_size("640x480", &w, &h), 0);
+    assert_true(w == 640 && h == 480);
+    assert_int_equal(cli_parse_size("1X1", &w, &h), 0);
+    assert_true(w == 1 && h == 1);
+    const char *bad[] = {"640", "x480", "640x", "0x10", "10x0", "-5x5", "5x-5", "+5x5", "5x5x", "20000x10", "5 x5"};
+    for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++)
+        assert_int_equal(cli_parse_size(bad[i], &w, &h), -1);
+    cli_shade shade;
+    assert_int_equal(cli_parse_shade("normal", &shade), 0);
+    assert_int_equal(shade, CLI_SHADE_NORMAL);
+    assert_int_equal(cli_parse_shade("depth", &shade), 0);
+    assert_int_equal(shade, CLI_SHADE_DEPTH);
+    assert_int_equal(cli_parse_shade("colour", &shade), -1);
+}
+
+static double dot3(trioct_vec3 a, trioct_vec3 b)
+{
+    return a.x * b.x + a.y * b.y + a.z * b.z;
+}
+
+static void test_camera_rays(void **state)
+{
+    (void)state;
+    cli_camera cam;
+    char err[256];
+    /* Looking down -y from (0, 10, 0), z up, 90 degrees high, 3x3 pixels: the centre pixel's
+     * ray is the view itself and the top-left corner's leans left (-x... seen from +y looking
+     * to -y, right is -x) and up by tan(45) * 2/3 of the half plane. */
+    assert_int_equal(cli_camera_init(&cam, (trioct_vec3){0, 10, 0}, (trioct_vec3){0, 0, 0}, (trioct_vec3){0, 0, 1},
+                                     90.0, 3, 3, err, sizeof err), 0);
+    trioct_vec3 c = cli_camera_ray(&cam, 1, 1);
+    assert_true(c.x == 0.0 && c.y == -1.0 && c.z == 0.0);
+    trioct_vec3 tl = cli_camera_ray(&cam, 0, 0);
+    double s = 2.0 / 3.0, len = sqrt(1.0 + 2.0 * s * s);
+    assert_true(fabs(tl.x - (s / len)) <= 1e-15);
+    assert_true(fabs(tl.y - (-1.0 / len)) <= 1e-15);
+    assert_true(fabs(tl.z - (s / len)) <= 1e-15);
+    /* Every ray is a unit vector, so t is the distance from the eye. */
+    for (int y = 0; y < 3; y++)
+        for (int x = 0; x < 3; x++)
+            assert_true(fabs(dot3(cli_camera_ray(&cam, x, y), cli_camera_ray(&cam, x, y)) - (1.0)) <= 1e-15);
+    /* A wide picture is wider, not taller: 60 degrees high, 200x100. */
+    assert_int_equal(cli_camera_init(&cam, (trioct_vec3){0, 0, 5}, (trioct_vec3){0, 0, 0}, (trioct_vec3){0, 1, 0},
+                                     60.0, 200, 100, err, sizeof err), 0);
+    assert_true(fabs(cam.half_width - (2.0 * tan(3.14159265358979323846 / 6.0))) <= 1e-15);
+    /* An up that leans toward the view only says which way is up. */
+    cli_camera leaning;
+    assert_int_equal(cli_camera_init(&leaning, (trioct_vec3){0, 0, 5}, (trioct_vec3){0, 0, 0},
+                                     (trioct_vec3){0, 3, -1}, 60.0, 200, 100, err, sizeof err), 0);
+    assert_true(fabs(leaning.up.y - (1.0)) <= 1e-15);
+    assert_true(fabs(dot3(leaning.up, leaning.forward) - (0.0)) <= 1e-15);
+
+    assert_int_equal(cli_camera_init(&cam, (trioct_vec3){1, 1, 1}, (trioct_vec3){1, 1, 1}, (trioct_vec3){0, 0, 1},
+                                     60.0, 4, 4, err, sizeof err), -1);
+    assert_non_null(strstr(err, "must differ"));
+    assert_int_equal(cli_camera_init(&cam, (trioct_vec3){0, 0, 9}, (trioct_vec3){0, 0, 0}, (trioct_vec3){0, 0, 1},
+                                     60.0, 4, 4, err, sizeof err), -1);
+    assert_non_null(strstr(err, "parallel to the view"));
+    assert_int_equal(cli_camera_init(&cam, (trioct_vec3){0, 9, 0}, (trioct_vec3){0, 0, 0}, (trioct_vec3){0, 0, 1},
+                                     180.0, 4, 4, err, sizeof err), -1);
+    assert_int_equal(cli_camera_init(&cam, (trioct_vec3){0, 9, 0}, (trioct_vec3){0, 0, 0}, (trioct_vec3){0, 0, 1},
+                                     60.0, 0, 4, err, sizeof err), -1);
+}
+
+static void test_depth_encoding(void **state)
+{
+    (void)state;
+    assert_int_equal(cli_depth_sample(10.0, 10.0, 20.0), 65535);
+    assert_int_equal(cli_depth_sample(20.0, 10.0, 20.0), 0);
+    assert_int_equal(cli_depth_sample(15.0, 10.0, 20.0), 32768); /* 32767.5 rounds up */
+    assert_int_equal(cli_depth_sample(7.0, 7.0, 7.0), 65535);      /* one depth only */
+    /* One step of grey is (far - near) / 65535 of distance. */
+    double step = 10.0 / 65535.0;
+    assert_int_equal(cli_depth_sample(10.0 + 100.0 * step, 10.0, 20.0), 65435);
+}
+
+static void test_render_image(void **state)
+{
+    (void)state;
+    cli_camera cam;
+    char err[256];
+    assert_int_equal(cli_camera_init(&cam, (trioct_vec3){0, 0, 10}, (trioct_vec3){0, 0, 0}, (trioct_vec3){0, 1, 0},
+                                     60.0, 2, 2, err, sizeof err), 0);
+    /* Pixels: a near hit, a miss, a far hit, a middle one; the first normal points away
+     * from the camera (a back face), the others toward it. */
+    double t[4] = {4.0, NAN, 8.0, 6.0};
+    trioct_vec3 n[4] = {{0, 0, -1}, {0, 0, 0}, {0, 0, 1}, {-1, 0, 0}};
+    cli_png_image img = {0};
+    double near, far;
+    assert_int_equal(cli_render_image(&cam, t, n, CLI_SHADE_DEPTH, &img, &near, &far), 0);
+    assert_true(near == 4.0 && far == 8.0);
+    assert_int_equal(img.channels, 2);
+    assert_int_equal(img.bit_depth, 16);
+    const uint16_t want_depth[8] = {65535, 65535, 0, 0, 0, 65535, 32768, 65535};
+    assert_memory_equal(img.samples, want_depth, sizeof want_depth);
+    cli_png_image_free(&img);
+
+    assert_int_equal(cli_render_image(&cam, t, n, CLI_SHADE_NORMAL, &img, &near, &far), 0);
+    assert_int_equal(img.channels, 4);
+    assert_int_equal(img.bit_depth, 8);
+    /* Pixel 0's back face shows as facing the camera (+z): (128, 128, 255). The miss is
+     * transparent black. Pixel 3's ray leans to +x (the camera's right), so its -x normal
+     * faces the camera and is kept: (0, 128, 128). */
+    const uint16_t want_normal[16] = {128, 128, 255, 255, 0, 0, 0, 0, 128, 128, 255, 255, 0, 128, 128, 255};
+    assert_memory_equal(img.samples, want_normal, sizeof want_normal);
+    cli_png_image_free(&img);
+
+    double none[4] = {NAN, NAN, NAN, NAN};
+    assert_int_equal(cli_render_image(&cam, none, n, CLI_SHADE_DEPTH, &img, &near, &far), 0);
+    assert_true(isnan(near) && isnan(far));
+    for (int i = 0; i < 8; i++)
+        assert_int_equal(img.samples[i], 0);
+    cli_png_image_free(&img);
+}
+
+static void test_png_round_trip(void **state)
+{
+    (void)state;
+    char path[] = "/tmp/trioct-png-XXXXXX";
+    int fd = mkstemp(path);
+    assert_true(fd >= 0);
+    close(fd);
+    char err[512];
+    for (int depth = 8; depth <= 16; depth += 8) {
+        cli_png_image img = {.width = 3, .height = 2, .channels = depth == 16 ? 2 : 4, .bit_depth = depth};
+        size_t n = (size_t)img.width * (size_t)img.height * (size_t)img.channels;
+        img.samples = malloc(n * sizeof *img.samples);
+        assert_non_null(img.samples);
+        for (size_t i = 0; i < n; i++)
+            img.samples[i] = (uint16_t)(depth == 16 ? i * 9973u + 1u : i * 17u) & (depth == 16 ? 0xffff : 0xff);
+        img.num_text = 2;
+        snprintf(img.text[0].key, sizeof img.text[0].key, "trioct.camera");
+        snprintf(img.text[0].value, sizeof img.text[0].value, "%.17g 0 -1e-300", 0.1);
+        snprintf(img.text[1].key, sizeof img.text[1].key, "trioct.world");
+        snprintf(img.text[1].value, sizeof img.text[1].value, "yard");
+        assert_int_equal(cli_png_write(path, &img, err, sizeof err), 0);
+        cli_png_image back;
+        assert_int_equal(cli_png_read(path, &back, err, sizeof err), 0);
+        assert_int_equal(back.width, 3);
+        assert_int_equal(back.height, 2);
+        assert_int_equal(back.channels, img.channels);
+        assert_int_equal(back.bit_depth, depth);
+        assert_memory_equal(back.samples, img.samples, n * sizeof *img.samples);
+        assert_string_equal(cli_png_text_get(&back, "trioct.camera"), "0.10000000000000001 0 -1e-300");
+        assert_string_equal(cli_png_text_get(&back, "trioct.world"), "yard");
+        assert_null(cli_png_text_get(&back, "trioct.fov"));
+        cli_png_image_free(&back);
+        free(img.samples);
+    }
+    /* Not a PNG: an error naming the file, no crash. */
+    FILE *f = fopen(path, "w");
+    assert_non_null(f);
+    fputs("not a picture", f);
+    fclose(f);
+    cli_png_image back;
+    assert_int_equal(cli_png_read(path, &back, err, sizeof err), -1);
+    assert_non_null(strstr(err, path));
+    unlink(path);
+    /* A directory that does not exist: the error says so, and nothing is left behind. */
+    cli_png_image img = {.width = 1, .height = 1, .channels = 2, .bit_depth = 16};
+    uint16_t px[2] = {1, 2};
+    img.samples = px;
+    assert_int_equal(cli_png_write("/nonexistent-dir/x.png", &img, err, sizeof err), -1);
+    assert_non_null(strstr(err, "/nonexistent-dir/x.png"));
+}
+
 /* ---------- JSON ---------- */
 
 static void assert_escaped(const char *in, const char *want)
@@ -665,6 +873,12 @@ int main(void)
         cmocka_unit_test(test_scan_negative_numbers_are_positional),
         cmocka_unit_test(test_scan_values_aliases_and_terminator),
         cmocka_unit_test(test_scan_errors),
+        cmocka_unit_test(test_scan_option_with_three_values),
+        cmocka_unit_test(test_parse_size_and_shade),
+        cmocka_unit_test(test_camera_rays),
+        cmocka_unit_test(test_depth_encoding),
+        cmocka_unit_test(test_render_image),
+        cmocka_unit_test(test_png_round_trip),
         cmocka_unit_test(test_parse_quaternion_pose),
         cmocka_unit_test(test_scan_stops_at_the_command),
         cmocka_unit_test(test_parse_double),

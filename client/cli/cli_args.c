@@ -64,13 +64,29 @@ static int scan_option(int argc, char **argv, int *i, const cli_option_set *sets
         return -1;
     }
     const char *value = NULL;
+    char joined[CLI_MAX_VALUE_LEN];
     if (opt->takes_value) {
         if (inline_value != NULL) {
             value = inline_value;
-        } else if (*i + 1 < argc) {
-            value = argv[++*i];
-        } else {
+        } else if (*i + opt->takes_value < argc) {
+            /* Several values ("--camera 0 -40 12") reach the handler as one, blank between. */
+            size_t used = 0;
+            joined[0] = '\0';
+            for (int k = 1; k <= opt->takes_value; k++) {
+                int w = snprintf(joined + used, sizeof joined - used, "%s%s", k > 1 ? " " : "", argv[*i + k]);
+                if (w < 0 || (size_t)w >= sizeof joined - used) {
+                    snprintf(err, err_len, "the values of --%s are too long", opt->name);
+                    return -1;
+                }
+                used += (size_t)w;
+            }
+            *i += opt->takes_value;
+            value = opt->takes_value == 1 ? argv[*i] : joined;
+        } else if (opt->takes_value == 1) {
             snprintf(err, err_len, "option --%s needs a value", opt->name);
+            return -1;
+        } else {
+            snprintf(err, err_len, "option --%s needs %d values", opt->name, opt->takes_value);
             return -1;
         }
     } else if (inline_value != NULL) {
@@ -130,6 +146,25 @@ int cli_parse_double(const char *text, int allow_infinite, double *out)
     return 0;
 }
 
+int cli_parse_vec3(const char *text, double out[3])
+{
+    char buf[CLI_MAX_VALUE_LEN];
+    if (text == NULL || strlen(text) >= sizeof buf)
+        return -1;
+    snprintf(buf, sizeof buf, "%s", text);
+    double v[3];
+    int n = 0;
+    for (char *save = NULL, *tok = strtok_r(buf, ", \t", &save); tok != NULL; tok = strtok_r(NULL, ", \t", &save)) {
+        if (n == 3 || cli_parse_double(tok, 0, &v[n]) != 0)
+            return -1;
+        n++;
+    }
+    if (n != 3)
+        return -1;
+    memcpy(out, v, sizeof v);
+    return 0;
+}
+
 int cli_parse_int(const char *text, long long min, long long max, long long *out)
 {
     if (text == NULL || text[0] == '\0' || isspace((unsigned char)text[0]))
@@ -160,6 +195,14 @@ int cli_parse_accuracy(const char *text, int *out)
             *out = accuracy_names[i].value;
             return 0;
         }
+    return -1;
+}
+
+int cli_accuracy_option(const char *value, int *out, char *err, size_t err_len)
+{
+    if (cli_parse_accuracy(value, out) == 0)
+        return 0;
+    snprintf(err, err_len, "--accuracy: '%.40s' is not exact, seed, fast or world", value);
     return -1;
 }
 

@@ -10,10 +10,14 @@
 
 #include <stddef.h>
 
+/* The longest option value, several values joined included. */
+#define CLI_MAX_VALUE_LEN 512
+
 typedef struct cli_option {
     const char *name; /* the long name without "--"; NULL ends a table */
     char alias;       /* a one-letter short form ("-h"), or 0 */
-    int takes_value;  /* 1: "--name VALUE" or "--name=VALUE" */
+    int takes_value;  /* 1: "--name VALUE" or "--name=VALUE"; n > 1: "--name V1 .. Vn"
+                         (handed over as one value, blank between) or "--name=V1,..,Vn" */
     int id;           /* handed to the set's handler */
 } cli_option;
 
@@ -41,11 +45,16 @@ int cli_scan(int argc, char **argv, const cli_option_set *sets, size_t num_sets,
  * "+inf" and "infinity". 0, or -1. */
 int cli_parse_double(const char *text, int allow_infinite, double *out);
 
+/* Three finite doubles separated by blanks or commas ("1 2 3", "1,2,3"). 0, or -1. */
+int cli_parse_vec3(const char *text, double out[3]);
+
 /* A decimal integer in [min, max], the whole text. 0, or -1. */
 int cli_parse_int(const char *text, long long min, long long max, long long *out);
 
 /* "exact", "seed", "fast" or "world" to TRIOCT_ACCURACY_*. 0, or -1. */
 int cli_parse_accuracy(const char *text, int *out);
+/* --accuracy's value as an option handler takes it: 0, or -1 with the usage message. */
+int cli_accuracy_option(const char *value, int *out, char *err, size_t err_len);
 /* The name of a TRIOCT_ACCURACY_* value ("world" for the world's own mode). */
 const char *cli_accuracy_name(int accuracy);
 

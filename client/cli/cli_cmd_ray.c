@@ -70,11 +70,7 @@ static int ray_option(void *user, int id, const char *value, char *err, size_t e
         }
         return 0;
     case OPT_ACCURACY:
-        if (cli_parse_accuracy(value, &a->accuracy) != 0) {
-            snprintf(err, err_len, "--accuracy: '%.40s' is not exact, seed, fast or world", value);
-            return -1;
-        }
-        return 0;
+        return cli_accuracy_option(value, &a->accuracy, err, err_len);
     }
     return -1;
 }

@@ -31,6 +31,7 @@
 #include <cmocka.h>
 #include <lcm/lcm.h>
 
+#include "cli/cli_png.h"
 #include "support/daemon_proc.h"
 #include "trioct.h"
 #include "trioct_version.h"
@@ -790,6 +791,95 @@ static void test_ray(void **state)
     run_free(&r);
 }
 
+/* A 5x5 depth picture of the box from (2, 2, 10) straight down, 60 degrees high: the centre
+ * pixel's ray is the view itself and meets the top at t = 8 exactly (the nearest hit, white);
+ * the inner 3x3 pixels land on the top (their lateral offset at the top is 1.85), the
+ * border ring's rays (3.7 off) pass beside the box and leave their pixels transparent. */
+static void test_render(void **state)
+{
+    (void)state;
+    char png[320];
+    path_in_dir(png, sizeof png, "box.png");
+    jv *v = JSON(0, "render", "box", "--camera", "2", "2", "10", "--look-at", "2", "2", "0", "--up", "0", "1", "0",
+                 "--size", "5x5", "-o", png);
+    assert_string_equal(jstr(v, "status"), "OK");
+    assert_string_equal(jstr(v, "world"), "box");
+    assert_string_equal(jstr(v, "shade"), "depth");
+    assert_int_equal((int)jnum(v, "rays"), 25);
+    assert_int_equal((int)jnum(v, "requests"), 1);
+    assert_int_equal((int)jnum(v, "hit_rays"), 9);
+    assert_true(jnum(v, "depth_near") == 8.0);
+    double far = jnum(v, "depth_far");
+    assert_true(far > 8.4 && far < 8.5); /* 8 * sqrt(1 + 2 * (0.4 * tan 30)^2) = 8.42 */
+    jfree(v);
+
+    cli_png_image img;
+    char err[512];
+    assert_int_equal(cli_png_read(png, &img, err, sizeof err), 0);
+    assert_int_equal(img.width, 5);
+    assert_int_equal(img.height, 5);
+    assert_int_equal(img.channels, 2);
+    assert_int_equal(img.bit_depth, 16);
+    for (int y = 0; y < 5; y++)
+        for (int x = 0; x < 5; x++) {
+            const uint16_t *px = img.samples + (y * 5 + x) * 2;
+            int inner = x >= 1 && x <= 3 && y >= 1 && y <= 3;
+            assert_int_equal(px[1], inner ? 65535 : 0);
+            if (!inner)
+                assert_int_equal(px[0], 0);
+        }
+    assert_int_equal(img.samples[(2 * 5 + 2) * 2], 65535); /* the centre: nearest */
+    assert_true(img.samples[(1 * 5 + 1) * 2] <= 1);         /* an inner corner: farthest */
+    uint16_t edge = img.samples[(1 * 5 + 2) * 2];
+    assert_true(edge > 1000 && edge < 64535);
+    assert_string_equal(cli_png_text_get(&img, "trioct.world"), "box");
+    assert_string_equal(cli_png_text_get(&img, "trioct.depth_near"), "8");
+    assert_string_equal(cli_png_text_get(&img, "trioct.camera"), "2 2 10");
+    assert_string_equal(cli_png_text_get(&img, "trioct.shade"), "depth");
+    cli_png_image_free(&img);
+
+    /* Normals: the top's +z faces the camera, so its pixels are (128, 128, 255). */
+    cli_run r = CLI("render", "box", "--camera", "2", "2", "10", "--look-at=2,2,0", "--up", "0", "1", "0",
+                    "--size", "5x5", "--shade", "normal", "-o", png);
+    expect_code(&r, 0);
+    expect_text(r.out, "5x5 normal picture of world box (version 1, daemon " DAEMON "), 9 of 25 rays hit");
+    run_free(&r);
+    assert_int_equal(cli_png_read(png, &img, err, sizeof err), 0);
+    assert_int_equal(img.channels, 4);
+    const uint16_t *centre = img.samples + (2 * 5 + 2) * 4;
+    assert_true(centre[0] == 128 && centre[1] == 128 && centre[2] == 255 && centre[3] == 255);
+    assert_int_equal(img.samples[3], 0); /* a corner: transparent */
+    cli_png_image_free(&img);
+
+    /* What makes no picture is a usage error before anything is asked. */
+    r = CLI("render", "box", "--look-at", "2", "2", "0", "-o", png);
+    expect_code(&r, 2);
+    expect_text(r.err, "render needs --camera x y z, --look-at x y z and -o FILE.png");
+    run_free(&r);
+    r = CLI("render", "box", "--camera", "2", "2", "10", "--look-at", "2", "2", "0", "-o", png);
+    expect_code(&r, 2); /* the default up, 0 0 1, is parallel to this view */
+    expect_text(r.err, "parallel to the view");
+    run_free(&r);
+    r = CLI("render", "box", "--camera", "2", "2", "10", "--look-at", "2", "2", "0", "--size", "0x5", "-o", png);
+    expect_code(&r, 2);
+    expect_text(r.err, "--size: '0x5' is not WIDTHxHEIGHT");
+    run_free(&r);
+    r = CLI("render", "box", "--camera", "2", "2", "--look-at", "2", "2", "0", "-o", png);
+    expect_code(&r, 2);
+    run_free(&r);
+    /* A file that cannot be written: trioct's own failure, naming it. */
+    r = CLI("render", "box", "--camera", "2", "-9", "1", "--look-at", "2", "2", "1", "--size", "4x3", "-o",
+            "/nonexistent-dir/box.png");
+    expect_code(&r, 5);
+    expect_text(r.err, "/nonexistent-dir/box.png");
+    run_free(&r);
+    /* A world nobody serves: the daemon error, as for rays. */
+    r = CLI("render", "no_such_world", "--camera", "2", "-9", "1", "--look-at", "2", "2", "1", "-o", png,
+            "--timeout", "500");
+    assert_true(r.code == 1 || r.code == 3);
+    run_free(&r);
+}
+
 /* --touch on a ray sliding along the top z = 2 at y = 1, from x = -1: as crossings it
  * passes (the perturbed ray runs just above the top), as a touch it is blocked at t = 1
  * where it reaches the top's edge (0, 1, 2): the top's triangle 1 (u = 0, v = 1/4) and the
@@ -1485,6 +1575,7 @@ int main(int argc, char **argv)
         cmocka_unit_test(test_info),
         cmocka_unit_test(test_ray),
         cmocka_unit_test(test_ray_touch),
+        cmocka_unit_test(test_render),
         cmocka_unit_test(test_rays_batch),
         cmocka_unit_test(test_tri),
         cmocka_unit_test(test_mesh),
