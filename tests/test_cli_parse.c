@@ -763,6 +763,8 @@ static void test_format_double(void **state)
     assert_string_equal(cli_format_double(8, buf), "8");
     assert_string_equal(cli_format_double(-0.25, buf), "-0.25");
     assert_string_equal(cli_format_double(0.1 + 0.2, buf), "0.30000000000000004");
+    assert_string_equal(cli_format_double(-0.0, buf), "0"); /* no sign on nothing */
+    assert_string_equal(cli_format_double(0.0, buf), "0");
     assert_string_equal(cli_format_double(1.0 / 3, buf), "0.3333333333333333");
     assert_string_equal(cli_format_double(1e21, buf), "1e+21");
     assert_string_equal(cli_format_double(INFINITY, buf), "inf");

@@ -655,8 +655,8 @@ static void test_replay_answers_every_request(void **state)
               "../outside.obj", 0);
     /* 12: a header naming another world than its channel. */
     log_ray_up(&rl, 0, "box", 12, "other", 0.5, 0.5);
-    /* 13: a world this daemon does not hold (its build failed); 14: another daemon's LOAD.
-     * Neither channel is heard: no reply, nothing counted. */
+    /* 13: a world of the scene whose build failed: answered ERR_LOAD_FAILED with why.
+     * 14: another daemon's LOAD, whose channel is not heard: no reply, nothing counted. */
     log_ray_up(&rl, 0, "broken", 13, "broken", 0.5, 0.5);
     log_admin(&rl, 0, PREFIX "_LOAD_other", 14, "w", TRIOCT_ADMIN_REQUEST_T_LOAD, "box.obj", 0);
 
@@ -732,12 +732,14 @@ static void test_replay_answers_every_request(void **state)
     assert_int_equal(rr->world_versions[0], 1);
 
     /* LIST came before the LOAD in the log but may run after it on another worker: box is
-     * there either way, box2 perhaps, broken never (it is not held). */
+     * there either way, box2 perhaps, and last broken, which failed to build: version 0. */
     rr = expect_status(out, 9, REQUEST_ADMIN, TRIOCT_OK);
-    assert_true(rr->num_worlds == 1 || rr->num_worlds == 2);
+    assert_true(rr->num_worlds == 2 || rr->num_worlds == 3);
     assert_string_equal(rr->world_names[0], "box");
-    if (rr->num_worlds == 2)
+    if (rr->num_worlds == 3)
         assert_string_equal(rr->world_names[1], "box2");
+    assert_string_equal(rr->world_names[rr->num_worlds - 1], "broken");
+    assert_int_equal(rr->world_versions[rr->num_worlds - 1], 0);
 
     rr = expect_status(out, 10, REQUEST_ADMIN, TRIOCT_OK);
     assert_int_equal(rr->world_version, 1);
@@ -746,17 +748,18 @@ static void test_replay_answers_every_request(void **state)
 
     expect_status(out, 11, REQUEST_ADMIN, TRIOCT_ERR_BAD_PATH);
     expect_status(out, 12, REQUEST_RAY, TRIOCT_ERR_BAD_REQUEST);
-    assert_int_equal(count_replies(out, 13), 0);
+    rr = expect_status(out, 13, REQUEST_RAY, TRIOCT_ERR_LOAD_FAILED);
+    assert_non_null(strstr(rr->message, "its build failed"));
     assert_int_equal(count_replies(out, 14), 0);
     for (int64_t id = 90; id <= 92; id++)
         assert_int_equal(count_replies(out, id), 0);
-    assert_int_equal(out->reply_count, 12);
+    assert_int_equal(out->reply_count, 13);
     assert_int_equal(out->other_events, 0);
 
-    check_statuses(out, 12);
+    check_statuses(out, 13);
     const trioct_status_t *last = &out->statuses[out->status_count - 1];
     assert_int_equal(last->malformed, 5);
-    assert_int_equal(last->served[REQUEST_RAY], 6);
+    assert_int_equal(last->served[REQUEST_RAY], 7);
     assert_int_equal(last->served[REQUEST_TRIANGLE], 1);
     assert_int_equal(last->served[REQUEST_MESH], 1);
     assert_int_equal(last->served[REQUEST_ADMIN], 4);
@@ -768,6 +771,7 @@ static void test_replay_answers_every_request(void **state)
     want[TRIOCT_ERR_EFFECT] = 1;
     want[TRIOCT_ERR_BAD_PATH] = 1;
     want[TRIOCT_ERR_BAD_REQUEST] = 1;
+    want[TRIOCT_ERR_LOAD_FAILED] = 1;
     for (int c = 0; c < TRIOCT_WIRE_STATUS_COUNT; c++)
         assert_int_equal(last->replies_by_status[c], want[c]);
 

@@ -93,13 +93,14 @@ const char *cli_bus_url(const cli_context *ctx);
 int cli_exit_code(const trioct_reply *r);
 
 /* Reports a call that did not succeed: on stderr for people (with, when nothing answered,
- * "no reply from trioctd on <url> within <t> ms: is it running? ..."), and with --json as
+ * "no reply from any daemon serving world W on <url> within <t> ms: ..."), and with --json as
  * the command's JSON object on stdout. part (may be NULL) says which part of a batch
  * failed. Returns the exit code. */
 int cli_report_failure(cli_context *ctx, const trioct_reply *r, int timeout_ms, const char *part);
 
-/* The sentence for a call nothing answered. */
-void cli_no_reply_hint(const cli_context *ctx, int timeout_ms, char *buf, size_t len);
+/* The sentence for a call nothing answered: who was asked (r's daemon or world, when it
+ * names one), where, and what to check for that transport. */
+void cli_no_reply_hint(const cli_context *ctx, const trioct_reply *r, int timeout_ms, char *buf, size_t len);
 
 /* Begins the command's JSON object with the fields every one has: command, ok, exit_code,
  * status, status_code, message, and daemon, world, world_version when r names them. */

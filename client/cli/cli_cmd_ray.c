@@ -105,7 +105,15 @@ typedef struct ray_answer {
     size_t num_hits, cap_hits;
     trioct_ray_hit *hits; /* object: an index into names */
     cli_names names;
+    const trioct_vec3 *origins, *directions; /* the rays cast, for the hit points */
 } ray_answer;
+
+/* Where a hit is: origin + t * direction, as the daemon's t means it. */
+static trioct_vec3 hit_point(const ray_answer *a, const trioct_ray_hit *h)
+{
+    trioct_vec3 o = a->origins[h->ray], d = a->directions[h->ray];
+    return (trioct_vec3){o.x + h->t * d.x, o.y + h->t * d.y, o.z + h->t * d.z};
+}
 
 static void ray_answer_free(ray_answer *a)
 {
@@ -146,6 +154,8 @@ static int cast_rays(cli_context *ctx, const char *world, const ray_args *args,
         q.max_hits = args->max_hits;
     answer->detail = q.detail;
     answer->num_rays = count;
+    answer->origins = origins;
+    answer->directions = directions;
     answer->found = calloc(count ? count : 1, sizeof *answer->found);
     if (answer->found == NULL)
         return cli_internal_error(ctx, "out of memory for %zu rays", count);
@@ -213,6 +223,7 @@ static void ray_json(cli_context *ctx, const ray_answer *a, const ray_args *args
         cli_json_object_begin(&j);
         cli_json_key_int(&j, "ray", h->ray);
         cli_json_key_double(&j, "t", h->t);
+        cli_json_key_vec3(&j, "point", hit_point(a, h));
         cli_json_key_string(&j, "object", cli_names_get(&a->names, h->object));
         cli_json_key_int(&j, "triangle", h->triangle);
         cli_json_key_double(&j, "u", h->u);
@@ -228,9 +239,9 @@ static void ray_json(cli_context *ctx, const ray_answer *a, const ray_args *args
 static int ray_table(cli_context *ctx, const ray_answer *a)
 {
     cli_table t;
-    cli_table_init(&t, 8, 0x77); /* all but the object and the normal right-aligned */
-    const char *head[] = {"RAY", "FOUND", "T", "OBJECT", "TRIANGLE", "U", "V", "NORMAL"};
-    for (size_t i = 0; i < 8; i++)
+    cli_table_init(&t, 9, 0xe7); /* all but the point, the object and the normal right-aligned */
+    const char *head[] = {"RAY", "FOUND", "T", "POINT", "OBJECT", "TRIANGLE", "U", "V", "NORMAL"};
+    for (size_t i = 0; i < 9; i++)
         cli_table_cell(&t, "%s", head[i]);
     size_t h = 0;
     for (size_t ray = 0; ray < a->num_rays; ray++) {
@@ -239,9 +250,13 @@ static int ray_table(cli_context *ctx, const ray_answer *a)
             const trioct_ray_hit *hit = &a->hits[h];
             char tt[CLI_NUMBER_LEN], u[CLI_NUMBER_LEN], v[CLI_NUMBER_LEN];
             char nx[CLI_NUMBER_LEN], ny[CLI_NUMBER_LEN], nz[CLI_NUMBER_LEN];
+            char px[CLI_NUMBER_LEN], py[CLI_NUMBER_LEN], pz[CLI_NUMBER_LEN];
+            trioct_vec3 p = hit_point(a, hit);
             cli_table_cell(&t, "%zu", ray);
             cli_table_cell(&t, "%" PRId32, a->found[ray]);
             cli_table_cell(&t, "%s", cli_format_double(hit->t, tt));
+            cli_table_cell(&t, "%s %s %s", cli_format_double(p.x, px), cli_format_double(p.y, py),
+                           cli_format_double(p.z, pz));
             cli_table_cell(&t, "%s", cli_names_get(&a->names, hit->object));
             cli_table_cell(&t, "%" PRId32, hit->triangle);
             cli_table_cell(&t, "%s", cli_format_double(hit->u, u));
@@ -253,7 +268,7 @@ static int ray_table(cli_context *ctx, const ray_answer *a)
         if (rows == 0) {
             cli_table_cell(&t, "%zu", ray);
             cli_table_cell(&t, "%" PRId32, a->found[ray]);
-            for (int c = 0; c < 6; c++)
+            for (int c = 0; c < 7; c++)
                 cli_table_cell(&t, "-");
         }
     }

@@ -68,9 +68,14 @@ static void worlds_json(cli_context *ctx, const trioct_list_result *res, int cod
 
 static int worlds_print(cli_context *ctx, const trioct_list_result *res)
 {
-    fprintf(ctx->out, "%zu world%s on %zu daemon%s (%s)\n", res->num_worlds,
-            res->num_worlds == 1 ? "" : "s", res->num_daemons, res->num_daemons == 1 ? "" : "s",
-            cli_bus_url(ctx));
+    size_t failed = 0;
+    for (size_t i = 0; i < res->num_worlds; i++)
+        failed += res->worlds[i].version == 0;
+    fprintf(ctx->out, "%zu world%s on %zu daemon%s (%s)", res->num_worlds, res->num_worlds == 1 ? "" : "s",
+            res->num_daemons, res->num_daemons == 1 ? "" : "s", cli_bus_url(ctx));
+    if (failed > 0)
+        fprintf(ctx->out, ", %zu not loaded", failed);
+    fputc('\n', ctx->out);
     if (res->num_worlds > 0 && cli_world_table_print(ctx->out, res->worlds, res->num_worlds, "") != 0)
         return -1;
     for (size_t i = 0; i < res->num_daemons; i++) {
@@ -125,7 +130,8 @@ const cli_command cli_command_worlds = {
     "Usage: trioct worlds [--gather MS] [--expect N] [global options]\n"
     "\n"
     "Asks every daemon on the bus for the worlds it holds and prints them, one a line:\n"
-    "name, daemon, version, triangles, memory, accuracy and the effects served.\n"
+    "name, daemon, version, triangles, memory, accuracy and the effects served. A world of\n"
+    "a daemon's scene that failed to load is listed too, with version 0 and why.\n"
     "\n"
     "Options:\n"
     "  --gather MS   listen this long for the daemons' answers (default 1000, at most\n"
@@ -311,6 +317,31 @@ static int load_option(void *user, int id, const char *value, char *err, size_t 
     return -1;
 }
 
+/* Without --daemon, a load goes to the one daemon on the bus: LIST finds it, and a second
+ * answer ends the search at once, since which daemon should build the world is then the
+ * user's choice. -1 with name set, or the exit code (reported). */
+static int find_the_daemon(cli_context *ctx, char name[TRIOCT_MAX_NAME_LEN + 1])
+{
+    int gather = cli_timeout(ctx, CLI_LOAD_TIMEOUT_MS);
+    if (gather > WORLDS_DEFAULT_GATHER_MS)
+        gather = WORLDS_DEFAULT_GATHER_MS;
+    trioct_list_options opt = {.gather_ms = gather, .expect_daemons = 2};
+    trioct_list_result res;
+    int status = trioct_list(ctx->client, &opt, gather, &res);
+    int rc = -1;
+    if (res.num_daemons == 0) {
+        rc = cli_report_failure(ctx, &res.reply, gather, "finding the daemon to load with (no --daemon)");
+    } else if (res.num_daemons > 1) {
+        rc = cli_usage_error(ctx, "several daemons answer on %s (%s, %s%s): say which builds the world with "
+                             "--daemon NAME", cli_bus_url(ctx), res.daemons[0].daemon, res.daemons[1].daemon,
+                             status == TRIOCT_OK && res.num_daemons == 2 ? "" : ", ...");
+    } else {
+        snprintf(name, TRIOCT_MAX_NAME_LEN + 1, "%s", res.daemons[0].daemon);
+    }
+    trioct_list_result_free(&res);
+    return rc;
+}
+
 static int run_load(cli_context *ctx, int argc, char **argv)
 {
     load_args a = {.load = {.accuracy = TRIOCT_ACCURACY_WORLD}};
@@ -327,6 +358,12 @@ static int run_load(cli_context *ctx, int argc, char **argv)
     if ((rc = cli_connect(ctx)) >= 0)
         return rc;
     a.load.world = pos[0];
+    char found[TRIOCT_MAX_NAME_LEN + 1];
+    if (a.load.daemon == NULL) {
+        if ((rc = find_the_daemon(ctx, found)) >= 0)
+            return rc;
+        a.load.daemon = found;
+    }
     int timeout = cli_timeout(ctx, CLI_LOAD_TIMEOUT_MS);
     trioct_admin_result res;
     int status = trioct_load(ctx->client, &a.load, timeout, &res);
@@ -353,7 +390,8 @@ const cli_command cli_command_load = {
     "  --accuracy MODE      exact (default), seed or fast\n"
     "  --seed-epsilon E     the epsilon of seed mode\n"
     "  --effects LIST       what the world serves: rays,triangles,meshes (default all)\n"
-    "  --daemon NAME        the daemon that builds it (default trioctd)\n"
+    "  --daemon NAME        the daemon that builds it (default: the one daemon on the\n"
+    "                       bus, found with LIST; with several, --daemon is needed)\n"
     "\n"
     "Examples:\n"
     "  trioct load yard\n"

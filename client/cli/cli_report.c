@@ -25,11 +25,31 @@ int cli_exit_code(const trioct_reply *r)
     return r->status < 100 ? CLI_EXIT_DAEMON_ERROR : CLI_EXIT_BAD_REPLY;
 }
 
-void cli_no_reply_hint(const cli_context *ctx, int timeout_ms, char *buf, size_t len)
+/* What to check when nothing answered depends on the transport: only udpm needs a
+ * multicast route, and memq:// and file:// can never reach a daemon in another process. */
+static const char *transport_advice(const char *url)
 {
-    snprintf(buf, len,
-             "no reply from trioctd on %s within %d ms: is it running? is the multicast route set?",
-             cli_bus_url(ctx), timeout_ms);
+    if (strncmp(url, "memq://", 7) == 0)
+        return "memq:// is a queue inside this one process, which no daemon shares: give the daemon's "
+               "--url (udpm://...)";
+    if (strncmp(url, "file://", 7) == 0)
+        return "file:// is a log file, not a bus, and nothing answers on it: give the daemon's --url";
+    if (strncmp(url, "udpm://", 7) == 0 || strstr(url, "://") == NULL)
+        return "is it running with this --prefix? is the multicast route set (ip route show 224.0.0.0/4)?";
+    return "is it running on this bus, with this --prefix?";
+}
+
+void cli_no_reply_hint(const cli_context *ctx, const trioct_reply *r, int timeout_ms, char *buf, size_t len)
+{
+    const char *url = cli_bus_url(ctx);
+    char who[TRIOCT_MAX_NAME_LEN + 48];
+    if (r != NULL && r->daemon[0] != '\0')
+        snprintf(who, sizeof who, "daemon %s", r->daemon);
+    else if (r != NULL && r->world[0] != '\0')
+        snprintf(who, sizeof who, "any daemon serving world %s", r->world);
+    else
+        snprintf(who, sizeof who, "any daemon");
+    snprintf(buf, len, "no reply from %s on %s within %d ms: %s", who, url, timeout_ms, transport_advice(url));
 }
 
 static const char *command_name(const cli_context *ctx)
@@ -42,7 +62,7 @@ int cli_report_failure(cli_context *ctx, const trioct_reply *r, int timeout_ms, 
     int code = cli_exit_code(r);
     char hint[TRIOCT_MAX_MESSAGE_LEN + 128] = "";
     if (r->status == TRIOCT_ERR_NO_DAEMON)
-        cli_no_reply_hint(ctx, timeout_ms, hint, sizeof hint);
+        cli_no_reply_hint(ctx, r, timeout_ms, hint, sizeof hint);
 
     const char *sep = ctx->command ? " " : "";
     FILE *e = ctx->err;

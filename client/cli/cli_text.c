@@ -13,6 +13,8 @@ const char *cli_format_double(double v, char buf[CLI_NUMBER_LEN])
         return strcpy(buf, "nan");
     if (isinf(v))
         return strcpy(buf, v > 0 ? "inf" : "-inf");
+    if (v == 0.0)
+        return strcpy(buf, "0"); /* -0 too: a sign on nothing only puzzles a reader */
     for (int precision = 15; precision < 17; precision++) {
         snprintf(buf, CLI_NUMBER_LEN, "%.*g", precision, v);
         if (strtod(buf, NULL) == v)

@@ -164,6 +164,13 @@ int cli_world_table_print(FILE *out, const trioct_world_info *w, size_t n, const
         char bytes[CLI_NUMBER_LEN], eff[40];
         cli_table_cell(&t, "%s", w[i].name);
         cli_table_cell(&t, "%s", w[i].daemon);
+        if (w[i].version == 0) {
+            /* A scene world whose build failed: not served, and why. */
+            for (int c = 0; c < 4; c++)
+                cli_table_cell(&t, "-");
+            cli_table_cell(&t, "not loaded: %s", w[i].last_error);
+            continue;
+        }
         cli_table_cell(&t, "%" PRId64, w[i].version);
         cli_table_cell(&t, "%" PRId64, w[i].triangles);
         cli_table_cell(&t, "%s", cli_format_bytes(w[i].bytes_total, bytes));

@@ -133,8 +133,9 @@ static void destroy(daemon *d)
         free(job);
     }
     free(d->subs);
-    free(d->failed);
+    failed_worlds_free(d->ctx.failed);
     free(d->unload);
+    free(d->pending);
     free(d);
 }
 
@@ -239,8 +240,9 @@ int daemon_run(const daemon_options *opt, scene *sc)
         return 2;
     }
     d->ctx.worlds = registry_create();
+    d->ctx.failed = failed_worlds_create();
     d->replies = reply_cache_create(REPLY_CACHE_ENTRIES, REPLY_CACHE_BYTES);
-    if (d->ctx.worlds == NULL || d->replies == NULL) {
+    if (d->ctx.worlds == NULL || d->ctx.failed == NULL || d->replies == NULL) {
         LOG(LOG_ERROR, "out of memory");
         destroy(d);
         return 1;
@@ -283,15 +285,18 @@ int daemon_run(const daemon_options *opt, scene *sc)
     }
     daemon_publish_status(d);
 
-    /* Every world of the scene builds on the pool at once; the loop reads no message
-     * until the last one is back (daemon_startup_done). */
-    for (size_t i = 0; i < owned->world_count; i++) {
-        LOG(LOG_INFO, "building world '%s' from %s", owned->worlds[i].name, owned->worlds[i].source);
-        if (daemon_queue_build(d, &owned->worlds[i], BUILD_STARTUP) < 0)
-            daemon_failed_set(d, &owned->worlds[i], "the build could not be queued");
+    /* Every world of the scene builds on the pool at once (with --ordered one after another,
+     * daemon_queue_builds); the loop reads no message until the last one is back
+     * (daemon_startup_done). */
+    size_t *all = calloc(owned->world_count ? owned->world_count : 1, sizeof *all);
+    for (size_t i = 0; all != NULL && i < owned->world_count; i++)
+        all[i] = i;
+    if (all == NULL) {
+        LOG(LOG_ERROR, "out of memory");
+        destroy(d);
+        return 1;
     }
-    if (d->builds == 0)
-        daemon_startup_done(d);
+    daemon_queue_builds(d, all, owned->world_count, BUILD_STARTUP);
 
     uv_run(&d->loop, UV_RUN_DEFAULT);
     /* Run again until every closed handle has had its close callback. */

@@ -12,38 +12,11 @@
 #include "log.h"
 
 
-static failed_world *failed_find(daemon *d, const char *name)
-{
-    for (size_t i = 0; i < d->failed_count; i++)
-        if (strcmp(d->failed[i].name, name) == 0)
-            return &d->failed[i];
-    return NULL;
-}
-
-void daemon_failed_remove(daemon *d, const char *name)
-{
-    failed_world *f = failed_find(d, name);
-    if (f != NULL)
-        *f = d->failed[--d->failed_count];
-}
-
 void daemon_failed_set(daemon *d, const world_spec *spec, const char *error)
 {
-    failed_world *f = failed_find(d, spec->name);
-    if (f == NULL) {
-        if (d->failed_count == d->failed_alloc) {
-            size_t want = d->failed_alloc ? d->failed_alloc * 2 : 8;
-            failed_world *grown = realloc(d->failed, want * sizeof *grown);
-            if (grown == NULL)
-                return; /* the error is logged already; status just will not show it */
-            d->failed = grown;
-            d->failed_alloc = want;
-        }
-        f = &d->failed[d->failed_count++];
-    }
-    snprintf(f->name, sizeof f->name, "%s", spec->name);
-    snprintf(f->source, sizeof f->source, "%s", spec->source);
-    snprintf(f->error, sizeof f->error, "%s", error);
+    if (failed_worlds_set(d->ctx.failed, spec->name, spec->source, error) != 0)
+        LOG(LOG_WARN, "world '%s': %d failed worlds are recorded already; this one is only logged", spec->name,
+            TRIOCT_MAX_WORLDS);
 }
 
 /* ---- Worlds: start-up and reload builds ------------------------------------------------- */
@@ -57,6 +30,8 @@ static void work_build(uv_work_t *work)
     job->seconds = (double)(uv_hrtime() - t0) / 1e9;
 }
 
+
+static void queue_pending(daemon *d);
 
 static void after_build(uv_work_t *work, int status)
 {
@@ -91,7 +66,7 @@ static void after_build(uv_work_t *work, int status)
                 "bounds (%g %g %g)-(%g %g %g), built in %.3f s",
                 name, w->version, r->triangles, r->degenerate, r->duplicates, r->bbox_lo.x, r->bbox_lo.y,
                 r->bbox_lo.z, r->bbox_hi.x, r->bbox_hi.y, r->bbox_hi.z, job->seconds);
-            daemon_failed_remove(d, name);
+            failed_worlds_remove(d->ctx.failed, name);
             d->reload_built++;
         }
         world_release(w);
@@ -109,17 +84,48 @@ static void after_build(uv_work_t *work, int status)
         }
         d->reload_failed++;
     }
-    build_phase phase = job->phase;
     free(job);
 
+    if (d->state == TRIOCT_STATUS_T_STOPPING) {
+        if (d->builds == 0)
+            daemon_maybe_finish(d);
+        return;
+    }
+    queue_pending(d); /* the next world with --ordered; the end of the phase once all are back */
+}
+
+/* Queues what is pending: everything, or with --ordered the next one. Ends the phase when
+ * nothing is left running. */
+static void queue_pending(daemon *d)
+{
+    while (d->pending_next < d->pending_count) {
+        const world_spec *spec = &d->scene->worlds[d->pending[d->pending_next++]];
+        LOG(LOG_INFO, "building world '%s' from %s", spec->name, spec->source);
+        if (daemon_queue_build(d, spec, d->pending_phase) == 0) {
+            if (d->opt.ordered)
+                return; /* after_build queues the next */
+        } else if (d->pending_phase == BUILD_STARTUP) {
+            daemon_failed_set(d, spec, "the build could not be queued");
+        } else {
+            d->reload_failed++;
+        }
+    }
     if (d->builds > 0)
         return;
-    if (d->state == TRIOCT_STATUS_T_STOPPING)
-        daemon_maybe_finish(d);
-    else if (phase == BUILD_STARTUP)
+    if (d->pending_phase == BUILD_STARTUP)
         daemon_startup_done(d);
     else
         daemon_reload_done(d);
+}
+
+void daemon_queue_builds(daemon *d, size_t *indices, size_t count, build_phase phase)
+{
+    free(d->pending);
+    d->pending = indices;
+    d->pending_count = indices != NULL ? count : 0;
+    d->pending_next = 0;
+    d->pending_phase = phase;
+    queue_pending(d);
 }
 
 int daemon_queue_build(daemon *d, const world_spec *spec, build_phase phase)
@@ -149,7 +155,8 @@ void daemon_startup_done(daemon *d)
     daemon_sync_subscriptions(d);
     d->state = TRIOCT_STATUS_T_READY;
     LOG(LOG_INFO, "ready: %zu world(s) held, %zu failed; listening on %s, publishing on %s, "
-        "prefix %s, name %s, %d threads, queue depth %d", d->sub_count, d->failed_count,
+        "prefix %s, name %s, %d threads, queue depth %d", registry_entries(d->ctx.worlds, NULL, 0),
+        failed_worlds_list(d->ctx.failed, NULL, 0),
         d->opt.url, d->opt.publish_url, d->opt.prefix, d->opt.name, d->opt.threads,
         d->opt.queue_depth);
     /* Only now: a replayed log must not reach a world that is still being built. */

@@ -27,6 +27,7 @@
 #include "../world/world.h"
 #include "daemon.h"
 #include "dispatch.h"
+#include "failed_worlds.h"
 #include "lcm_selftest.h"
 #include "notify.h"
 #include "options.h"
@@ -42,15 +43,6 @@ typedef struct world_subs {
     lcm_subscription_t *sub[DAEMON_WORLD_KINDS];
     int keep; /* scratch for sync_subscriptions */
 } world_subs;
-
-/* A scene world that is not held because its build failed: reported in status (version 0,
- * with the error) until it loads or leaves the scene. A world that is held and fails to
- * rebuild keeps its entry in the registry instead, with registry_set_error. */
-typedef struct failed_world {
-    char name[TRIOCT_MAX_NAME_LEN + 1];
-    char source[TRIOCT_MAX_PATH_LEN];
-    char error[256];
-} failed_world;
 
 typedef enum build_phase {
     BUILD_STARTUP,
@@ -89,6 +81,10 @@ typedef struct daemon {
                            "Answering on the loop thread" in
                            daemon_requests.c) */
     int builds;         /* world builds of start-up or of a reload still running */
+    /* The builds daemon_queue_builds has still to queue: indices into scene->worlds. */
+    size_t *pending;
+    size_t pending_count, pending_next;
+    build_phase pending_phase;
     int reload_pending; /* a SIGHUP came during start-up or a reload */
 
     /* --ordered (daemon_ordered.c): the requests one wake-up read, in input order. */
@@ -110,8 +106,6 @@ typedef struct daemon {
     lcm_subscription_t *sub_stop;   /* --ordered only */
     world_subs *subs;
     size_t sub_count, sub_alloc;
-    failed_world *failed;
-    size_t failed_count, failed_alloc;
     size_t status_worlds_left_out; /* last heartbeat's, to log a change once */
 
     /* The reload under way. */
@@ -209,8 +203,13 @@ int daemon_ordered_stop_waits(const daemon *d);
 
 /* daemon_builds.c */
 int daemon_queue_build(daemon *d, const world_spec *spec, build_phase phase);
+/* Builds the scene's worlds of the indices (count of them; the call takes the array):
+ * all at once, or with --ordered one after another, so that what a build sees of the
+ * others (the daemon's memory in use, say) is the same on every run. Start-up or the
+ * reload (phase) ends once the last is back, or at once when there is none. */
+void daemon_queue_builds(daemon *d, size_t *indices, size_t count, build_phase phase);
 void daemon_startup_done(daemon *d);
-void daemon_failed_remove(daemon *d, const char *name);
+/* Records that the scene world spec is not held: its build failed with error. */
 void daemon_failed_set(daemon *d, const world_spec *spec, const char *error);
 
 /* daemon_reload.c */

@@ -23,6 +23,11 @@ static int world_from_scene(const world *w, const scene *s)
     return strcmp(section->source, w->spec.source) == 0 || world_spec_equal(section, &w->spec);
 }
 
+static int in_scene(const char *name, void *scene_)
+{
+    return scene_find(scene_, name) != NULL;
+}
+
 /* Options a reload can change without a restart take effect; the others are kept and the
  * log says so. */
 static void apply_reloaded_options(daemon *d, const daemon_options *next)
@@ -111,15 +116,12 @@ void daemon_start_reload(daemon *d)
     registry_entries_free(entries, n);
 
     /* A failed world whose section left is no longer a failure of this scene. */
-    for (size_t i = 0; i < d->failed_count;) {
-        if (scene_find(next, d->failed[i].name) == NULL)
-            d->failed[i] = d->failed[--d->failed_count];
-        else
-            i++;
-    }
+    failed_worlds_filter(d->ctx.failed, in_scene, next);
 
     /* New and changed sections are rebuilt while the held versions keep answering; a
      * world held but failed before (its error set) is retried only when its spec changed. */
+    size_t *rebuild = calloc(next->world_count ? next->world_count : 1, sizeof *rebuild);
+    size_t rebuilds = 0;
     for (size_t i = 0; i < next->world_count; i++) {
         const world_spec *spec = &next->worlds[i];
         world *held = registry_acquire(d->ctx.worlds, spec->name);
@@ -128,9 +130,13 @@ void daemon_start_reload(daemon *d)
             world_release(held);
         if (same)
             d->reload_unchanged++;
-        else if (daemon_queue_build(d, spec, BUILD_RELOAD) < 0)
-            d->reload_failed++;
+        else if (rebuild != NULL)
+            rebuild[rebuilds++] = i;
+        else
+            d->reload_failed++; /* out of memory: logged below */
     }
+    if (rebuild == NULL)
+        LOG(LOG_ERROR, "reload: out of memory; changed worlds are not rebuilt");
 
     /* Admin LOADs of a section read the new scene from now on. Workers copy the spec they
      * need under the lock, so once the pointer is swapped nobody reads the old scene. */
@@ -142,8 +148,7 @@ void daemon_start_reload(daemon *d)
     scene_free(old);
     free(old);
 
-    if (d->builds == 0)
-        daemon_reload_done(d);
+    daemon_queue_builds(d, rebuild, rebuilds, BUILD_RELOAD); /* takes rebuild */
 }
 
 void daemon_reload_done(daemon *d)

@@ -12,21 +12,6 @@
 #include "trioct_world_info_t.h"
 
 
-/* A world whose build failed and that is not held: what status can say about it. */
-static void failed_info(daemon *d, const failed_world *f, trioct_world_info_t *info)
-{
-    static char empty[] = "";
-    memset(info, 0, sizeof *info);
-    info->name = (char *)f->name;
-    info->daemon = d->opt.name;
-    info->version = 0;
-    info->source = (char *)f->source;
-    info->accuracy = empty;
-    info->last_error = (char *)f->error;
-    info->num_shapes = 0;
-    info->shapes = NULL;
-}
-
 typedef struct world_info_space {
     char *shapes[TRIOCT_MAX_SHAPES];
 } world_info_space;
@@ -40,7 +25,11 @@ void daemon_publish_status(daemon *d)
     size_t held = registry_entries(d->ctx.worlds, entries, TRIOCT_MAX_WORLDS);
     if (held > TRIOCT_MAX_WORLDS)
         held = TRIOCT_MAX_WORLDS;
-    size_t total = held + d->failed_count;
+    failed_world *failed = malloc(TRIOCT_MAX_WORLDS * sizeof *failed);
+    size_t nf = failed != NULL ? failed_worlds_list(d->ctx.failed, failed, TRIOCT_MAX_WORLDS) : 0;
+    if (nf > TRIOCT_MAX_WORLDS)
+        nf = TRIOCT_MAX_WORLDS;
+    size_t total = held + nf;
     trioct_world_info_t *infos = calloc(total ? total : 1, sizeof *infos);
     world_info_space *space = calloc(held ? held : 1, sizeof *space);
 
@@ -70,8 +59,8 @@ void daemon_publish_status(daemon *d)
     if (infos != NULL && space != NULL) {
         for (size_t i = 0; i < held; i++)
             dispatch_world_info(&d->ctx, &entries[i], &infos[msg.num_worlds++], space[i].shapes);
-        for (size_t i = 0; i < d->failed_count; i++)
-            failed_info(d, &d->failed[i], &infos[msg.num_worlds++]);
+        for (size_t i = 0; i < nf; i++)
+            dispatch_failed_world_info(&d->ctx, &failed[i], &infos[msg.num_worlds++]);
     }
 
     /* One datagram or nothing: a status that LCM had to fragment could be lost whole. With
@@ -101,12 +90,13 @@ void daemon_publish_status(daemon *d)
     LOG(LOG_DEBUG, "status: %s, %zu worlds (%zu failed), queue %d/%d, served ray %" PRId64
         " triangle %" PRId64 " mesh %" PRId64 " admin %" PRId64 ", malformed %" PRId64
         ", latency p50 %" PRId64 " us p99 %" PRId64 " us over %" PRId64,
-        daemon_state_name(d->state), held, d->failed_count, d->in_flight, d->opt.queue_depth,
+        daemon_state_name(d->state), held, nf, d->in_flight, d->opt.queue_depth,
         d->st.served[0], d->st.served[1], d->st.served[2], d->st.served[3], d->st.malformed,
         lat.p50_us, lat.p99_us, lat.count);
 
     free(space);
     free(infos);
+    free(failed);
     registry_entries_free(entries, held);
     daemon_tell_systemd(d, TELL_STATUS);
 }

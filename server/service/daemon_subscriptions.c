@@ -99,8 +99,34 @@ static int subscribe_world(daemon *d, world_subs *ws, const char *name)
     return 0;
 }
 
-/* Makes the per-world subscriptions those of the worlds the registry holds: a daemon hears
- * the queries of its own worlds only, so daemons sharing a bus never answer twice. Called
+/* Makes one world's subscriptions kept, subscribing when it has none yet. */
+static void keep_world(daemon *d, const char *name)
+{
+    for (size_t i = 0; i < d->sub_count; i++)
+        if (strcmp(d->subs[i].name, name) == 0) {
+            d->subs[i].keep = 1;
+            return;
+        }
+    if (d->sub_count == d->sub_alloc) {
+        size_t want = d->sub_alloc ? d->sub_alloc * 2 : 16;
+        world_subs *grown = realloc(d->subs, want * sizeof *grown);
+        if (grown == NULL) {
+            LOG(LOG_ERROR, "out of memory: world '%s' gets no subscriptions", name);
+            return;
+        }
+        d->subs = grown;
+        d->sub_alloc = want;
+    }
+    if (subscribe_world(d, &d->subs[d->sub_count], name) == 0) {
+        d->subs[d->sub_count].keep = 1;
+        d->sub_count++;
+        LOG(LOG_DEBUG, "listening for world '%s'", name);
+    }
+}
+
+/* Makes the per-world subscriptions those of the worlds the registry holds and of the
+ * scene worlds that failed to build (whose requests are answered with why): a daemon hears
+ * the requests of its own worlds only, so daemons sharing a bus never answer twice. Called
  * after start-up, after a reload and after a reply that loaded or unloaded a world; never
  * from inside lcm_handle. */
 void daemon_sync_subscriptions(daemon *d)
@@ -114,30 +140,14 @@ void daemon_sync_subscriptions(daemon *d)
         d->subs[i].keep = 0;
     for (size_t e = 0; e < n; e++) {
         const char *name = entries[e].w->spec.name;
-        daemon_failed_remove(d, name);
-        size_t i = 0;
-        while (i < d->sub_count && strcmp(d->subs[i].name, name) != 0)
-            i++;
-        if (i < d->sub_count) {
-            d->subs[i].keep = 1;
-            continue;
-        }
-        if (d->sub_count == d->sub_alloc) {
-            size_t want = d->sub_alloc ? d->sub_alloc * 2 : 16;
-            world_subs *grown = realloc(d->subs, want * sizeof *grown);
-            if (grown == NULL) {
-                LOG(LOG_ERROR, "out of memory: world '%s' gets no subscriptions", name);
-                continue;
-            }
-            d->subs = grown;
-            d->sub_alloc = want;
-        }
-        if (subscribe_world(d, &d->subs[d->sub_count], name) == 0) {
-            d->subs[d->sub_count].keep = 1;
-            d->sub_count++;
-            LOG(LOG_DEBUG, "listening for world '%s'", name);
-        }
+        failed_worlds_remove(d->ctx.failed, name); /* held now, by a LOAD say */
+        keep_world(d, name);
     }
+    failed_world *failed = malloc(TRIOCT_MAX_WORLDS * sizeof *failed);
+    size_t nf = failed != NULL ? failed_worlds_list(d->ctx.failed, failed, TRIOCT_MAX_WORLDS) : 0;
+    for (size_t i = 0; i < nf && i < TRIOCT_MAX_WORLDS; i++)
+        keep_world(d, failed[i].name);
+    free(failed);
     for (size_t i = 0; i < d->sub_count;) {
         if (d->subs[i].keep) {
             i++;

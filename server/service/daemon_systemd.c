@@ -34,7 +34,7 @@ static void service_summary(daemon *d, char *out, size_t len)
     if (d->state == TRIOCT_STATUS_T_READY && !bus_proven(d))
         state = "testing the bus";
     snprintf(out, len, "%s: %zu world%s held, %zu failed, %" PRId64 " queries served, queue %d/%d",
-             state, held, held == 1 ? "" : "s", d->failed_count, queries, d->in_flight,
+             state, held, held == 1 ? "" : "s", failed_worlds_list(d->ctx.failed, NULL, 0), queries, d->in_flight,
              d->opt.queue_depth);
 }
 

@@ -399,6 +399,10 @@ static int check_header(job *j, int64_t now_utime)
     }
     if (channel_has_world(req->channel_kind)) {
         j->w = registry_acquire(j->ctx->worlds, req->channel_name);
+        failed_world failed;
+        if (!j->w && j->ctx->failed != NULL && failed_worlds_find(j->ctx->failed, req->channel_name, &failed))
+            return job_fail(j, TRIOCT_ERR_LOAD_FAILED, "world %s of daemon %s is not served: its build failed: %s",
+                            req->channel_name, j->ctx->daemon, failed.error);
         if (!j->w)
             return job_fail(j, TRIOCT_ERR_UNKNOWN_WORLD, "world %s is not held by daemon %s",
                             req->channel_name, j->ctx->daemon);

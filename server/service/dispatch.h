@@ -10,6 +10,7 @@
 #include <stddef.h>
 #include <stdint.h>
 
+#include "failed_worlds.h"
 #include "../../common/channels.h"
 #include "../world/registry.h"
 #include "../world/scene.h"
@@ -26,6 +27,9 @@ typedef struct dispatch_ctx {
     world_env env;
     mesh_loader loader;
     memory_account memory;
+    /* The scene worlds not held because their build failed (NULL: none recorded): LIST
+     * shows them and their requests are answered TRIOCT_ERR_LOAD_FAILED with why. */
+    failed_worlds *failed;
     /* The guard on changes over the bus; NULL refuses them all (no key). */
     admin_auth *auth;
     /* The scene LOAD reads sections from; swapped by the loop thread on SIGHUP. */
@@ -147,5 +151,9 @@ struct _trioct_world_info_t;
 void dispatch_world_info(const dispatch_ctx *ctx, const registry_entry *entry,
                          struct _trioct_world_info_t *info,
                          char *shape_names[TRIOCT_MAX_SHAPES]);
+
+/* The same for a scene world whose build failed: version 0, its source and the error as
+ * last_error, nothing else. info's strings point into f and ctx. */
+void dispatch_failed_world_info(const dispatch_ctx *ctx, const failed_world *f, struct _trioct_world_info_t *info);
 
 #endif

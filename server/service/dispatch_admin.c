@@ -65,19 +65,35 @@ void dispatch_world_info(const dispatch_ctx *ctx, const registry_entry *entry, t
     info->shapes = shape_names;
 }
 
-/* Encodes the OK reply listing `count` entries. */
-static int reply_worlds(job *j, const registry_entry *entries, size_t count)
+void dispatch_failed_world_info(const dispatch_ctx *ctx, const failed_world *f, trioct_world_info_t *info)
 {
-    trioct_world_info_t *infos = dispatch_calloc(count, sizeof *infos);
+    static char empty[] = "";
+    memset(info, 0, sizeof *info);
+    info->name = (char *)f->name;
+    info->daemon = (char *)ctx->daemon;
+    info->version = 0;
+    info->source = (char *)f->source;
+    info->accuracy = empty;
+    info->last_error = (char *)f->error;
+}
+
+/* Encodes the OK reply listing `count` entries, then `failed_count` failed worlds. */
+static int reply_worlds(job *j, const registry_entry *entries, size_t count, const failed_world *failed,
+                        size_t failed_count)
+{
+    size_t all = count + failed_count;
+    trioct_world_info_t *infos = dispatch_calloc(all, sizeof *infos);
     char *(*names)[TRIOCT_MAX_SHAPES] = dispatch_calloc(count, sizeof *names);
     int status = TRIOCT_OK;
     if (!infos || !names) {
-        status = job_fail(j, TRIOCT_ERR_NOMEM, "out of memory listing %zu worlds", count);
+        status = job_fail(j, TRIOCT_ERR_NOMEM, "out of memory listing %zu worlds", all);
     } else {
         for (size_t i = 0; i < count; i++)
             dispatch_world_info(j->ctx, &entries[i], &infos[i], names[i]);
+        for (size_t i = 0; i < failed_count; i++)
+            dispatch_failed_world_info(j->ctx, &failed[i], &infos[count + i]);
         reply_head h = job_head(j, TRIOCT_OK, "ok");
-        status = encode_admin_reply(j->out, &h, j->req.admin_op, infos, count);
+        status = encode_admin_reply(j->out, &h, j->req.admin_op, infos, all);
         if (status == TRIOCT_ERR_NOMEM)
             job_fail(j, status, "out of memory encoding the reply");
         else if (status != TRIOCT_OK)
@@ -94,7 +110,14 @@ static int admin_list(job *j)
     size_t count = registry_entries(j->ctx->worlds, entries, TRIOCT_MAX_WORLDS);
     if (count > TRIOCT_MAX_WORLDS)
         count = TRIOCT_MAX_WORLDS; /* the registry holds no more; only as many were filled */
-    int status = reply_worlds(j, entries, count);
+    /* The scene worlds that failed follow, version 0 and why: a user listing the worlds
+     * sees what is missing, not just what is there. */
+    failed_world *failed = j->ctx->failed != NULL ? dispatch_calloc(TRIOCT_MAX_WORLDS, sizeof *failed) : NULL;
+    size_t nf = failed != NULL ? failed_worlds_list(j->ctx->failed, failed, TRIOCT_MAX_WORLDS) : 0;
+    if (nf > TRIOCT_MAX_WORLDS)
+        nf = TRIOCT_MAX_WORLDS;
+    int status = reply_worlds(j, entries, count, failed, nf);
+    free(failed);
     registry_entries_free(entries, count);
     return status;
 }
@@ -114,7 +137,7 @@ static int admin_info(job *j)
     int status;
     if (found) {
         j->world_version = (int64_t)found->w->version;
-        status = reply_worlds(j, found, 1);
+        status = reply_worlds(j, found, 1, NULL, 0);
     } else {
         /* Unloaded between the check and here. */
         status = job_fail(j, TRIOCT_ERR_UNKNOWN_WORLD, "world %s is not held by daemon %s", j->req.channel_name,
@@ -130,7 +153,7 @@ static int admin_unload(job *j)
         return job_fail(j, TRIOCT_ERR_UNKNOWN_WORLD, "world %s is not held by daemon %s", j->req.channel_name,
                         j->ctx->daemon);
     j->out->worlds_changed = 1;
-    if (reply_worlds(j, NULL, 0) != TRIOCT_OK)
+    if (reply_worlds(j, NULL, 0, NULL, 0) != TRIOCT_OK)
         return job_fail(j, j->status, "world %s was unloaded, but the reply failed: %s", j->req.channel_name,
                         trioct_status_text(j->status));
     return TRIOCT_OK;
@@ -234,7 +257,7 @@ static int admin_load(job *j, const trioct_admin_request_t *m)
     j->out->worlds_changed = 1;
     j->world_version = (int64_t)w->version;
     registry_entry entry = {.w = w, .last_error = ""};
-    status = reply_worlds(j, &entry, 1);
+    status = reply_worlds(j, &entry, 1, NULL, 0);
     world_release(w);
     if (status != TRIOCT_OK)
         return job_fail(j, status, "world %s was loaded as version %lld, but the reply failed: %s", j->req.world,

@@ -560,7 +560,8 @@ static int group_setup(void **state)
     write_text("cube.obj", cube_obj);
     write_text("scene.ini", "[box]\nmesh = box.obj\neffects = rays triangles meshes\n"
                             "shape.cube = cube.obj\n\n"
-                            "[box_rays]\nmesh = box.obj\neffects = rays\n");
+                            "[box_rays]\nmesh = box.obj\neffects = rays\n\n"
+                            "[broken]\nmesh = missing.obj\n");
     char scene[320], log[320];
     path_in_dir(scene, sizeof scene, "scene.ini");
     path_in_dir(log, sizeof log, "daemon.log");
@@ -660,9 +661,10 @@ static void test_worlds(void **state)
     assert_int_equal(jlen(v, "daemons"), 1);
     assert_string_equal(jstr(v, "daemons.0.daemon"), DAEMON);
     assert_string_equal(jstr(v, "daemons.0.status"), "OK");
-    assert_int_equal(jlen(v, "worlds"), 2);
+    assert_int_equal(jlen(v, "worlds"), 3);
     int box = has_world(v, "worlds", "box"), rays = has_world(v, "worlds", "box_rays");
-    assert_true(box >= 0 && rays >= 0);
+    int broken = has_world(v, "worlds", "broken");
+    assert_true(box >= 0 && rays >= 0 && broken >= 0);
     char at[32];
     snprintf(at, sizeof at, "worlds.%d", box);
     check_box_info(v, at);
@@ -675,14 +677,31 @@ static void test_worlds(void **state)
     assert_int_equal(jlen(v, p), 1);
     snprintf(p, sizeof p, "worlds.%d.effects.0", rays);
     assert_string_equal(jstr(v, p), "rays");
+    /* The scene's world that could not load is listed: version 0 and why. */
+    snprintf(p, sizeof p, "worlds.%d.version", broken);
+    assert_int_equal((int)jnum(v, p), 0);
+    snprintf(p, sizeof p, "worlds.%d.last_error", broken);
+    expect_text(jstr(v, p), "missing.obj: No such file or directory");
     jfree(v);
 
     cli_run r = CLI("worlds");
     expect_code(&r, 0);
-    expect_text(r.out, "2 worlds on 1 daemon");
+    expect_text(r.out, "3 worlds on 1 daemon (" BUS_URL "), 1 not loaded");
     expect_text(r.out, "WORLD");
     expect_text(r.out, "box_rays");
     expect_text(r.out, "rays triangles meshes");
+    expect_text(r.out, "not loaded: world 'broken': missing.obj: No such file or directory");
+    run_free(&r);
+
+    /* Asking the failed world anything gets the reason at once, not silence. */
+    r = CLI("info", "broken");
+    expect_code(&r, 1);
+    expect_text(r.err, "daemon " DAEMON " answered ERR_LOAD_FAILED");
+    expect_text(r.err, "its build failed: world 'broken': missing.obj: No such file or directory");
+    run_free(&r);
+    r = CLI("ray", "broken", "0", "0", "5", "0", "0", "-1");
+    expect_code(&r, 1);
+    expect_text(r.err, "ERR_LOAD_FAILED");
     run_free(&r);
 }
 
@@ -734,12 +753,22 @@ static void test_ray(void **state)
     assert_int_equal((int)jnum(v, "found.0"), 1);
     assert_int_equal(jlen(v, "hits"), 1);
     check_hit(v, 0, 0, 8, 1, 0.25, 0.5);
+    /* Where: origin + t * direction. */
+    assert_true(jnum(v, "hits.0.point.0") == 1 && jnum(v, "hits.0.point.1") == 3 && jnum(v, "hits.0.point.2") == 2);
     jfree(v);
 
     /* At (3, 1): triangle 0, u = (x-y)/4, v = y/4. Negative numbers pass unquoted. */
     v = JSON(0, "ray", "box", "3", "1", "10", "-0", "-0", "-2");
     check_hit(v, 0, 0, 4, 0, 0.5, 0.25);
+    assert_true(jnum(v, "hits.0.point.0") == 3 && jnum(v, "hits.0.point.2") == 2);
     jfree(v);
+    /* Text never shows -0: the same ray's point is 3 1 2, and -0 inputs print as 0. */
+    cli_run neg = CLI("ray", "box", "3", "1", "10", "-0", "-0", "-2");
+    expect_code(&neg, 0);
+    expect_text(neg.out, "  3 1 2  ");
+    if (strstr(neg.out, "-0") != NULL)
+        fail_msg("text output shows -0:\n%s", neg.out);
+    run_free(&neg);
 
     /* Every crossing: the top at 8, the bottom's triangle 3 at 10. */
     v = JSON(0, "ray", "box", "1", "3", "10", "0", "0", "-1", "--all");
@@ -785,9 +814,9 @@ static void test_ray(void **state)
     cli_run r = CLI("--timeout", "3000", "ray", "box", "1", "3", "10", "0", "0", "-1", "--all");
     expect_code(&r, 0);
     expect_text(r.out, "world box (version 1, daemon " DAEMON "), all hit: 1 of 1 ray hit");
-    expect_text(r.out, "RAY  FOUND   T  OBJECT  TRIANGLE     U     V  NORMAL\n"
-                       "  0      2   8  box            1  0.25   0.5  0 0 1\n"
-                       "  0      2  10  box            3   0.5  0.25  0 0 -1\n");
+    expect_text(r.out, "RAY  FOUND   T  POINT  OBJECT  TRIANGLE     U     V  NORMAL\n"
+                       "  0      2   8  1 3 2  box            1  0.25   0.5  0 0 1\n"
+                       "  0      2  10  1 3 0  box            3   0.5  0.25  0 0 -1\n");
     run_free(&r);
 }
 
@@ -946,8 +975,8 @@ static void test_ray_touch(void **state)
     r = CLI("ray", "box", "-1", "1", "2", "1", "0", "0", "--touch");
     expect_code(&r, 0);
     expect_text(r.out, "world box (version 1, daemon " DAEMON "), closest hit: 1 of 1 ray hit");
-    expect_text(r.out, "RAY  FOUND  T  OBJECT  TRIANGLE  U     V  NORMAL\n"
-                       "  0      1  1  box            1  0  0.25  0 0 1\n");
+    expect_text(r.out, "RAY  FOUND  T  POINT  OBJECT  TRIANGLE  U     V  NORMAL\n"
+                       "  0      1  1  0 1 2  box            1  0  0.25  0 0 1\n");
     run_free(&r);
 
     /* Touch is exact-only: seed or fast with it is a usage error. */
@@ -1283,9 +1312,37 @@ static void test_load_and_unload(void **state)
     check_hit(v, 0, 0, 8, 1, 0.25, 0.5);
     jfree(v);
 
-    /* Loading again rebuilds: version 2. */
-    v = JSON(0, "load", "extra", "--mesh", "box.obj", "--effects", "rays", "--daemon", DAEMON);
+    /* Loading again rebuilds: version 2. Without --daemon the one daemon on the bus is
+     * found with LIST. */
+    v = JSON(0, "load", "extra", "--mesh", "box.obj", "--effects", "rays");
     assert_int_equal((int)jnum(v, "worlds.0.version"), 2);
+    assert_string_equal(jstr(v, "worlds.0.daemon"), DAEMON);
+    jfree(v);
+
+    /* With a second daemon on the bus, which one should build is the user's to say: a
+     * usage error naming both, before anything is loaded. */
+    char scene2[320], log2[320];
+    path_in_dir(scene2, sizeof scene2, "second.ini");
+    path_in_dir(log2, sizeof log2, "second.log");
+    write_text("second.ini", "[second_world]\nmesh = cube.obj\n");
+    const char *extra2[] = {"--threads", "1", NULL};
+    pid_t second = daemon_proc_start(daemon_bin, scene2, BUS_URL, "second", extra2, log2);
+    assert_true(second > 0);
+    trioct_connect_options opt = {.url = BUS_URL};
+    trioct_client *c = trioct_connect(&opt, NULL, NULL, 0);
+    assert_non_null(c);
+    assert_int_equal(daemon_proc_wait_ready(c, "second", 20000), 0);
+    trioct_disconnect(c);
+    cli_run several = CLI("load", "extra", "--mesh", "box.obj");
+    expect_code(&several, 2);
+    expect_text(several.err, "several daemons answer on " BUS_URL);
+    expect_text(several.err, "say which builds the world with --daemon NAME");
+    if (strstr(several.err, DAEMON) == NULL || strstr(several.err, "second") == NULL)
+        fail_msg("the error names both daemons: %s", several.err);
+    run_free(&several);
+    assert_int_equal(daemon_proc_stop(second, SIGTERM, 5000), 0);
+    v = JSON(0, "info", "extra");
+    assert_int_equal((int)jnum(v, "worlds.0.version"), 2); /* nothing was loaded */
     jfree(v);
 
     v = JSON(0, "unload", "extra");
@@ -1408,24 +1465,34 @@ static void test_exit_no_reply(void **state)
     (void)state;
     cli_run r = CLI("ray", "nobody", "0", "0", "5", "0", "0", "-1", "--timeout", "300");
     expect_code(&r, 3);
-    expect_text(r.err, "no reply from trioctd on " BUS_URL
-                       " within 300 ms: is it running? is the multicast route set?");
+    expect_text(r.err, "no reply from any daemon on " BUS_URL
+                       " within 300 ms: is it running with this --prefix? is the multicast route set");
     expect_text(r.err, "no daemon serves world nobody");
+    run_free(&r);
+
+    /* The advice fits the transport: memq:// and file:// never reach a daemon elsewhere,
+     * and say so instead of asking about multicast. */
+    r = CLI("--url", "memq://", "ray", "nobody", "0", "0", "5", "0", "0", "-1", "--timeout", "300");
+    expect_code(&r, 3);
+    expect_text(r.err, "no reply from any daemon on memq:// within 300 ms: memq:// is a "
+                       "queue inside this one process");
+    if (strstr(r.err, "multicast") != NULL)
+        fail_msg("memq:// advice talks of multicast: %s", r.err);
     run_free(&r);
 
     jv *v = JSON(3, "ray", "nobody", "0", "0", "5", "0", "0", "-1", "--timeout", "300");
     assert_string_equal(jstr(v, "status"), "ERR_NO_DAEMON");
-    expect_text(jstr(v, "hint"), "is the multicast route set?");
+    expect_text(jstr(v, "hint"), "is the multicast route set");
     expect_text(jstr(v, "message"), "no daemon serves world nobody");
     jfree(v);
 
     r = CLI("worlds", "--prefix", "NOBODY", "--timeout", "300");
     expect_code(&r, 3);
-    expect_text(r.err, "no reply from trioctd on " BUS_URL " within 300 ms");
+    expect_text(r.err, "no reply from any daemon on " BUS_URL " within 300 ms");
     run_free(&r);
     r = CLI("status", "--daemon", "nobody", "--timeout", "500");
     expect_code(&r, 3);
-    expect_text(r.err, "no reply from trioctd");
+    expect_text(r.err, "no reply from any daemon");
     run_free(&r);
     r = CLI("load", "w", "--daemon", "nobody", "--timeout", "300");
     expect_code(&r, 3);
