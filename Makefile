@@ -177,7 +177,7 @@ run: $(DAEMON_BIN) $(DEMO_BIN) $(DEMO_DIR)/.stamp
 # so. Under CI (CI=true) or as root a skip is a failure.
 test: $(TEST_BIN) $(E2E_BIN) $(DAEMON_BIN)
 	@TEST_BIN="$(TEST_BIN)" E2E_BIN="$(E2E_BIN)" E2E_CLI_BIN="$(E2E_CLI_BIN)" DAEMON_BIN="$(DAEMON_BIN)" \
-	    CLI_BIN="$(CLI_BIN)" MAKE="$(MAKE)" SAN="$(SAN)" sh tests/run_tests.sh $(BUILD)
+	    CLI_BIN="$(CLI_BIN)" MAKE="$(MAKE)" SAN="$(SAN)" PYTHON="$(PYTHON)" CC="$(CC)" sh tests/run_tests.sh $(BUILD)
 
 asan:
 	$(MAKE) BUILD=build-asan OPT="-O1 -g -fno-omit-frame-pointer" \
@@ -270,6 +270,34 @@ $(EXAMPLE_BIN): $(BUILD)/client/examples/ray_example.o $(CLIENT_LIB)
 	$(CC) $(ALL_CFLAGS) $< $(CLIENT_LIB) -llcm -lsodium -lm -o $@
 all: $(CLIENT_SO) $(EXAMPLE_BIN)
 test: $(CLIENT_SO) $(EXAMPLE_BIN)
+
+# The Python package trioct (docs/python.md): python/trioct/, ctypes over libtrioct.so.2 with
+# numpy arrays, built into $(BUILD)/python/trioct/ so that PYTHONPATH=$(BUILD)/python imports
+# it: the sources copied, _constants.py generated from the C headers (the status table, the
+# caps and the version, typed once) and _paths.py naming the library. _paths.py gives the
+# library's path relative to the package first and absolute second, so that a DESTDIR
+# staging tree finds its own copy; `make install` writes one for the installed paths.
+# PYTHON is the interpreter the tests run: Debian's, which python3-numpy is installed for.
+PYTHON      ?= /usr/bin/python3
+PY_SRC      := $(wildcard python/trioct/*.py)
+PY_BUILD    := $(BUILD)/python/trioct
+PY_GEN      := $(PY_BUILD)/_constants.py $(PY_BUILD)/_paths.py
+PY_OUT      := $(PY_SRC:python/trioct/%=$(PY_BUILD)/%) $(PY_GEN)
+PY_HEADERS  := common/trioct_status.h common/trioct_limits.h common/trioct_version.h
+# $(call py_paths,RELATIVE,ABSOLUTE,FILE): writes a _paths.py.
+py_paths = printf '"""Where libtrioct is, written by make; do not edit."""\nLIBRARY_RELATIVE = "%s"\nLIBRARY = "%s"\n' \
+    '$(1)' '$(2)' > $(3)
+$(PY_BUILD)/%.py: python/trioct/%.py
+	@mkdir -p $(dir $@)
+	cp $< $@
+$(PY_BUILD)/_constants.py: python/gen_constants.sh $(PY_HEADERS)
+	@mkdir -p $(dir $@)
+	sh python/gen_constants.sh $(PY_HEADERS) > $@.tmp && mv $@.tmp $@
+$(PY_BUILD)/_paths.py: Makefile
+	@mkdir -p $(dir $@)
+	$(call py_paths,../../libtrioct.so.2,$(abspath $(BUILD))/libtrioct.so.2,$@)
+all: $(PY_OUT)
+test: $(PY_OUT)
 
 # make install (issue 5): PREFIX (default /usr/local) and DESTDIR honoured. The daemon, the
 # command (when client/cli/ exists), both libraries, the header with the two it includes
