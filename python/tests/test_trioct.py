@@ -94,6 +94,15 @@ def private_network():
     return names == ["lo"]
 
 
+def daemon_env():
+    """This process's environment without LD_PRELOAD: a sanitized build's runtime preloaded
+    into this interpreter is not for the daemon, which links its own (and whose confined
+    mesh loader could not reserve the runtime's address space)."""
+    env = dict(os.environ)
+    env.pop("LD_PRELOAD", None)
+    return env
+
+
 def cube_touches(t):
     """Whether the unit cube translated by t touches the box's surface: the closed solids
     meet and the cube is not inside the box's open interior (it cannot contain the box)."""
@@ -213,7 +222,7 @@ class TestDaemon(unittest.TestCase):
         cls.daemon = subprocess.Popen(
             [DAEMON_BIN, "--scene", os.path.join(cls.dir, "scene.ini"), "--world-dir", cls.dir, "--url", URL,
              "--name", DAEMON, "--threads", "2", "--status-interval", "200", "--admin-key-file", cls.key],
-            stdout=cls.log, stderr=subprocess.STDOUT)
+            stdout=cls.log, stderr=subprocess.STDOUT, env=daemon_env())
         cls.c = trioct.connect(URL, timeout_ms=5000)
         deadline = time.monotonic() + 20
         while True:
