@@ -184,7 +184,7 @@ run: all $(DEMO_DIR)/.stamp
 # so. Under CI (CI=true) or as root a skip is a failure.
 test: $(TEST_BIN) $(E2E_BIN) $(DAEMON_BIN)
 	@TEST_BIN="$(TEST_BIN)" E2E_BIN="$(E2E_BIN)" E2E_CLI_BIN="$(E2E_CLI_BIN)" DAEMON_BIN="$(DAEMON_BIN)" \
-	    CLI_BIN="$(CLI_BIN)" MAKE="$(MAKE)" SAN="$(SAN)" sh tests/run_tests.sh $(BUILD)
+	    CLI_BIN="$(CLI_BIN)" MAKE="$(MAKE)" SAN="$(SAN)" PYTHON="$(PYTHON)" CC="$(CC)" sh tests/run_tests.sh $(BUILD)
 
 asan:
 	$(MAKE) BUILD=build-asan OPT="-O1 -g -fno-omit-frame-pointer" \
@@ -239,27 +239,6 @@ accuracy-report: $(ACC_BIN)
 demo-picture: all $(DEMO_DIR)/.stamp
 	sh scripts/render_demo.sh $(BUILD) docs/demo-yard.png
 
-# Issue 7: the systemd unit, the example scene and the man pages; `make install` runs it.
-# The unit goes to $(PREFIX)/lib/systemd/system, which systemd reads for /usr and
-# /usr/local alike, its ExecStart pointing at $(PREFIX)/bin/trioctd. The scene goes to
-# /etc/trioct, where the unit reads it whatever the prefix, and only when none is there: a
-# reinstall never overwrites an edited one. A pristine copy goes to share/trioct always.
-PREFIX ?= /usr/local
-SYSTEMD_UNIT_DIR ?= $(PREFIX)/lib/systemd/system
-MAN_DIR ?= $(PREFIX)/share/man
-.PHONY: install-service
-install-service:
-	install -d $(DESTDIR)$(SYSTEMD_UNIT_DIR) $(DESTDIR)/etc/trioct/worlds \
-	    $(DESTDIR)$(PREFIX)/share/trioct $(DESTDIR)$(MAN_DIR)/man1 $(DESTDIR)$(MAN_DIR)/man8
-	sed 's|^ExecStart=/usr/bin/trioctd |ExecStart=$(PREFIX)/bin/trioctd |' systemd/trioctd.service \
-	    > $(DESTDIR)$(SYSTEMD_UNIT_DIR)/trioctd.service
-	chmod 0644 $(DESTDIR)$(SYSTEMD_UNIT_DIR)/trioctd.service
-	install -m 0644 systemd/scene.ini $(DESTDIR)$(PREFIX)/share/trioct/scene.ini.example
-	test -e $(DESTDIR)/etc/trioct/scene.ini || \
-	    install -m 0644 systemd/scene.ini $(DESTDIR)/etc/trioct/scene.ini
-	install -m 0644 man/trioctd.8 $(DESTDIR)$(MAN_DIR)/man8/trioctd.8
-	install -m 0644 man/trioct.1 $(DESTDIR)$(MAN_DIR)/man1/trioct.1
-
 # libtrioct as a shared library (issue 5): position-independent objects of their own, built
 # with every symbol hidden but those trioct.h marks TRIOCT_API, so the .so exports the
 # public API and nothing else (not the generated wire code, not common/).
@@ -284,32 +263,33 @@ $(EXAMPLE_BIN): $(BUILD)/client/examples/ray_example.o $(CLIENT_LIB)
 all: $(CLIENT_SO) $(EXAMPLE_BIN)
 test: $(CLIENT_SO) $(EXAMPLE_BIN)
 
-# make install (issue 5): PREFIX (default /usr/local) and DESTDIR honoured. The daemon, the
-# command (when client/cli/ exists), both libraries, the header with the two it includes
-# (in include/trioct/, where its quoted includes find them), and trioct.pc with the prefix
-# written in; then install-service (issue 7: the unit, the example scene, the man pages).
-# tests/e2e/install_test.sh checks the installed tree file by file.
-PREFIX     ?= /usr/local
-BINDIR      = $(PREFIX)/bin
-LIBDIR      = $(PREFIX)/lib
-INCLUDEDIR  = $(PREFIX)/include
-PC_VERSION := $(or $(shell sed -n 's/^\#define TRIOCT_VERSION "\(.*\)"/\1/p' common/trioct_version.h),0)
-.PHONY: install install-lib
-install: install-lib install-service
-install-lib: $(DAEMON_BIN) $(LOADER_BIN) $(CLIENT_LIB) $(CLIENT_SO) $(if $(wildcard client/cli/*.c),$(BUILD)/trioct)
-	install -d $(DESTDIR)$(BINDIR) $(DESTDIR)$(LIBDIR)/pkgconfig $(DESTDIR)$(INCLUDEDIR)/trioct \
-	    $(DESTDIR)$(PREFIX)/libexec/trioct
-	install -m 0755 $(DAEMON_BIN) $(DESTDIR)$(BINDIR)/trioctd
-	install -m 0755 $(LOADER_BIN) $(DESTDIR)$(PREFIX)/libexec/trioct/trioct-load
-	if [ -f $(BUILD)/trioct ]; then install -m 0755 $(BUILD)/trioct $(DESTDIR)$(BINDIR)/trioct; fi
-	install -m 0644 $(CLIENT_LIB) $(DESTDIR)$(LIBDIR)/libtrioct.a
-	install -m 0644 $(CLIENT_SO) $(DESTDIR)$(LIBDIR)/libtrioct.so.2
-	ln -sf libtrioct.so.2 $(DESTDIR)$(LIBDIR)/libtrioct.so
-	install -m 0644 client/trioct.h common/trioct_limits.h common/trioct_status.h \
-	    $(DESTDIR)$(INCLUDEDIR)/trioct/
-	sed -e 's|@PREFIX@|$(PREFIX)|g' -e 's|@LIBDIR@|$(LIBDIR)|g' -e 's|@VERSION@|$(PC_VERSION)|g' \
-	    client/trioct.pc.in > $(DESTDIR)$(LIBDIR)/pkgconfig/trioct.pc
-	chmod 0644 $(DESTDIR)$(LIBDIR)/pkgconfig/trioct.pc
+# The Python package trioct (docs/python.md): python/trioct/, ctypes over libtrioct.so.2 with
+# numpy arrays, built into $(BUILD)/python/trioct/ so that PYTHONPATH=$(BUILD)/python imports
+# it: the sources copied, _constants.py generated from the C headers (the status table, the
+# caps and the version, typed once) and _paths.py naming the library. _paths.py gives the
+# library's path relative to the package first and absolute second, so that a DESTDIR
+# staging tree finds its own copy; `make install` writes one for the installed paths.
+# PYTHON is the interpreter the tests run: Debian's, which python3-numpy is installed for.
+PYTHON      ?= /usr/bin/python3
+PY_SRC      := $(wildcard python/trioct/*.py)
+PY_BUILD    := $(BUILD)/python/trioct
+PY_GEN      := $(PY_BUILD)/_constants.py $(PY_BUILD)/_paths.py
+PY_OUT      := $(PY_SRC:python/trioct/%=$(PY_BUILD)/%) $(PY_GEN)
+PY_HEADERS  := common/trioct_status.h common/trioct_limits.h common/trioct_version.h
+# $(call py_paths,RELATIVE,ABSOLUTE,FILE): writes a _paths.py.
+py_paths = printf '"""Where libtrioct is, written by make; do not edit."""\nLIBRARY_RELATIVE = "%s"\nLIBRARY = "%s"\n' \
+    '$(1)' '$(2)' > $(3)
+$(PY_BUILD)/%.py: python/trioct/%.py
+	@mkdir -p $(dir $@)
+	cp $< $@
+$(PY_BUILD)/_constants.py: python/gen_constants.sh $(PY_HEADERS)
+	@mkdir -p $(dir $@)
+	sh python/gen_constants.sh $(PY_HEADERS) > $@.tmp && mv $@.tmp $@
+$(PY_BUILD)/_paths.py: Makefile
+	@mkdir -p $(dir $@)
+	$(call py_paths,../../libtrioct.so.2,$(abspath $(BUILD))/libtrioct.so.2,$@)
+all: $(PY_OUT)
+test: $(PY_OUT)
 
 # Issue 6: replayable message logs (docs/replay.md). trioct-replay feeds an LCM log to a
 # fresh trioctd and compares its replies with recorded ones; trioct-make-logs writes the
@@ -334,6 +314,102 @@ all test: $(REPLAY_BIN) $(MAKE_LOGS_BIN)
 .PHONY: logs
 logs: $(MAKE_LOGS_BIN) $(REPLAY_BIN) $(DAEMON_BIN)
 	sh tools/replay/make_logs.sh $(BUILD) tests/logs
+
+# ---- make install, make uninstall ----------------------------------------------------------
+# Laid out as a Debian package would be, every directory a variable (on the command line:
+# `make install PREFIX=/usr LIBDIR=/usr/lib/x86_64-linux-gnu DESTDIR=...`), and what is read
+# at run time (trioct.pc, the Python package's _paths.py, the unit's ExecStart) written for
+# the final place, not the DESTDIR staging one:
+#   PREFIX            /usr/local
+#   BINDIR            $(PREFIX)/bin: trioctd, trioct, trioct-replay
+#   LIBDIR            $(PREFIX)/lib: libtrioct.a, libtrioct.so.2 and its .so link, and
+#                     pkgconfig/trioct.pc; a multiarch directory works the same
+#   INCLUDEDIR        $(PREFIX)/include: trioct/trioct.h and the two headers it includes
+#   MAN_DIR           $(PREFIX)/share/man: trioct(1), trioct-replay(1), trioctd(8)
+#   PYTHONDIR         $(PREFIX)/lib/python3/dist-packages: the trioct Python package (on
+#                     Debian's sys.path for PREFIX=/usr; for /usr/local, Debian's python3
+#                     reads /usr/local/lib/python3.X/dist-packages instead)
+#   SYSTEMD_UNIT_DIR  $(PREFIX)/lib/systemd/system, which systemd reads for /usr and
+#                     /usr/local alike
+# trioct-load goes to $(PREFIX)/libexec/trioct/, where trioctd looks for it (../libexec/trioct/
+# from its own directory). tests/e2e/install_test.sh checks the tree file by file, and that
+# `make uninstall` with the same variables leaves no file behind.
+PREFIX     ?= /usr/local
+BINDIR      = $(PREFIX)/bin
+LIBDIR      = $(PREFIX)/lib
+INCLUDEDIR  = $(PREFIX)/include
+LOADER_DIR  = $(PREFIX)/libexec/trioct
+MAN_DIR    ?= $(PREFIX)/share/man
+PYTHONDIR  ?= $(PREFIX)/lib/python3/dist-packages
+SYSTEMD_UNIT_DIR ?= $(PREFIX)/lib/systemd/system
+PC_VERSION := $(or $(shell sed -n 's/^\#define TRIOCT_VERSION "\(.*\)"/\1/p' common/trioct_version.h),0)
+PUBLIC_HEADERS := client/trioct.h common/trioct_limits.h common/trioct_status.h
+MAN_PAGES  := man1/trioct.1 man1/trioct-replay.1 man8/trioctd.8
+PY_INSTALLED := $(notdir $(PY_OUT))
+.PHONY: install install-lib install-python install-service uninstall
+install: install-lib install-python install-service
+
+# The programs, both libraries, the header with the two it includes (in include/trioct/,
+# where its quoted includes find them) and trioct.pc. Its Cflags name include/ and
+# include/trioct/, so <trioct/trioct.h> and "trioct.h" both work.
+install-lib: $(DAEMON_BIN) $(LOADER_BIN) $(REPLAY_BIN) $(CLIENT_LIB) $(CLIENT_SO) $(if $(wildcard client/cli/*.c),$(BUILD)/trioct)
+	install -d $(DESTDIR)$(BINDIR) $(DESTDIR)$(LIBDIR)/pkgconfig $(DESTDIR)$(INCLUDEDIR)/trioct $(DESTDIR)$(LOADER_DIR)
+	install -m 0755 $(DAEMON_BIN) $(DESTDIR)$(BINDIR)/trioctd
+	install -m 0755 $(LOADER_BIN) $(DESTDIR)$(LOADER_DIR)/trioct-load
+	if [ -f $(BUILD)/trioct ]; then install -m 0755 $(BUILD)/trioct $(DESTDIR)$(BINDIR)/trioct; fi
+	install -m 0755 $(REPLAY_BIN) $(DESTDIR)$(BINDIR)/trioct-replay
+	install -m 0644 $(CLIENT_LIB) $(DESTDIR)$(LIBDIR)/libtrioct.a
+	install -m 0644 $(CLIENT_SO) $(DESTDIR)$(LIBDIR)/libtrioct.so.2
+	ln -sf libtrioct.so.2 $(DESTDIR)$(LIBDIR)/libtrioct.so
+	install -m 0644 $(PUBLIC_HEADERS) $(DESTDIR)$(INCLUDEDIR)/trioct/
+	sed -e 's|@PREFIX@|$(PREFIX)|g' -e 's|@LIBDIR@|$(LIBDIR)|g' -e 's|@INCLUDEDIR@|$(INCLUDEDIR)|g' \
+	    -e 's|@VERSION@|$(PC_VERSION)|g' client/trioct.pc.in > $(DESTDIR)$(LIBDIR)/pkgconfig/trioct.pc
+	chmod 0644 $(DESTDIR)$(LIBDIR)/pkgconfig/trioct.pc
+
+# The Python package, its _paths.py naming the installed library: relative to the package
+# first, so that it is found in a DESTDIR staging tree too, then by its absolute path.
+install-python: $(PY_OUT)
+	install -d $(DESTDIR)$(PYTHONDIR)/trioct
+	install -m 0644 $(filter-out %/_paths.py,$(PY_OUT)) $(DESTDIR)$(PYTHONDIR)/trioct/
+	$(call py_paths,$(shell realpath -m -s --relative-to=$(PYTHONDIR)/trioct $(LIBDIR))/libtrioct.so.2,$(LIBDIR)/libtrioct.so.2,$(DESTDIR)$(PYTHONDIR)/trioct/_paths.py)
+	chmod 0644 $(DESTDIR)$(PYTHONDIR)/trioct/_paths.py
+
+# Issue 7: the systemd unit, the example scene and the man pages. The unit's ExecStart
+# points at $(BINDIR)/trioctd. The scene goes to /etc/trioct, where the unit reads it
+# whatever the prefix, and only when none is there: a reinstall never overwrites an edited
+# one. A pristine copy goes to share/trioct always.
+install-service:
+	install -d $(DESTDIR)$(SYSTEMD_UNIT_DIR) $(DESTDIR)/etc/trioct/worlds \
+	    $(DESTDIR)$(PREFIX)/share/trioct $(DESTDIR)$(MAN_DIR)/man1 $(DESTDIR)$(MAN_DIR)/man8
+	sed 's|^ExecStart=/usr/bin/trioctd |ExecStart=$(BINDIR)/trioctd |' systemd/trioctd.service \
+	    > $(DESTDIR)$(SYSTEMD_UNIT_DIR)/trioctd.service
+	chmod 0644 $(DESTDIR)$(SYSTEMD_UNIT_DIR)/trioctd.service
+	install -m 0644 systemd/scene.ini $(DESTDIR)$(PREFIX)/share/trioct/scene.ini.example
+	test -e $(DESTDIR)/etc/trioct/scene.ini || \
+	    install -m 0644 systemd/scene.ini $(DESTDIR)/etc/trioct/scene.ini
+	for page in $(MAN_PAGES); do install -m 0644 man/$${page#*/} $(DESTDIR)$(MAN_DIR)/$$page || exit 1; done
+
+# Removes what install put there, with the same variables, and the directories it made under
+# trioct's own names once they are empty; shared directories (bin, lib, share/man, ...) stay.
+# /etc/trioct/scene.ini goes only when it is still the shipped scene: an edited one is the
+# administrator's and is kept (as dpkg keeps a changed conffile), and so is its directory.
+# The Python package's byte code, written when it was first imported, goes with it.
+uninstall:
+	@scene=$(DESTDIR)/etc/trioct/scene.ini; \
+	if cmp -s systemd/scene.ini $$scene || cmp -s $(DESTDIR)$(PREFIX)/share/trioct/scene.ini.example $$scene; then \
+	    echo "rm -f $$scene"; rm -f $$scene; \
+	elif [ -e $$scene ]; then echo "uninstall: kept $$scene: it was edited"; fi
+	rm -f $(addprefix $(DESTDIR)$(BINDIR)/,trioctd trioct trioct-replay) $(DESTDIR)$(LOADER_DIR)/trioct-load \
+	    $(addprefix $(DESTDIR)$(LIBDIR)/,libtrioct.a libtrioct.so.2 libtrioct.so pkgconfig/trioct.pc) \
+	    $(addprefix $(DESTDIR)$(INCLUDEDIR)/trioct/,$(notdir $(PUBLIC_HEADERS))) \
+	    $(addprefix $(DESTDIR)$(MAN_DIR)/,$(MAN_PAGES)) \
+	    $(DESTDIR)$(SYSTEMD_UNIT_DIR)/trioctd.service $(DESTDIR)$(PREFIX)/share/trioct/scene.ini.example \
+	    $(addprefix $(DESTDIR)$(PYTHONDIR)/trioct/,$(PY_INSTALLED))
+	rm -f $(foreach f,$(basename $(PY_INSTALLED)),$(DESTDIR)$(PYTHONDIR)/trioct/__pycache__/$(f).*.pyc)
+	for d in $(DESTDIR)$(INCLUDEDIR)/trioct $(DESTDIR)$(LOADER_DIR) $(DESTDIR)$(PREFIX)/share/trioct \
+	    $(DESTDIR)$(PYTHONDIR)/trioct/__pycache__ $(DESTDIR)$(PYTHONDIR)/trioct \
+	    $(DESTDIR)/etc/trioct/worlds $(DESTDIR)/etc/trioct; do \
+	    if [ -d $$d ]; then rmdir --ignore-fail-on-non-empty $$d || exit 1; fi; done
 
 clean:
 	rm -rf build build-asan

@@ -3,7 +3,7 @@
 # apt-get line and fails, so a build never half-works on a machine that lacks them.
 #   scripts/deps.sh [PACKAGE...]   the extra packages a target needs too (make fuzz: clang)
 set -eu
-PACKAGES="$* gcc g++ make pkg-config libcmocka-dev libassimp-dev assimp-testmodels libgmp-dev gnuplot-nox liblcm-dev liblcm-bin libuv1-dev libinih-dev libseccomp-dev libsodium-dev libpng-dev iproute2 util-linux systemd procps groff-base man-db"
+PACKAGES="$* gcc g++ make pkg-config libcmocka-dev libassimp-dev assimp-testmodels libgmp-dev gnuplot-nox liblcm-dev liblcm-bin libuv1-dev libinih-dev libseccomp-dev libsodium-dev libpng-dev iproute2 util-linux systemd procps groff-base man-db python3 python3-numpy"
 
 missing=""
 for p in $PACKAGES; do

@@ -5,8 +5,8 @@
 # reports a skipped test (cmocka's "[  SKIPPED ] name", a script's "SKIPPED: why"). Under
 # CI (CI=true) or as root everything a test needs is there, so nothing may be skipped: a
 # skip is counted as a failure. Exits 1 when anything failed.
-#   tests/run_tests.sh BUILD   with TEST_BIN, E2E_BIN, E2E_CLI_BIN, DAEMON_BIN, CLI_BIN, MAKE
-#                              and SAN from the Makefile
+#   tests/run_tests.sh BUILD   with TEST_BIN, E2E_BIN, E2E_CLI_BIN, DAEMON_BIN, CLI_BIN, MAKE,
+#                              SAN and PYTHON from the Makefile
 set -u
 build=$1
 export LCM_DEFAULT_URL=memq://
@@ -63,6 +63,16 @@ run demo_test.sh "tests/e2e/demo_test.sh (make run's path: the demo up, demo-she
 run "$E2E_BIN" "$E2E_BIN (udpm in a private network namespace)" tests/e2e/netns.sh "$E2E_BIN" "$DAEMON_BIN"
 run "$E2E_CLI_BIN" "$E2E_CLI_BIN (the trioct command against trioctd, udpm in a private network namespace)" \
     tests/e2e/netns.sh "$E2E_CLI_BIN" "$DAEMON_BIN" "$CLI_BIN"
+# The Python package from the build tree against a daemon of its own. A sanitized build's
+# libtrioct needs the ASan runtime loaded first in an interpreter that was not built with
+# it, and CPython's own allocations would read as leaks.
+py_env=
+case "$SAN" in
+*address*) py_env="LD_PRELOAD=$(${CC:-cc} -print-file-name=libasan.so) ASAN_OPTIONS=detect_leaks=0" ;;
+esac
+run python_test "python/tests (the trioct Python package against trioctd, udpm in a private network namespace)" \
+    tests/e2e/netns.sh env $py_env PYTHONDONTWRITEBYTECODE=1 PYTHONPATH="$build/python" TRIOCT_BUILD="$build" TRIOCT_DAEMON="$DAEMON_BIN" \
+    "${PYTHON:-/usr/bin/python3}" -m unittest discover -v -s python/tests
 
 echo "make test: $passed passed, $failed failed, $skipped skipped (test programs)"
 if [ -n "$skipped_names" ]; then

@@ -5,7 +5,7 @@
 #     exits 0 on unknown keys, so stderr is the real verdict); two broken copies show the
 #     check would notice;
 #   - `systemd-analyze security --offline=true`: the exposure score at most EXPOSURE_MAX;
-#   - both man pages render with groff and man-db without a single warning;
+#   - the three man pages render with groff and man-db without a single warning;
 #   - the example scene starts the built daemon (memq://, nothing on the network), and
 #     with its commented worlds uncommented every key is still accepted;
 #   - over udpm in a private network namespace (tests/e2e/netns.sh), READY=1 comes after
@@ -114,7 +114,7 @@ if [ -s "$tmp/security.err" ]; then
 fi
 
 # ---- man pages -------------------------------------------------------------------------------
-for page in man/trioctd.8 man/trioct.1; do
+for page in man/trioctd.8 man/trioct.1 man/trioct-replay.1; do
     groff -man -Tutf8 -ww -z "$page" 2>"$tmp/groff.err"
     LC_ALL=C.UTF-8 MANWIDTH=80 man --warnings -l "$page" >"$tmp/page.txt" 2>"$tmp/man.err"
     if [ -s "$tmp/groff.err" ] || [ -s "$tmp/man.err" ]; then
@@ -214,7 +214,8 @@ fi
 for pair in "systemd/scene.ini etc/trioct/scene.ini" \
     "systemd/scene.ini usr/local/share/trioct/scene.ini.example" \
     "man/trioctd.8 usr/local/share/man/man8/trioctd.8" \
-    "man/trioct.1 usr/local/share/man/man1/trioct.1"; do
+    "man/trioct.1 usr/local/share/man/man1/trioct.1" \
+    "man/trioct-replay.1 usr/local/share/man/man1/trioct-replay.1"; do
     set -- $pair
     if same_file "$1" "$dest/$2" && mode_is "$dest/$2" 644; then
         ok "/$2: a 0644 copy of $1"
