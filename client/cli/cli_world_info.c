@@ -137,7 +137,7 @@ void cli_world_info_print(FILE *out, const trioct_world_info *w, const char *ind
     else
         fprintf(out, "%sbudget      %s (meshes and trees; no budget of its own)\n", indent,
                 cli_format_bytes(w->memory_bytes, a));
-    fprintf(out, "%sbuild       %.3f s\n", indent, w->build_seconds);
+    fprintf(out, "%soctrees     built in %.3f s (after the meshes were read)\n", indent, w->build_seconds);
     fprintf(out, "%sobjects     %" PRId64 " (trioct objects %s lists them)\n", indent, w->objects, w->name);
     fprintf(out, "%squeries     %" PRId64 "\n", indent, w->queries);
     fprintf(out, "%sshapes      ", indent);

@@ -24,10 +24,8 @@ void daemon_failed_set(daemon *d, const world_spec *spec, const char *error)
 static void work_build(uv_work_t *work)
 {
     build_job *job = work->data;
-    uint64_t t0 = uv_hrtime();
     job->status = TRIOCT_OK;
     job->result = world_build(&job->spec, job->world_dir, &job->d->ctx.env, &job->status, job->err, sizeof job->err);
-    job->seconds = (double)(uv_hrtime() - t0) / 1e9;
 }
 
 
@@ -63,9 +61,9 @@ static void after_build(uv_work_t *work, int status)
             const mesh_load_report *r = &w->report;
             LOG(LOG_INFO,
                 "world '%s' version %" PRIu64 " ready: %zu triangles (%zu degenerate, %zu duplicate), "
-                "bounds (%g %g %g)-(%g %g %g), built in %.3f s",
+                "bounds (%g %g %g)-(%g %g %g); meshes read in %.3f s, octrees built in %.3f s",
                 name, w->version, r->triangles, r->degenerate, r->duplicates, r->bbox_lo.x, r->bbox_lo.y,
-                r->bbox_lo.z, r->bbox_hi.x, r->bbox_hi.y, r->bbox_hi.z, job->seconds);
+                r->bbox_lo.z, r->bbox_hi.x, r->bbox_hi.y, r->bbox_hi.z, w->load_seconds, w->build_seconds);
             failed_worlds_remove(d->ctx.failed, name);
             d->reload_built++;
         }

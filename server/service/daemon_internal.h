@@ -140,7 +140,6 @@ typedef struct build_job {
     world *result;
     int status;
     char err[512];
-    double seconds;
 } build_job;
 
 typedef enum tell_what {

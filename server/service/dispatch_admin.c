@@ -1,9 +1,11 @@
 /* World admin: LIST, INFO, LOAD and UNLOAD, and the one conversion of a held world into
  * world_info_t that their replies and the status message share. */
+#include <inttypes.h>
 #include <math.h>
 #include <string.h>
 
 #include "dispatch_internal.h"
+#include "log.h"
 
 static trioct_vec3_t vec_out(vec3 v)
 {
@@ -53,7 +55,9 @@ void dispatch_world_info(const dispatch_ctx *ctx, const registry_entry *entry, t
     info->bytes_total = (int64_t)oi.bytes_total + (int64_t)w->bytes_shapes;
     info->memory_bytes = (int64_t)world_memory_bytes(w);
     info->memory_budget = (int64_t)w->spec.memory_budget;
-    info->build_seconds = oi.build_seconds;
+    /* The octrees' build after the meshes were read, as the log says it; a version made by
+     * an object edit has only its trees' own times. */
+    info->build_seconds = w->build_seconds > 0 ? w->build_seconds : oi.build_seconds;
 
     info->objects = (int64_t)w->objects->count;
     info->queries = (int64_t)atomic_load(&((world *)w)->queries);
@@ -265,17 +269,44 @@ static int admin_load(job *j, const trioct_admin_request_t *m)
     return TRIOCT_OK;
 }
 
+/* Every change over the bus is logged with who asked and how it went: what an operator
+ * reads to learn why a world changed, or why it did not. */
+static void log_change(const job *j, const char *op, int status)
+{
+    if (status != TRIOCT_OK) {
+        LOG(LOG_WARN, "%s of world '%s' by client %" PRIx64 " (request %" PRId64 "): %s: %s", op, j->req.world,
+            (uint64_t)j->req.client_id, j->req.request_id, trioct_status_name(status), j->message);
+        return;
+    }
+    world *w = strcmp(op, "LOAD") == 0 ? registry_acquire(j->ctx->worlds, j->req.world) : NULL;
+    if (w == NULL) {
+        LOG(LOG_INFO, "%s of world '%s' by client %" PRIx64 " (request %" PRId64 "): OK", op, j->req.world,
+            (uint64_t)j->req.client_id, j->req.request_id);
+        return;
+    }
+    LOG(LOG_INFO, "%s of world '%s' by client %" PRIx64 " (request %" PRId64 "): OK, version %" PRIu64
+        ", %zu triangles; meshes read in %.3f s, octrees built in %.3f s", op, j->req.world,
+        (uint64_t)j->req.client_id, j->req.request_id, w->version, w->report.triangles, w->load_seconds,
+        w->build_seconds);
+    world_release(w);
+}
+
 int dispatch_admin(job *j, const trioct_admin_request_t *m)
 {
+    int status;
     switch (m->op) {
     case TRIOCT_ADMIN_REQUEST_T_LIST:
         return admin_list(j);
     case TRIOCT_ADMIN_REQUEST_T_INFO:
         return admin_info(j);
     case TRIOCT_ADMIN_REQUEST_T_UNLOAD:
-        return dispatch_authorize(j) == TRIOCT_OK ? admin_unload(j) : j->status;
+        status = dispatch_authorize(j) == TRIOCT_OK ? admin_unload(j) : j->status;
+        log_change(j, "UNLOAD", status);
+        return status;
     case TRIOCT_ADMIN_REQUEST_T_LOAD:
-        return dispatch_authorize(j) == TRIOCT_OK ? admin_load(j, m) : j->status;
+        status = dispatch_authorize(j) == TRIOCT_OK ? admin_load(j, m) : j->status;
+        log_change(j, "LOAD", status);
+        return status;
     default:
         /* check_header admits only the op its channel serves. */
         return job_fail(j, TRIOCT_ERR_BAD_REQUEST, "admin op %d is not LIST, INFO, LOAD or UNLOAD", m->op);

@@ -12,6 +12,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <time.h>
 
 #include "../../common/channels.h"
 #include "../../common/trioct_status.h"
@@ -110,7 +111,15 @@ typedef struct world_builder {
     size_t budget;      /* the world's memory budget; SIZE_MAX: none */
     size_t world_bytes; /* what the world holds, and this build has added, so far */
     size_t mesh_held;   /* mesh bytes taken from the account and not yet handed to a model */
+    double load_seconds; /* spent reading mesh files so far */
 } world_builder;
+
+static double monotonic_seconds(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (double)ts.tv_sec + (double)ts.tv_nsec / 1e9;
+}
 
 static int build_fail(world_builder *b, int status, const char *format, ...)
     __attribute__((format(printf, 3, 4)));
@@ -172,6 +181,9 @@ static int budget_fail(world_builder *b, const char *why)
 /* Resolves and loads one file, in the env's loader child when it has one, and takes the
  * mesh's bytes from the account; the loader's message already names the file (and the
  * triangle of a NaN/Inf coordinate). */
+static int read_file(world_builder *b, const char *rel, const char *path, size_t room, mesh_data *mesh,
+                     mesh_load_report *report, char *why, size_t why_len);
+
 static int load_file(world_builder *b, const char *rel, mesh_data *mesh, mesh_load_report *report)
 {
     char path[TRIOCT_MAX_PATH_LEN];
@@ -179,22 +191,33 @@ static int load_file(world_builder *b, const char *rel, mesh_data *mesh, mesh_lo
     if (world_resolve_path(b->world_dir, rel, path, sizeof path, why, sizeof why) != 0)
         return build_fail(b, TRIOCT_ERR_BAD_PATH, "world '%s': %s", b->spec->name, why);
     size_t room = builder_room(b);
+    double started = monotonic_seconds();
+    int rc = read_file(b, rel, path, room, mesh, report, why, sizeof why);
+    b->load_seconds += monotonic_seconds() - started;
+    return rc;
+}
+
+/* load_file's work: the file parsed by the loader child (or, without one, in this process)
+ * and its mesh's memory taken from the budget. */
+static int read_file(world_builder *b, const char *rel, const char *path, size_t room, mesh_data *mesh,
+                     mesh_load_report *report, char *why, size_t why_len)
+{
     if (b->env && b->env->loader) {
-        mesh_load_outcome outcome = mesh_load_child(b->env->loader, path, room, mesh, report, why, sizeof why);
+        mesh_load_outcome outcome = mesh_load_child(b->env->loader, path, room, mesh, report, why, why_len);
         if (outcome == MESH_LOAD_OVER_BUDGET)
             return budget_fail(b, why);
         if (outcome == MESH_LOAD_NO_MEMORY)
             return build_fail(b, TRIOCT_ERR_NOMEM, "world '%s': %s", b->spec->name, why);
         if (outcome != MESH_LOAD_OK)
             return build_fail(b, TRIOCT_ERR_LOAD_FAILED, "world '%s': %s", b->spec->name, why);
-    } else if (mesh_load_file(path, mesh, report, why, sizeof why) != 0) {
+    } else if (mesh_load_file(path, mesh, report, why, why_len) != 0) {
         return build_fail(b, TRIOCT_ERR_LOAD_FAILED, "world '%s': %s", b->spec->name, why);
     }
     size_t bytes = mesh_data_bytes_for(mesh->vertex_count, mesh->triangle_count);
     memory_account *account = builder_account(b);
     if (bytes > room || (account && memory_account_take(account, bytes) != 0)) {
         char need[32];
-        snprintf(why, sizeof why, "%s: its mesh of %zu triangles needs %s, more than the budget leaves", rel,
+        snprintf(why, why_len, "%s: its mesh of %zu triangles needs %s, more than the budget leaves", rel,
                  mesh->triangle_count, bytes_text(bytes, need));
         mesh_data_free(mesh);
         return budget_fail(b, why);
@@ -630,6 +653,7 @@ world *world_build(const world_spec *spec, const char *world_dir, const world_en
     if (err && err_len)
         err[0] = '\0';
 
+    double started = monotonic_seconds();
     int failed = !spec ? build_fail(&b, TRIOCT_ERR_BAD_REQUEST, "no world spec given") : check_spec(&b);
     if (!failed) {
         b.w = calloc(1, sizeof *b.w);
@@ -643,8 +667,11 @@ world *world_build(const world_spec *spec, const char *world_dir, const world_en
         atomic_init(&b.w->queries, 0);
         atomic_init(&b.w->refs, 1);
         failed = load_meshes(&b) || load_shapes(&b);
-        if (!failed)
+        if (!failed) {
             derive_from_objects(b.w);
+            b.w->load_seconds = b.load_seconds;
+            b.w->build_seconds = monotonic_seconds() - started - b.load_seconds;
+        }
     }
     mesh_data_free(&b.merged); /* moved into the model unless a step failed */
     builder_give_back(&b);

@@ -38,6 +38,10 @@ typedef struct world {
     size_t shape_count;
     size_t bytes_shapes;      /* the shapes' meshes and their trees */
     atomic_uint_fast64_t queries; /* requests answered on this version */
+    /* How long world_build took: reading the mesh files (in the loader child), and the
+     * rest, building the octrees (the world's and its shapes'). 0 for a version made by
+     * an edit. */
+    double load_seconds, build_seconds;
     atomic_int refs;
 } world;
 

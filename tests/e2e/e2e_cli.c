@@ -24,6 +24,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
 #include <sys/wait.h>
 #include <time.h>
 #include <unistd.h>
@@ -531,6 +532,26 @@ static void write_text(const char *name, const char *text)
     assert_non_null(f);
     fputs(text, f);
     assert_int_equal(fclose(f), 0);
+}
+
+/* The whole of a file in dir (the daemon's log), NUL-terminated; free it. */
+static char *read_text(const char *name)
+{
+    char path[320];
+    path_in_dir(path, sizeof path, name);
+    FILE *f = fopen(path, "r");
+    assert_non_null(f);
+    char *text = NULL;
+    size_t len = 0;
+    FILE *mem = open_memstream(&text, &len);
+    assert_non_null(mem);
+    char buf[4096];
+    size_t n;
+    while ((n = fread(buf, 1, sizeof buf, f)) > 0)
+        fwrite(buf, 1, n, mem);
+    fclose(f);
+    assert_int_equal(fclose(mem), 0);
+    return text;
 }
 
 /* The box [0,4] x [0,4] x [0,2], outward normals. Triangle ids: 0, 1 the top (0 where
@@ -1348,6 +1369,26 @@ static void test_load_and_unload(void **state)
     v = JSON(0, "unload", "extra");
     assert_string_equal(jstr(v, "status"), "OK");
     jfree(v);
+
+    /* A change signed with another key is refused, and the refusal is logged too. */
+    char other_key[320];
+    path_in_dir(other_key, sizeof other_key, "other.key");
+    write_text("other.key", "00112233445566778899aabbccddeeff00112233445566778899aabbccddeeff\n");
+    assert_int_equal(chmod(other_key, 0600), 0);
+    cli_run denied = CLI("--key-file", other_key, "unload", "box");
+    expect_code(&denied, 1);
+    expect_text(denied.err, "ERR_DENIED");
+    run_free(&denied);
+
+    /* The daemon's log says who changed what and how it went. */
+    char *log = read_text("daemon.log");
+    expect_text(log, "UNLOAD of world 'box' by client ");
+    expect_text(log, "ERR_DENIED");
+    expect_text(log, "LOAD of world 'extra' by client ");
+    expect_text(log, "OK, version 1, 12 triangles; meshes read in ");
+    expect_text(log, "OK, version 2, 12 triangles; meshes read in ");
+    expect_text(log, "UNLOAD of world 'extra' by client ");
+    free(log);
     cli_run r = CLI("info", "extra", "--timeout", "300");
     expect_code(&r, 3);
     run_free(&r);
