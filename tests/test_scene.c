@@ -357,6 +357,27 @@ static void test_identity_flag(void **state)
     }
 }
 
+static void test_up_axis(void **state)
+{
+    (void)state;
+    loaded l;
+    const world_spec *w = load_one_world(&l, "[w]\nmesh = m.gltf\nup = y\n");
+    assert_int_equal(w->up_y, 1);
+    world_spec z_up = *w;
+    z_up.up_y = 0;
+    /* A reload that changes up rebuilds the world. */
+    assert_false(world_spec_equal(w, &z_up));
+    scene_free(&l.sc);
+    w = load_one_world(&l, "[w]\nmesh = m.obj\nup = z\n");
+    assert_int_equal(w->up_y, 0);
+    scene_free(&l.sc);
+    w = load_one_world(&l, "[w]\nmesh = m.obj\n");
+    assert_int_equal(w->up_y, 0);
+    scene_free(&l.sc);
+    expect_error_at("[w]\nmesh = a.obj\nup = x\n", 3, "up must be z (the default) or y (for Y-up files), not 'x'");
+    expect_error_at("[w]\nmesh = a.obj\nup = y\nup = y\n", 4, "up given twice");
+}
+
 /* ---------- errors ---------- */
 
 static void test_unknown_key_and_syntax_errors(void **state)
@@ -713,6 +734,7 @@ int main(void)
         cmocka_unit_test(test_rotation_order_is_x_then_y_then_z_about_fixed_axes),
         cmocka_unit_test(test_rotation_at_other_angles_is_orthonormal),
         cmocka_unit_test(test_identity_flag),
+        cmocka_unit_test(test_up_axis),
         cmocka_unit_test(test_unknown_key_and_syntax_errors),
         cmocka_unit_test(test_bad_numbers),
         cmocka_unit_test(test_bad_resolution_depth_accuracy_effects),

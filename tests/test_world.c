@@ -437,6 +437,48 @@ static void test_build_applies_the_transform(void **state)
     scratch_remove(&s);
 }
 
+/* up = y: what stands along y in a Y-up file stands along trioct's z: (x, y, z) ->
+ * (x, -z, y), before the transform. */
+static void test_build_turns_y_up_files_to_z_up(void **state)
+{
+    (void)state;
+    scratch s;
+    scratch_make(&s);
+    /* A box [0, 1] x [0, 3] x [0, 1] in its Y-up file: 3 high along y. */
+    scratch_write(&s, "tall.obj",
+                  "v 0 0 0\nv 1 0 0\nv 1 3 0\nv 0 3 0\nv 0 0 1\nv 1 0 1\nv 1 3 1\nv 0 3 1\n"
+                  "f 1 2 3\nf 1 3 4\nf 5 7 6\nf 5 8 7\nf 1 5 6\nf 1 6 2\nf 2 6 7\nf 2 7 3\n"
+                  "f 3 7 8\nf 3 8 4\nf 4 8 5\nf 4 5 1\n");
+    world_spec spec;
+    world_spec_init(&spec, "tall");
+    snprintf(spec.meshes[0], sizeof spec.meshes[0], "tall.obj");
+    spec.mesh_count = 1;
+    spec.up_y = 1;
+    world *w = build_ok(&spec, s.dir);
+    /* 3 high along z now, and its old +z face at y = -1. */
+    assert_vec_equal(w->report.bbox_lo, 0, -1, 0);
+    assert_vec_equal(w->report.bbox_hi, 1, 0, 3);
+    assert_true(closest_t(w->tree, vec3_make(0.5, -0.5, 10), vec3_make(0, 0, -1)) == 7.0);
+    world_release(w);
+
+    /* The turn comes first, then the transform: up 10 along z. */
+    spec.transform.t = vec3_make(0, 0, 10);
+    spec.transform.identity = 0;
+    w = build_ok(&spec, s.dir);
+    assert_vec_equal(w->report.bbox_lo, 0, -1, 10);
+    assert_vec_equal(w->report.bbox_hi, 1, 0, 13);
+    world_release(w);
+
+    /* Without up = y the same file lies as written. */
+    spec.up_y = 0;
+    spec.transform.identity = 1;
+    spec.transform.t = vec3_make(0, 0, 0);
+    w = build_ok(&spec, s.dir);
+    assert_vec_equal(w->report.bbox_hi, 1, 3, 1);
+    world_release(w);
+    scratch_remove(&s);
+}
+
 static void test_build_assimp_model_with_transform(void **state)
 {
     (void)state;
@@ -894,6 +936,7 @@ int main(void)
         cmocka_unit_test(test_resolve_refuses_absolute_parent_and_missing),
         cmocka_unit_test(test_resolve_follows_symlinks_but_stays_inside),
         cmocka_unit_test(test_good_nested_path),
+        cmocka_unit_test(test_build_turns_y_up_files_to_z_up),
         cmocka_unit_test(test_build_unit_cube),
         cmocka_unit_test(test_build_uses_the_spec_octree_def),
         cmocka_unit_test(test_build_merges_meshes),

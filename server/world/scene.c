@@ -209,7 +209,7 @@ static int def_equal(const octree_def *a, const octree_def *b)
 
 int world_spec_equal(const world_spec *a, const world_spec *b)
 {
-    if (strcmp(a->name, b->name) != 0 || a->mesh_count != b->mesh_count ||
+    if (strcmp(a->name, b->name) != 0 || a->mesh_count != b->mesh_count || a->up_y != b->up_y ||
         a->shape_count != b->shape_count || a->effects != b->effects || a->memory_budget != b->memory_budget)
         return 0;
     for (size_t i = 0; i < a->mesh_count; i++)
@@ -353,6 +353,17 @@ static int key_scale(scene_parser *p, world_spec *spec, const char *key, const c
     if (parse_number(value, &scale) != 0 || !(scale > 0.0))
         return parser_fail(p, p->line, "%s must be a positive number, not '%s'", key, value);
     spec->transform.scale = scale;
+    return 0;
+}
+
+static int key_up(scene_parser *p, world_spec *spec, const char *key, const char *value)
+{
+    if (strcmp(value, "z") == 0)
+        spec->up_y = 0;
+    else if (strcmp(value, "y") == 0)
+        spec->up_y = 1;
+    else
+        return parser_fail(p, p->line, "%s must be z (the default) or y (for Y-up files), not '%s'", key, value);
     return 0;
 }
 
@@ -563,6 +574,7 @@ static const struct world_key {
     {"scale", key_scale, 0},
     {"rotate", key_rotate, 0},
     {"translate", key_translate, 0},
+    {"up", key_up, 0},
     {"resolution", key_resolution, 0},
     {"max_depth", key_max_depth, 0},
     {"accuracy", key_accuracy, 0},
@@ -592,7 +604,7 @@ static int world_key(scene_parser *p, const char *key, const char *value)
         return world_keys[i].parse(p, spec, key, value);
     }
     return parser_fail(p, p->line,
-                       "unknown key '%s' in world '%s' (mesh, scale, rotate, translate, resolution, "
+                       "unknown key '%s' in world '%s' (mesh, scale, rotate, translate, up, resolution, "
                        "max_depth, accuracy, seed_epsilon, effects, memory_budget, shape.<name>, object.<name>, pose.<name>)",
                        key, spec->name);
 }

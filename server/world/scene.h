@@ -10,6 +10,7 @@
  *   scale = 0.001            ; optional transform: p' = R(rotate) (scale p) + translate
  *   rotate = 0 0 90          ; degrees about x, then y, then z (fixed axes)
  *   translate = 0 0 1.5
+ *   up = y                   ; the files are Y-up (glTF, COLLADA often): turned to z-up as read
  *   resolution = auto        ; or a length (the leaf side d)
  *   max_depth = 16
  *   accuracy = exact         ; exact | seed | fast
@@ -86,6 +87,10 @@ typedef struct world_spec {
     world_object_spec objects[SCENE_MAX_OBJECTS];
     size_t object_count;
     world_transform transform;
+    /* up = y: every file of the section (meshes, objects, shapes) is Y-up, and each vertex
+     * is turned to trioct's z-up as it is read, (x, y, z) -> (x, -z, y): a quarter turn
+     * about x, exact. Then the transform or the object's pose applies. 0: z-up as given. */
+    int up_y;
     octree_def def;      /* resolution (<= 0: heuristic), max_depth, mode, seed_epsilon */
     unsigned effects;    /* EFFECT_* bits, never 0 */
     /* The most its meshes and trees may hold, in bytes (memory_budget); 0: only the

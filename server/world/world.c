@@ -184,6 +184,22 @@ static int budget_fail(world_builder *b, const char *why)
 static int read_file(world_builder *b, const char *rel, const char *path, size_t room, mesh_data *mesh,
                      mesh_load_report *report, char *why, size_t why_len);
 
+/* up = y: a Y-up file's vertices in trioct's z-up frame. A quarter turn about x moves
+ * coordinates and flips one sign, so no vertex moves off its double and the triangles keep
+ * their winding. */
+static void turn_to_z_up(mesh_data *mesh, mesh_load_report *report)
+{
+    for (size_t i = 0; i < mesh->vertex_count; i++) {
+        vec3 v = mesh->vertices[i];
+        mesh->vertices[i] = (vec3){v.x, -v.z, v.y};
+    }
+    if (report) {
+        vec3 lo = report->bbox_lo, hi = report->bbox_hi;
+        report->bbox_lo = (vec3){lo.x, -hi.z, lo.y};
+        report->bbox_hi = (vec3){hi.x, -lo.z, hi.y};
+    }
+}
+
 static int load_file(world_builder *b, const char *rel, mesh_data *mesh, mesh_load_report *report)
 {
     char path[TRIOCT_MAX_PATH_LEN];
@@ -194,6 +210,8 @@ static int load_file(world_builder *b, const char *rel, mesh_data *mesh, mesh_lo
     double started = monotonic_seconds();
     int rc = read_file(b, rel, path, room, mesh, report, why, sizeof why);
     b->load_seconds += monotonic_seconds() - started;
+    if (rc == 0 && b->spec->up_y)
+        turn_to_z_up(mesh, report);
     return rc;
 }
 
