@@ -38,7 +38,7 @@ static options_action parse(daemon_options *opt, char *err, size_t err_len, cons
 /* A scene with only a [daemon] section, as scene_load keeps it. */
 typedef struct fake_scene {
     scene sc;
-    scene_option opts[16];
+    scene_option opts[24];
 } fake_scene;
 
 static void fake_init(fake_scene *f, const char *path)
@@ -342,6 +342,43 @@ static void test_scene_values(void **state)
     assert_string_equal(opt.world_dir, "conf/../meshes");
 }
 
+/* mesh_root repeats: each line adds a root, relative ones under the scene's directory; on
+ * the command line --mesh-root repeats too, and replaces the scene's roots wholesale. */
+static void test_mesh_roots(void **state)
+{
+    (void)state;
+    daemon_options opt;
+    char err[2048];
+    const char *args[] = {"trioctd", "--scene", "/srv/trioct/scene.ini", NULL};
+    assert_int_equal(parse(&opt, err, sizeof err, args), OPTIONS_RUN);
+    fake_scene f;
+    fake_init(&f, "/srv/trioct/scene.ini");
+    fake_add(&f, 2, "mesh_root", "/opt/ros/humble/share");
+    fake_add(&f, 3, "mesh_root", "robot_meshes");
+    assert_int_equal(options_apply_scene(&opt, &f.sc, err, sizeof err), 0);
+    assert_int_equal(opt.mesh_roots.count, 2);
+    assert_string_equal(opt.mesh_roots.paths[0], "/opt/ros/humble/share");
+    assert_string_equal(opt.mesh_roots.paths[1], "/srv/trioct/robot_meshes");
+    /* Applying the scene again (a reload) starts the list afresh, not on top. */
+    assert_int_equal(options_apply_scene(&opt, &f.sc, err, sizeof err), 0);
+    assert_int_equal(opt.mesh_roots.count, 2);
+
+    const char *cli[] = {"trioctd", "--scene", "/srv/trioct/scene.ini", "--mesh-root", "/usr/share/a",
+                         "--mesh-root", "/usr/share/b", NULL};
+    assert_int_equal(parse(&opt, err, sizeof err, cli), OPTIONS_RUN);
+    assert_int_equal(options_apply_scene(&opt, &f.sc, err, sizeof err), 0);
+    assert_int_equal(opt.mesh_roots.count, 2);
+    assert_string_equal(opt.mesh_roots.paths[0], "/usr/share/a");
+    assert_string_equal(opt.mesh_roots.paths[1], "/usr/share/b");
+
+    fake_init(&f, "/srv/trioct/scene.ini");
+    for (int i = 0; i <= MESH_ROOTS_MAX; i++)
+        fake_add(&f, 2 + i, "mesh_root", "/r");
+    assert_int_equal(parse(&opt, err, sizeof err, args), OPTIONS_RUN);
+    assert_int_equal(options_apply_scene(&opt, &f.sc, err, sizeof err), -1);
+    assert_non_null(strstr(err, "more than 16 mesh roots"));
+}
+
 static void test_command_line_wins(void **state)
 {
     (void)state;
@@ -627,6 +664,7 @@ int main(void)
         cmocka_unit_test(test_help_and_version),
         cmocka_unit_test(test_command_line_errors),
         cmocka_unit_test(test_scene_values),
+        cmocka_unit_test(test_mesh_roots),
         cmocka_unit_test(test_command_line_wins),
         cmocka_unit_test(test_scene_errors),
         cmocka_unit_test(test_scene_error_even_under_the_command_line),

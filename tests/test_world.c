@@ -209,6 +209,75 @@ static void test_resolve_follows_symlinks_but_stays_inside(void **state)
     scratch_remove(&outside);
 }
 
+/* A mesh root opens one more place: a symlink from the world directory into it, or an
+ * absolute path inside it. Inside a root the same rules hold: '..' is refused, and a
+ * symlink that leads out of the root is refused. */
+static void test_resolve_into_mesh_roots(void **state)
+{
+    (void)state;
+    scratch s, pkg, other;
+    scratch_make(&s);
+    scratch_make(&pkg);
+    scratch_make(&other);
+    write_cube(&pkg, "meshes/base.stl.obj", 0);
+    write_cube(&other, "private.obj", 0);
+    char link[256], target[256], out[1024], err[512], want[1024];
+    snprintf(target, sizeof target, "%s/meshes/base.stl.obj", pkg.dir);
+    snprintf(link, sizeof link, "%s/base.obj", s.dir);
+    assert_int_equal(symlink(target, link), 0);
+    snprintf(target, sizeof target, "%s/private.obj", other.dir);
+    snprintf(link, sizeof link, "%s/meshes/leak.obj", pkg.dir);
+    assert_int_equal(symlink(target, link), 0);
+
+    /* Without roots the symlink is refused, as before; so is an absolute path. */
+    expect_refused(s.dir, "base.obj", "leads outside the world directory");
+    char absolute[512];
+    snprintf(absolute, sizeof absolute, "%s/meshes/base.stl.obj", pkg.dir);
+    expect_refused(s.dir, absolute, "absolute paths are refused");
+
+    mesh_roots roots = {.count = 1};
+    snprintf(roots.paths[0], sizeof roots.paths[0], "%s", pkg.dir);
+    char *real_pkg = realpath(pkg.dir, NULL);
+    assert_non_null(real_pkg);
+    snprintf(want, sizeof want, "%s/meshes/base.stl.obj", real_pkg);
+    assert_int_equal(world_resolve_path_in(s.dir, &roots, "base.obj", out, sizeof out, err, sizeof err), 0);
+    assert_string_equal(out, want);
+    assert_int_equal(world_resolve_path_in(s.dir, &roots, absolute, out, sizeof out, err, sizeof err), 0);
+    assert_string_equal(out, want);
+
+    /* Out of the root through its own symlink, '..', or a file of no root: refused. */
+    snprintf(absolute, sizeof absolute, "%s/meshes/leak.obj", pkg.dir);
+    assert_int_equal(world_resolve_path_in(s.dir, &roots, absolute, out, sizeof out, err, sizeof err), -1);
+    assert_non_null(strstr(err, "lies outside every mesh_root"));
+    snprintf(absolute, sizeof absolute, "%s/meshes/../meshes/base.stl.obj", pkg.dir);
+    assert_int_equal(world_resolve_path_in(s.dir, &roots, absolute, out, sizeof out, err, sizeof err), -1);
+    assert_non_null(strstr(err, "'..' is refused"));
+    snprintf(absolute, sizeof absolute, "%s/private.obj", other.dir);
+    assert_int_equal(world_resolve_path_in(s.dir, &roots, absolute, out, sizeof out, err, sizeof err), -1);
+    assert_non_null(strstr(err, "lies outside every mesh_root"));
+    snprintf(link, sizeof link, "%s/private.obj", s.dir);
+    assert_int_equal(symlink(absolute, link), 0);
+    assert_int_equal(world_resolve_path_in(s.dir, &roots, "private.obj", out, sizeof out, err, sizeof err), -1);
+    assert_non_null(strstr(err, "leads outside the world directory"));
+    assert_non_null(strstr(err, "and every mesh_root"));
+
+    /* A world built from the root through the symlink, with the roots in its env. */
+    world_spec spec;
+    world_spec_init(&spec, "rooted");
+    snprintf(spec.meshes[0], sizeof spec.meshes[0], "base.obj");
+    spec.mesh_count = 1;
+    world_env env = {.roots = &roots};
+    int status;
+    world *w = world_build(&spec, s.dir, &env, &status, err, sizeof err);
+    assert_non_null(w);
+    assert_int_equal(w->report.triangles, 12);
+    world_release(w);
+    free(real_pkg);
+    scratch_remove(&s);
+    scratch_remove(&pkg);
+    scratch_remove(&other);
+}
+
 static void test_good_nested_path(void **state)
 {
     (void)state;
@@ -936,6 +1005,7 @@ int main(void)
         cmocka_unit_test(test_resolve_refuses_absolute_parent_and_missing),
         cmocka_unit_test(test_resolve_follows_symlinks_but_stays_inside),
         cmocka_unit_test(test_good_nested_path),
+        cmocka_unit_test(test_resolve_into_mesh_roots),
         cmocka_unit_test(test_build_turns_y_up_files_to_z_up),
         cmocka_unit_test(test_build_unit_cube),
         cmocka_unit_test(test_build_uses_the_spec_octree_def),

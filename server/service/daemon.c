@@ -10,6 +10,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include "../../common/wire_check.h"
@@ -189,8 +190,21 @@ static int setup_world_env(daemon *d)
     memory_account_init(&d->ctx.memory, opt->memory_budget);
     if (setup_admin_auth(d) != 0)
         return -1;
+    /* A mesh root must be a directory now: a typo would otherwise show only as a refused
+     * path, later, on some LOAD. */
+    for (size_t i = 0; i < opt->mesh_roots.count; i++) {
+        const char *root = opt->mesh_roots.paths[i];
+        struct stat st;
+        errno = 0;
+        if (stat(root, &st) != 0 || !S_ISDIR(st.st_mode)) {
+            LOG(LOG_ERROR, "mesh_root %s: %s", root, errno ? strerror(errno) : "not a directory");
+            return -1;
+        }
+        LOG(LOG_INFO, "meshes may also be read from %s (mesh_root)", root);
+    }
     d->ctx.env.loader = ld;
     d->ctx.env.account = &d->ctx.memory;
+    d->ctx.env.roots = &d->opt.mesh_roots;
     LOG(LOG_INFO, "memory budget %zu MiB; meshes parsed by %s (at most %zu MiB, %u s of CPU each)",
         opt->memory_budget >> 20, ld->program, ld->memory_bytes >> 20, ld->cpu_seconds);
     return 0;

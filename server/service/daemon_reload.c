@@ -23,6 +23,17 @@ static int world_from_scene(const world *w, const scene *s)
     return strcmp(section->source, w->spec.source) == 0 || world_spec_equal(section, &w->spec);
 }
 
+/* The workers read the roots while they resolve paths: a change waits for a restart. */
+static int mesh_roots_equal(const mesh_roots *a, const mesh_roots *b)
+{
+    if (a->count != b->count)
+        return 0;
+    for (size_t i = 0; i < a->count; i++)
+        if (strcmp(a->paths[i], b->paths[i]) != 0)
+            return 0;
+    return 1;
+}
+
 static int in_scene(const char *name, void *scene_)
 {
     return scene_find(scene_, name) != NULL;
@@ -59,6 +70,7 @@ static void apply_reloaded_options(daemon *d, const daemon_options *next)
         {strcmp(next->name, cur->name) != 0, "name"},
         {next->threads != cur->threads, "threads"},
         {strcmp(next->world_dir, cur->world_dir) != 0, "world_dir"},
+        {!mesh_roots_equal(&next->mesh_roots, &cur->mesh_roots), "mesh_root"},
     };
     for (size_t i = 0; i < sizeof restart / sizeof restart[0]; i++)
         if (restart[i].changed)

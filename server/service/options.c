@@ -31,6 +31,7 @@ static const option_row rows[] = {
     {OPT_MEMORY_BUDGET, "--memory-budget", "memory_budget"},
     {OPT_LOADER, "--loader", "loader"},
     {OPT_ADMIN_KEY_FILE, "--admin-key-file", "admin_key_file"},
+    {OPT_MESH_ROOT, "--mesh-root", "mesh_root"},
 };
 #define ROW_COUNT (sizeof rows / sizeof rows[0])
 
@@ -44,6 +45,7 @@ enum {
     LONGOPT_MEMORY_BUDGET,
     LONGOPT_LOADER,
     LONGOPT_ADMIN_KEY_FILE,
+    LONGOPT_MESH_ROOT,
 };
 
 static const struct option long_options[] = {
@@ -63,6 +65,7 @@ static const struct option long_options[] = {
     {"memory-budget", required_argument, NULL, LONGOPT_MEMORY_BUDGET},
     {"loader", required_argument, NULL, LONGOPT_LOADER},
     {"admin-key-file", required_argument, NULL, LONGOPT_ADMIN_KEY_FILE},
+    {"mesh-root", required_argument, NULL, LONGOPT_MESH_ROOT},
     {"help", no_argument, NULL, 'h'},
     {"version", no_argument, NULL, 'V'},
     {NULL, 0, NULL, 0},
@@ -245,6 +248,17 @@ static int set_field(daemon_options *opt, unsigned bit, const char *text, const 
         return set_path(opt->loader, text, base_dir, why, why_len);
     case OPT_ADMIN_KEY_FILE:
         return set_path(opt->admin_key_file, text, base_dir, why, why_len);
+    case OPT_MESH_ROOT: {
+        mesh_roots *r = &opt->mesh_roots;
+        if (r->count == MESH_ROOTS_MAX) {
+            snprintf(why, why_len, "more than %d mesh roots", MESH_ROOTS_MAX);
+            return -1;
+        }
+        if (set_path(r->paths[r->count], text, base_dir, why, why_len) != 0)
+            return -1;
+        r->count++;
+        return 0;
+    }
     }
     snprintf(why, why_len, "internal: no such option");
     return -1;
@@ -273,6 +287,7 @@ static unsigned bit_of_flag(int c)
     case LONGOPT_MEMORY_BUDGET: return OPT_MEMORY_BUDGET;
     case LONGOPT_LOADER: return OPT_LOADER;
     case LONGOPT_ADMIN_KEY_FILE: return OPT_ADMIN_KEY_FILE;
+    case LONGOPT_MESH_ROOT: return OPT_MESH_ROOT;
     }
     return 0;
 }
@@ -392,6 +407,8 @@ static void set_defaults(daemon_options *opt, unsigned bits, const char *scene_d
         opt->loader[0] = '\0';
     if (bits & OPT_ADMIN_KEY_FILE)
         opt->admin_key_file[0] = '\0';
+    if (bits & OPT_MESH_ROOT)
+        opt->mesh_roots.count = 0;
 }
 
 int options_apply_scene(daemon_options *opt, const scene *sc, char *err, size_t err_len)
@@ -418,7 +435,7 @@ int options_apply_scene(daemon_options *opt, const scene *sc, char *err, size_t 
             snprintf(err, err_len, "%s:%d: unknown daemon option '%s'", where, o->line, o->key);
             return -1;
         }
-        if (seen & rows[r].bit) {
+        if ((seen & rows[r].bit) && rows[r].bit != OPT_MESH_ROOT) {
             snprintf(err, err_len, "%s:%d: daemon option '%s' given twice (first at line %d)",
                      where, o->line, o->key, seen_line[r]);
             return -1;
@@ -496,12 +513,14 @@ void options_usage(FILE *out, const char *argv0)
             "      --loader PROGRAM      the mesh loader (default: trioct-load beside trioctd)\n"
             "      --admin-key-file FILE the key changes over the bus are authenticated with\n"
             "                            (default: none, and LOAD, UNLOAD and edits are refused)\n"
+            "      --mesh-root DIR       a read-only directory meshes may also be read from (a ROS\n"
+            "                            package, /usr/share/...); repeat for more\n"
             "  -h, --help                this text\n"
             "  -V, --version             the version\n"
             "\n"
             "The scene's [daemon] section takes the same options as url, publish_url, prefix,\n"
             "name, threads, world_dir, queue_depth, log_level, status_interval, memory_budget,\n"
-            "loader and admin_key_file; the command line wins. SIGHUP reloads the scene; SIGTERM\n"
+            "loader, admin_key_file and mesh_root (repeatable); the command line wins. SIGHUP reloads the scene; SIGTERM\n"
             "and SIGINT finish the work in hand and exit.\n",
             argv0, OPTIONS_DEFAULT_QUEUE_DEPTH, OPTIONS_DEFAULT_STATUS_INTERVAL_MS);
 }

@@ -62,6 +62,7 @@ enum {
     OPT_MEMORY_BUDGET = 1u << 9,
     OPT_LOADER = 1u << 10,
     OPT_ADMIN_KEY_FILE = 1u << 11,
+    OPT_MESH_ROOT = 1u << 12, /* repeatable: each one adds a root */
 };
 
 typedef struct daemon_options {
@@ -78,6 +79,7 @@ typedef struct daemon_options {
     size_t memory_budget;      /* bytes every world's meshes and trees may hold together */
     char loader[TRIOCT_MAX_PATH_LEN];         /* "": the one mesh_loader_find finds */
     char admin_key_file[TRIOCT_MAX_PATH_LEN]; /* "": no key, no change over the bus */
+    mesh_roots mesh_roots;     /* read-only mesh directories besides world_dir (scene.h) */
     int exit_at_eof;   /* file:// input: finish the work in hand and exit 0 at its end */
     int ordered;       /* replays: answers as one thread gives them, whatever threads (daemon.c) */
     int no_inline;     /* every request to the workers, the small ones too (daemon.c) */

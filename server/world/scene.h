@@ -98,6 +98,17 @@ typedef struct world_spec {
     size_t memory_budget;
 } world_spec;
 
+/* Read-only directories outside the world directory that mesh paths may lead into
+ * (mesh_root in [daemon], repeatable): where a ROS package or /usr/share keeps its meshes.
+ * A path relative to the world directory may reach them through a symlink, and an
+ * absolute path may name a file inside one; either way the path resolved (symlinks
+ * followed) must stay inside the world directory or one root, and '..' is refused. */
+#define MESH_ROOTS_MAX 16
+typedef struct mesh_roots {
+    size_t count;
+    char paths[MESH_ROOTS_MAX][TRIOCT_MAX_PATH_LEN];
+} mesh_roots;
+
 /* A spec with the defaults: no meshes, identity transform, octree_default_def(), all effects. */
 void world_spec_init(world_spec *spec, const char *name);
 /* 1 when building a and b would give the same world (the source text aside). */

@@ -46,17 +46,39 @@ static int is_inside(const char *dir, const char *path)
     return strncmp(dir, path, n) == 0 && (path[n] == '/' || path[n] == '\0');
 }
 
+/* The root of roots that holds resolved, or NULL. A root that does not resolve holds
+ * nothing (the daemon checked them all at start). */
+static const char *root_holding(const mesh_roots *roots, const char *resolved)
+{
+    for (size_t i = 0; roots && i < roots->count; i++) {
+        char *root = realpath(roots->paths[i], NULL);
+        int inside = root != NULL && is_inside(root, resolved);
+        free(root);
+        if (inside)
+            return roots->paths[i];
+    }
+    return NULL;
+}
+
 int world_resolve_path(const char *world_dir, const char *rel, char *out, size_t out_len,
                        char *err, size_t err_len)
 {
+    return world_resolve_path_in(world_dir, NULL, rel, out, out_len, err, err_len);
+}
+
+int world_resolve_path_in(const char *world_dir, const mesh_roots *roots, const char *rel, char *out,
+                          size_t out_len, char *err, size_t err_len)
+{
     if (out && out_len)
         out[0] = '\0';
+    int have_roots = roots != NULL && roots->count > 0;
     if (!world_dir || !world_dir[0])
         return error_text(err, err_len, "no world directory is set");
     if (!rel || !rel[0])
         return error_text(err, err_len, "empty file path");
-    if (rel[0] == '/')
-        return error_text(err, err_len, "%s: absolute paths are refused; give a path relative to the world directory", rel);
+    if (rel[0] == '/' && !have_roots)
+        return error_text(err, err_len, "%s: absolute paths are refused; give a path relative to the world directory "
+                          "(or name its directory as a mesh_root)", rel);
     if (has_parent_component(rel))
         return error_text(err, err_len, "%s: '..' is refused in paths", rel);
 
@@ -69,16 +91,23 @@ int world_resolve_path(const char *world_dir, const char *rel, char *out, size_t
         free(dir);
         return error_text(err, err_len, "%s: out of memory", rel);
     }
-    snprintf(joined, joined_len, "%s/%s", dir, rel);
+    if (rel[0] == '/')
+        snprintf(joined, joined_len, "%s", rel);
+    else
+        snprintf(joined, joined_len, "%s/%s", dir, rel);
     char *resolved = realpath(joined, NULL);
     int why = errno;
     free(joined);
     int status = 0;
     if (!resolved)
-        status = error_text(err, err_len, "%s: %s (in world directory %s)", rel, strerror(why), world_dir);
-    else if (!is_inside(dir, resolved))
-        status = error_text(err, err_len, "%s: leads outside the world directory %s (to %s)", rel,
-                           world_dir, resolved);
+        status = rel[0] == '/' ? error_text(err, err_len, "%s: %s", rel, strerror(why))
+                               : error_text(err, err_len, "%s: %s (in world directory %s)", rel, strerror(why), world_dir);
+    else if (rel[0] == '/' ? root_holding(roots, resolved) == NULL
+                           : !is_inside(dir, resolved) && root_holding(roots, resolved) == NULL)
+        status = rel[0] == '/'
+                     ? error_text(err, err_len, "%s: lies outside every mesh_root (it resolves to %s)", rel, resolved)
+                     : error_text(err, err_len, "%s: leads outside the world directory %s%s (to %s)", rel, world_dir,
+                                  have_roots ? " and every mesh_root" : "", resolved);
     else if (!out || strlen(resolved) >= out_len)
         status = error_text(err, err_len, "%s: resolved path longer than %zu characters", rel,
                            out_len ? out_len - 1 : 0);
@@ -204,7 +233,7 @@ static int load_file(world_builder *b, const char *rel, mesh_data *mesh, mesh_lo
 {
     char path[TRIOCT_MAX_PATH_LEN];
     char why[TRIOCT_MAX_MESSAGE_LEN];
-    if (world_resolve_path(b->world_dir, rel, path, sizeof path, why, sizeof why) != 0)
+    if (world_resolve_path_in(b->world_dir, b->env ? b->env->roots : NULL, rel, path, sizeof path, why, sizeof why) != 0)
         return build_fail(b, TRIOCT_ERR_BAD_PATH, "world '%s': %s", b->spec->name, why);
     size_t room = builder_room(b);
     double started = monotonic_seconds();
@@ -460,7 +489,8 @@ static int load_objects(world_builder *b)
         mesh_load_report report;
         char path[TRIOCT_MAX_PATH_LEN];
         char why[TRIOCT_MAX_MESSAGE_LEN];
-        if (world_resolve_path(b->world_dir, spec->meshes[i], path, sizeof path, why, sizeof why) != 0) {
+        if (world_resolve_path_in(b->world_dir, b->env ? b->env->roots : NULL, spec->meshes[i], path, sizeof path, why,
+                                  sizeof why) != 0) {
             status = build_fail(b, TRIOCT_ERR_BAD_PATH, "world '%s': %s", spec->name, why);
             break;
         }
@@ -758,7 +788,7 @@ object_model *world_model_from_file(const world *w, const char *world_dir, const
                        .env = env, .budget = spec_budget(&w->spec), .world_bytes = world_memory_bytes(w)};
     char path[TRIOCT_MAX_PATH_LEN];
     char why[TRIOCT_MAX_MESSAGE_LEN];
-    if (world_resolve_path(world_dir, rel, path, sizeof path, why, sizeof why) != 0) {
+    if (world_resolve_path_in(world_dir, env ? env->roots : NULL, rel, path, sizeof path, why, sizeof why) != 0) {
         build_fail(&b, TRIOCT_ERR_BAD_PATH, "%s", why);
         *status = b.status;
         return NULL;

@@ -53,6 +53,8 @@ typedef struct world_env {
     /* The daemon's memory budget: every mesh and tree of every world takes from it before
      * it is allocated and gives back when freed. NULL: none. */
     memory_account *account;
+    /* Where mesh paths may lead besides the world directory (scene.h); NULL: nowhere. */
+    const mesh_roots *roots;
 } world_env;
 
 /* Resolves rel inside world_dir: refuses an absolute path, a ".." component and, after
@@ -60,6 +62,11 @@ typedef struct world_env {
  * with err. */
 int world_resolve_path(const char *world_dir, const char *rel, char *out, size_t out_len,
                        char *err, size_t err_len);
+/* The same, with roots (may be NULL) as further places a path may lead into: rel may be
+ * absolute when it names a file inside a root, and a relative one may reach a root
+ * through a symlink; what it resolves to must lie inside the world directory or a root. */
+int world_resolve_path_in(const char *world_dir, const mesh_roots *roots, const char *rel, char *out,
+                          size_t out_len, char *err, size_t err_len);
 
 /* Loads the spec's meshes (and shapes, for EFFECT_MESHES) from world_dir, applies the
  * transform and builds the octree with what the effects need, within the spec's memory

@@ -518,6 +518,7 @@ static void expect_text(const char *text, const char *needle)
 /* ====================================================================================== */
 
 static char key_file[320]; /* the daemon's admin key; TRIOCT_KEY_FILE names it */
+static char pkg_dir[320];  /* the daemon's --mesh-root */
 
 static void path_in_dir(char *out, size_t len, const char *name)
 {
@@ -579,6 +580,18 @@ static int group_setup(void **state)
         return -1;
     write_text("box.obj", box_obj);
     write_text("cube.obj", cube_obj);
+    /* A read-only mesh directory outside the world directory (mesh_root), as a ROS package
+     * would be. */
+    snprintf(pkg_dir, sizeof pkg_dir, "%s-pkg", dir);
+    if (mkdir(pkg_dir, 0755) != 0)
+        return -1;
+    char pkg_box[400];
+    snprintf(pkg_box, sizeof pkg_box, "%s/box.obj", pkg_dir);
+    FILE *pf = fopen(pkg_box, "w");
+    if (pf == NULL)
+        return -1;
+    fputs(box_obj, pf);
+    fclose(pf);
     write_text("scene.ini", "[box]\nmesh = box.obj\neffects = rays triangles meshes\n"
                             "shape.cube = cube.obj\n\n"
                             "[box_rays]\nmesh = box.obj\neffects = rays\n\n"
@@ -589,7 +602,8 @@ static int group_setup(void **state)
     path_in_dir(key_file, sizeof key_file, "admin.key");
     if (daemon_proc_write_key(key_file) != 0)
         return -1;
-    const char *extra[] = {"--threads", "2", "--status-interval", "200", "--admin-key-file", key_file, NULL};
+    const char *extra[] = {"--threads", "2", "--status-interval", "200", "--admin-key-file", key_file,
+                           "--mesh-root", pkg_dir, NULL};
     daemon_pid = daemon_proc_start(daemon_bin, scene, BUS_URL, DAEMON, extra, log);
     if (daemon_pid < 0)
         return -1;
@@ -609,8 +623,8 @@ static int group_teardown(void **state)
     (void)state;
     if (daemon_pid > 0)
         daemon_proc_stop(daemon_pid, SIGTERM, 5000);
-    char cmd[300];
-    snprintf(cmd, sizeof cmd, "rm -rf '%s'", dir);
+    char cmd[700];
+    snprintf(cmd, sizeof cmd, "rm -rf '%s' '%s'", dir, pkg_dir);
     return system(cmd) == 0 ? 0 : -1;
 }
 
@@ -1369,6 +1383,25 @@ static void test_load_and_unload(void **state)
     v = JSON(0, "unload", "extra");
     assert_string_equal(jstr(v, "status"), "OK");
     jfree(v);
+
+    /* A mesh under a mesh_root loads by its absolute path; one outside every root does not. */
+    char rooted[400];
+    snprintf(rooted, sizeof rooted, "%s/box.obj", pkg_dir);
+    v = JSON(0, "load", "rooted", "--mesh", rooted, "--effects", "rays");
+    assert_int_equal((int)jnum(v, "worlds.0.triangles"), 12);
+    jfree(v);
+    v = JSON(0, "ray", "rooted", "1", "3", "10", "0", "0", "-1");
+    check_hit(v, 0, 0, 8, 1, 0.25, 0.5);
+    jfree(v);
+    v = JSON(0, "unload", "rooted");
+    jfree(v);
+    char outside[400];
+    path_in_dir(outside, sizeof outside, "box.obj"); /* the world directory's, but absolute */
+    cli_run refused = CLI("load", "rooted", "--mesh", outside);
+    expect_code(&refused, 1);
+    expect_text(refused.err, "ERR_BAD_PATH");
+    expect_text(refused.err, "lies outside every mesh_root");
+    run_free(&refused);
 
     /* A change signed with another key is refused, and the refusal is logged too. */
     char other_key[320];
