@@ -94,6 +94,7 @@ int client_world_info(trioct_world_info *out, const trioct_world_info_t *in, con
     out->memory_bytes = in->memory_bytes;
     out->memory_budget = in->memory_budget;
     out->build_seconds = in->build_seconds;
+    out->load_seconds = in->load_seconds;
     out->objects = in->objects;
     out->queries = in->queries;
     client_copy(out->last_error, sizeof out->last_error, in->last_error);

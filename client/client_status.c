@@ -61,6 +61,26 @@ static int convert(trioct_daemon_status *out, const trioct_status_t *in)
         if (client_world_info(&out->worlds[i], &in->worlds[i], in->daemon, r) != TRIOCT_OK)
             return r->status;
     out->num_worlds = worlds;
+    if (in->num_loads > TRIOCT_MAX_LOADS)
+        return client_fail(r, TRIOCT_ERR_BAD_REPLY, "status of %.40s lists %d builds under way, over the cap of %d",
+                           in->daemon, in->num_loads, TRIOCT_MAX_LOADS);
+    size_t loads = (size_t)in->num_loads;
+    out->loads = calloc(loads ? loads : 1, sizeof *out->loads);
+    if (out->loads == NULL)
+        return client_fail(r, TRIOCT_ERR_NOMEM, "out of memory for a status message");
+    for (size_t i = 0; i < loads; i++) {
+        trioct_load_progress *p = &out->loads[i];
+        const trioct_load_progress_t *q = &in->loads[i];
+        client_copy(p->world, sizeof p->world, q->world);
+        p->client_id = q->client_id;
+        p->request_id = q->request_id;
+        client_copy(p->phase, sizeof p->phase, q->phase);
+        p->files_done = q->files_done;
+        p->files_total = q->files_total;
+        p->triangles = q->triangles;
+        p->elapsed_seconds = q->elapsed_seconds;
+    }
+    out->num_loads = loads;
     return client_fail(r, TRIOCT_OK, "status of daemon %.40s", in->daemon);
 }
 
@@ -134,8 +154,11 @@ void trioct_daemon_status_free(trioct_daemon_status *s)
         return;
     free(s->replies_by_status);
     free(s->worlds);
+    free(s->loads);
     s->replies_by_status = NULL;
     s->worlds = NULL;
+    s->loads = NULL;
+    s->num_loads = 0;
     s->num_status_codes = 0;
     s->num_worlds = 0;
 }

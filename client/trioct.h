@@ -454,7 +454,8 @@ typedef struct trioct_world_info {
     int64_t bytes_nodes, bytes_leaf_lists, bytes_triangles, bytes_effects, bytes_total;
     int64_t memory_bytes;  /* its meshes and trees: what its memory_budget bounds */
     int64_t memory_budget; /* the world's own budget; 0: only the daemon's bounds it */
-    double build_seconds;
+    double build_seconds;  /* building the octrees, after the mesh files were read */
+    double load_seconds;   /* reading the mesh files (the daemon's loader child) */
 
     int64_t objects;                             /* objects in this version */
     int64_t queries;                             /* requests answered for this world */
@@ -525,6 +526,17 @@ enum {
     TRIOCT_DAEMON_STOPPING = 3
 };
 
+/* A world build under way on a daemon: a LOAD (client_id and request_id name it; see
+ * trioct_client_id) or a scene world at start-up or in a reload (both 0). */
+typedef struct trioct_load_progress {
+    char world[TRIOCT_MAX_NAME_LEN + 1];
+    int64_t client_id, request_id;
+    char phase[32];       /* "queued", "reading meshes" or "building octrees" */
+    int files_done, files_total; /* mesh and shape files read, and to read */
+    int64_t triangles;    /* read so far */
+    double elapsed_seconds;
+} trioct_load_progress;
+
 typedef struct trioct_daemon_status {
     trioct_reply reply; /* .daemon: who sent it; .status: the call's outcome */
     int64_t utime;
@@ -543,6 +555,8 @@ typedef struct trioct_daemon_status {
     int64_t latency_p50_us, latency_p99_us, latency_count;
     size_t num_worlds;
     trioct_world_info *worlds;
+    size_t num_loads;
+    trioct_load_progress *loads; /* the world builds under way */
 } trioct_daemon_status;
 
 /* Waits for the next status message heard while the call runs (from daemon, or from any

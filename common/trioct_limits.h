@@ -31,6 +31,8 @@
 #define TRIOCT_MAX_EDITS 256
 /* Worlds one daemon lists or reports in one status message. */
 #define TRIOCT_MAX_WORLDS 64
+/* World builds under way one status message reports. */
+#define TRIOCT_MAX_LOADS 64
 #define TRIOCT_MAX_SHAPES 16
 
 #endif

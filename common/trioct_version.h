@@ -3,6 +3,6 @@
 #ifndef TRIOCT_VERSION_H
 #define TRIOCT_VERSION_H
 
-#define TRIOCT_VERSION "0.7.0"
+#define TRIOCT_VERSION "0.8.0"
 
 #endif

@@ -35,10 +35,12 @@ enum {
     AUTH_BYTES = 8 + 16 + 32,
     /* The shortest string: a length of 1 and the NUL it counts. */
     MIN_STRING_BYTES = 4 + 1,
-    /* The shortest world_info_t: five empty strings, sixteen int64, four doubles, three
+    /* The shortest world_info_t: five empty strings, sixteen int64, five doubles, three
      * int32, three vec3 and no shapes. Only bounds a count early; each world is then walked
      * field by field. */
-    MIN_WORLD_INFO_BYTES = 5 * MIN_STRING_BYTES + 16 * 8 + 4 * 8 + 3 * 4 + 3 * VEC3_BYTES,
+    MIN_WORLD_INFO_BYTES = 5 * MIN_STRING_BYTES + 16 * 8 + 5 * 8 + 3 * 4 + 3 * VEC3_BYTES,
+    /* load_progress_t: two strings, two int64 ids, two int32, an int64 and a double. */
+    MIN_LOAD_PROGRESS_BYTES = 2 * MIN_STRING_BYTES + 2 * 8 + 2 * 4 + 8 + 8,
 };
 
 /* The generated code counts offsets in int: nothing larger can have come from it. */
@@ -284,6 +286,7 @@ static void walk_world_info(wire_cursor *c)
     cursor_int64(c, "memory_bytes");
     cursor_int64(c, "memory_budget");
     cursor_double(c, "build_seconds");
+    cursor_double(c, "load_seconds");
     cursor_int64(c, "objects");
     cursor_int64(c, "queries");
     cursor_string(c, "last_error");
@@ -521,6 +524,20 @@ static void walk_status(wire_cursor *c)
     cursor_int64(c, "latency_p99_us");
     cursor_int64(c, "latency_count");
     walk_worlds(c);
+    int32_t num_loads = cursor_count(c, "num_loads", MIN_LOAD_PROGRESS_BYTES);
+    c->scope = "loads";
+    for (int32_t i = 0; i < num_loads && !c->failed; i++) {
+        c->scope_index = i;
+        cursor_string(c, "world");
+        cursor_int64(c, "client_id");
+        cursor_int64(c, "request_id");
+        cursor_string(c, "phase");
+        cursor_int32(c, "files_done");
+        cursor_int32(c, "files_total");
+        cursor_int64(c, "triangles");
+        cursor_double(c, "elapsed_seconds");
+    }
+    c->scope = "";
 }
 
 typedef struct wire_type_info {

@@ -374,6 +374,7 @@ static trioct_world_info_t world_info(const char *name, const char *daemon, cons
         .bytes_effects = k % 2 ? 0 : 123456,
         .bytes_total = 7336000 + k,
         .build_seconds = 0.125 * (k + 1),
+        .load_seconds = 0.0625 * (k + 3),
         .queries = 42 * k,
         .last_error = k % 2 ? "reload failed: mesh has NaN at triangle 3" : "",
         .num_shapes = k % 4,
@@ -414,6 +415,7 @@ static void check_world(const trioct_world_info *got, const char *name, const ch
     assert_int_equal(got->bytes_effects, w.bytes_effects);
     assert_int_equal(got->bytes_total, w.bytes_total);
     assert_true(got->build_seconds == w.build_seconds);
+    assert_true(got->load_seconds == w.load_seconds);
     assert_int_equal(got->queries, w.queries);
     assert_string_equal(got->last_error, w.last_error);
     assert_int_equal(got->num_shapes, w.num_shapes);
@@ -1244,6 +1246,9 @@ static void publish_status(lcm_t *lcm, const char *daemon, int k)
         by_status[i] = 10 * i + k;
     trioct_world_info_t worlds[2] = {world_info("w1", daemon, "w1", 0),
                                      world_info("w2", daemon, "meshes/w2.ply", 3)};
+    trioct_load_progress_t loads[1] = {{.world = "big", .client_id = 0x4c7fb7a37e1466d1, .request_id = 2 + k,
+                                        .phase = "building octrees", .files_done = 1, .files_total = 2,
+                                        .triangles = 405000, .elapsed_seconds = 0.375}};
     trioct_status_t s = {
         .utime = 1763760000000000 + k,
         .daemon = (char *)daemon,
@@ -1262,6 +1267,8 @@ static void publish_status(lcm_t *lcm, const char *daemon, int k)
         .latency_count = 900 + k,
         .num_worlds = 2,
         .worlds = worlds,
+        .num_loads = 1,
+        .loads = loads,
     };
     assert_int_equal(trioct_status_t_publish(lcm, "TRIOCT_STATUS", &s), 0);
 }
@@ -1320,8 +1327,18 @@ static void test_next_status(void **state)
     assert_int_equal(st.num_worlds, 2);
     check_world(&st.worlds[0], "w1", "d1", "w1", 0);
     check_world(&st.worlds[1], "w2", "d1", "meshes/w2.ply", 3);
+    assert_int_equal(st.num_loads, 1);
+    assert_string_equal(st.loads[0].world, "big");
+    assert_true(st.loads[0].client_id == 0x4c7fb7a37e1466d1);
+    assert_int_equal(st.loads[0].request_id, 11);
+    assert_string_equal(st.loads[0].phase, "building octrees");
+    assert_int_equal(st.loads[0].files_done, 1);
+    assert_int_equal(st.loads[0].files_total, 2);
+    assert_int_equal(st.loads[0].triangles, 405000);
+    assert_true(st.loads[0].elapsed_seconds == 0.375);
     trioct_daemon_status_free(&st);
     assert_null(st.worlds);
+    assert_null(st.loads);
     assert_int_equal(stats_of(e->client).malformed, 1);
 
     /* Any daemon: the first heard. */

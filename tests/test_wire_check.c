@@ -166,6 +166,7 @@ static void fill_world_info(rng *r, variant v, trioct_world_info_t *w)
     w->bytes_effects = random_i64(r);
     w->bytes_total = random_i64(r);
     w->build_seconds = random_double(r);
+    w->load_seconds = random_double(r);
     w->queries = random_i64(r);
     w->last_error = random_text(r, v);
     w->num_shapes = pick_count(r, v);
@@ -442,6 +443,19 @@ static void make_status(rng *r, variant v, trioct_status_t *m)
     m->latency_count = random_i64(r);
     m->num_worlds = pick_count(r, v);
     m->worlds = random_worlds(r, v, m->num_worlds);
+    m->num_loads = pick_count(r, v);
+    m->loads = array_of(m->num_loads, sizeof *m->loads);
+    for (int32_t i = 0; i < m->num_loads; i++) {
+        trioct_load_progress_t *p = &m->loads[i];
+        p->world = random_text(r, v);
+        p->client_id = random_i64(r);
+        p->request_id = random_i64(r);
+        p->phase = random_text(r, v);
+        p->files_done = random_i32(r);
+        p->files_total = random_i32(r);
+        p->triangles = random_i64(r);
+        p->elapsed_seconds = random_double(r);
+    }
 }
 
 /* ---------- where the counts and strings lie in an encoded message ---------- */
@@ -534,7 +548,7 @@ static int world_info_middle_bytes(const trioct_world_info_t *w)
            __trioct_vec3_t_encoded_array_size(&w->bbox_max, 1) +
            __int64_t_encoded_array_size(&w->nodes, 2) + __int32_t_encoded_array_size(&w->max_level, 1) +
            __double_encoded_array_size(&w->resolution, 2) + __trioct_vec3_t_encoded_array_size(&w->world_min, 1) +
-           __int64_t_encoded_array_size(&w->bytes_nodes, 7) + __double_encoded_array_size(&w->build_seconds, 1) +
+           __int64_t_encoded_array_size(&w->bytes_nodes, 7) + __double_encoded_array_size(&w->build_seconds, 2) +
            __int64_t_encoded_array_size(&w->objects, 1) + __int64_t_encoded_array_size(&w->queries, 1);
 }
 
@@ -736,6 +750,18 @@ static void lay_status(layout *l, const trioct_status_t *m)
     lay_bytes(l, __int64_t_encoded_array_size(m->replies_by_status, m->num_status_codes));
     lay_bytes(l, 3 * 8);
     lay_worlds(l, m->num_worlds, m->worlds);
+    lay_count(l, "num_loads", m->num_loads);
+    for (int32_t i = 0; i < m->num_loads; i++) {
+        const trioct_load_progress_t *p = &m->loads[i];
+        size_t start = l->pos;
+        snprintf(l->scope, sizeof l->scope, "loads[%d].", (int)i);
+        lay_string(l, "world", &p->world);
+        lay_bytes(l, 2 * 8);
+        lay_string(l, "phase", &p->phase);
+        lay_bytes(l, 2 * 4 + 8 + 8);
+        l->scope[0] = '\0';
+        assert_int_equal(l->pos - start, __trioct_load_progress_t_encoded_array_size(p, 1));
+    }
 }
 
 /* ---------- one table over the ten types ---------- */
@@ -990,7 +1016,7 @@ static void test_smallest_elements_fill_the_message_exactly(void **state)
     }
     int size = trioct_admin_reply_t_encoded_size(&reply);
     int worlds_bytes = __trioct_world_info_t_encoded_array_size(reply.worlds, reply.num_worlds);
-    assert_int_equal(worlds_bytes, 269 * reply.num_worlds);
+    assert_int_equal(worlds_bytes, 277 * reply.num_worlds);
     uint8_t *bytes = malloc((size_t)size);
     assert_non_null(bytes);
     assert_int_equal(trioct_admin_reply_t_encode(bytes, 0, size, &reply), size);

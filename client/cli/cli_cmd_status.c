@@ -104,6 +104,11 @@ static void daemon_json(cli_json *j, const trioct_daemon_status *s)
     for (size_t i = 0; i < s->num_worlds; i++)
         cli_world_info_json(j, &s->worlds[i]);
     cli_json_array_end(j);
+    cli_json_key(j, "loads");
+    cli_json_array_begin(j);
+    for (size_t i = 0; i < s->num_loads; i++)
+        cli_load_progress_json(j, &s->loads[i]);
+    cli_json_array_end(j);
     cli_json_object_end(j);
 }
 
@@ -162,6 +167,13 @@ static int daemon_print(cli_context *ctx, const trioct_daemon_status *s)
     fprintf(out, "  worlds    %zu\n", s->num_worlds);
     if (s->num_worlds > 0 && cli_world_table_print(out, s->worlds, s->num_worlds, "    ") != 0)
         return cli_internal_error(ctx, "out of memory printing %zu worlds", s->num_worlds);
+    if (s->num_loads > 0)
+        fprintf(out, "  building  %zu world%s\n", s->num_loads, s->num_loads == 1 ? "" : "s");
+    for (size_t i = 0; i < s->num_loads; i++) {
+        char line[256];
+        cli_load_progress_text(&s->loads[i], line, sizeof line);
+        fprintf(out, "    %s\n", line);
+    }
     return CLI_EXIT_OK;
 }
 

@@ -3,6 +3,7 @@
 #include <string.h>
 
 #include "cli.h"
+#include "cli_progress.h"
 #include "cli_text.h"
 #include "cli_world_info.h"
 
@@ -342,6 +343,76 @@ static int find_the_daemon(cli_context *ctx, char name[TRIOCT_MAX_NAME_LEN + 1])
     return rc;
 }
 
+/* ---- load with its progress ---------------------------------------------------------- */
+
+typedef struct load_wait {
+    int done;
+    trioct_admin_result res;
+} load_wait;
+
+static void on_loaded(trioct_client *c, trioct_admin_result *res, void *user)
+{
+    (void)c;
+    load_wait *w = user;
+    w->res = *res;
+    memset(res, 0, sizeof *res); /* kept: the library frees nothing of it now */
+    w->done = 1;
+}
+
+/* The LOAD sent without waiting, and the daemon's heartbeat listened to meanwhile: each
+ * one lists the builds under way, and this LOAD's (this client, this request) is shown on
+ * stderr, redrawn on a terminal, a line a heartbeat otherwise. Returns the LOAD's status,
+ * its answer in *res as trioct_load gives it. */
+static int load_showing_progress(cli_context *ctx, const trioct_load_options *opt, int timeout, cli_progress_mode mode,
+                                 trioct_admin_result *res)
+{
+    load_wait w;
+    memset(&w, 0, sizeof w);
+    int64_t request_id = 0;
+    int status = trioct_load_async(ctx->client, opt, timeout, on_loaded, &w, &request_id);
+    if (status != TRIOCT_OK) {
+        memset(res, 0, sizeof *res);
+        res->reply.status = status;
+        snprintf(res->reply.message, sizeof res->reply.message, "%s", trioct_last_error(ctx->client));
+        return status;
+    }
+    int64_t me = (int64_t)trioct_client_id(ctx->client);
+    int shown = 0;
+    while (!w.done) {
+        trioct_daemon_status st;
+        /* A heartbeat comes every second or so; waiting a little longer than one keeps the
+         * LOAD's answer from waiting for the next. */
+        if (trioct_next_status(ctx->client, opt->daemon, 1100, &st) == TRIOCT_OK) {
+            for (size_t i = 0; i < st.num_loads; i++) {
+                const trioct_load_progress *p = &st.loads[i];
+                if (p->client_id != me || p->request_id != request_id)
+                    continue;
+                char line[256];
+                cli_load_progress_text(p, line, sizeof line);
+                if (mode == CLI_PROGRESS_TERMINAL)
+                    fprintf(ctx->err, "\r%s\033[K", line);
+                else
+                    fprintf(ctx->err, "trioct load: %s\n", line);
+                fflush(ctx->err);
+                shown = 1;
+            }
+            trioct_daemon_status_free(&st);
+        }
+        if (trioct_poll(ctx->client, 0) < 0)
+            break; /* the bus failed: the request completes as failed below */
+    }
+    if (shown && mode == CLI_PROGRESS_TERMINAL)
+        fputc('\n', ctx->err);
+    if (!w.done) {
+        memset(res, 0, sizeof *res);
+        res->reply.status = TRIOCT_ERR_TRANSPORT;
+        snprintf(res->reply.message, sizeof res->reply.message, "%s", trioct_last_error(ctx->client));
+        return TRIOCT_ERR_TRANSPORT;
+    }
+    *res = w.res;
+    return res->reply.status;
+}
+
 static int run_load(cli_context *ctx, int argc, char **argv)
 {
     load_args a = {.load = {.accuracy = TRIOCT_ACCURACY_WORLD}};
@@ -366,7 +437,9 @@ static int run_load(cli_context *ctx, int argc, char **argv)
     }
     int timeout = cli_timeout(ctx, CLI_LOAD_TIMEOUT_MS);
     trioct_admin_result res;
-    int status = trioct_load(ctx->client, &a.load, timeout, &res);
+    cli_progress_mode mode = cli_progress_mode_for(ctx->err, ctx->progress);
+    int status = mode == CLI_PROGRESS_OFF ? trioct_load(ctx->client, &a.load, timeout, &res)
+                                          : load_showing_progress(ctx, &a.load, timeout, mode, &res);
     rc = admin_answer(ctx, status, &res, timeout, "loaded");
     trioct_admin_result_free(&res);
     return rc;
@@ -382,10 +455,13 @@ const cli_command cli_command_load = {
     "60000 ms here). Without --mesh the daemon builds its scene's section named WORLD;\n"
     "with it, the mesh file PATH inside the daemon's world directory. Loading a world the\n"
     "daemon holds rebuilds it; queries keep being answered by the old version until the\n"
-    "new one is swapped in.\n"
+    "new one is swapped in. While it builds, the daemon's heartbeat says how far it is\n"
+    "(reading meshes, files and triangles read, building octrees, seconds): shown on stderr\n"
+    "when stderr is a terminal or with --progress (a line a heartbeat).\n"
     "\n"
     "Options:\n"
-    "  --mesh PATH          a mesh file relative to the daemon's world directory\n"
+    "  --mesh PATH          a mesh file relative to the daemon's world directory, or an\n"
+    "                       absolute path inside one of its mesh_root directories\n"
     "  --resolution D       the leaf side d (default: the seed heuristic)\n"
     "  --accuracy MODE      exact (default), seed or fast\n"
     "  --seed-epsilon E     the epsilon of seed mode\n"
@@ -396,6 +472,7 @@ const cli_command cli_command_load = {
     "Examples:\n"
     "  trioct load yard\n"
     "  trioct load bunny --mesh bunny.ply --effects rays --daemon lidar_host\n"
-    "  trioct load cell --mesh cell.stl --resolution 0.01 --accuracy fast --json\n",
+    "  trioct load cell --mesh cell.stl --resolution 0.01 --accuracy fast --json\n"
+    "  trioct load terrain --progress\n",
     run_load,
 };

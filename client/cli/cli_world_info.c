@@ -83,6 +83,7 @@ void cli_world_info_json(cli_json *j, const trioct_world_info *w)
     cli_json_key_int(j, "memory_bytes", w->memory_bytes);
     cli_json_key_int(j, "memory_budget", w->memory_budget);
     cli_json_key_double(j, "build_seconds", w->build_seconds);
+    cli_json_key_double(j, "load_seconds", w->load_seconds);
     cli_json_key_int(j, "objects", w->objects);
     cli_json_key_int(j, "queries", w->queries);
     cli_json_key_string(j, "last_error", w->last_error);
@@ -137,6 +138,7 @@ void cli_world_info_print(FILE *out, const trioct_world_info *w, const char *ind
     else
         fprintf(out, "%sbudget      %s (meshes and trees; no budget of its own)\n", indent,
                 cli_format_bytes(w->memory_bytes, a));
+    fprintf(out, "%smeshes      read in %.3f s\n", indent, w->load_seconds);
     fprintf(out, "%soctrees     built in %.3f s (after the meshes were read)\n", indent, w->build_seconds);
     fprintf(out, "%sobjects     %" PRId64 " (trioct objects %s lists them)\n", indent, w->objects, w->name);
     fprintf(out, "%squeries     %" PRId64 "\n", indent, w->queries);
@@ -181,4 +183,29 @@ int cli_world_table_print(FILE *out, const trioct_world_info *w, size_t n, const
     int rc = cli_table_print(&t, out, indent);
     cli_table_free(&t);
     return rc;
+}
+
+void cli_load_progress_text(const trioct_load_progress *p, char *buf, size_t len)
+{
+    int n = snprintf(buf, len, "world %s: %s, %d of %d file%s read, %" PRId64 " triangles, %.1f s", p->world, p->phase,
+                     p->files_done, p->files_total, p->files_total == 1 ? "" : "s", p->triangles, p->elapsed_seconds);
+    if (n >= 0 && (size_t)n < len && p->client_id != 0)
+        snprintf(buf + n, len - (size_t)n, " (LOAD %" PRId64 " of client %" PRIx64 ")", p->request_id,
+                 (uint64_t)p->client_id);
+    else if (n >= 0 && (size_t)n < len)
+        snprintf(buf + n, len - (size_t)n, " (the scene's)");
+}
+
+void cli_load_progress_json(cli_json *j, const trioct_load_progress *p)
+{
+    cli_json_object_begin(j);
+    cli_json_key_string(j, "world", p->world);
+    cli_json_key_int(j, "client_id", p->client_id);
+    cli_json_key_int(j, "request_id", p->request_id);
+    cli_json_key_string(j, "phase", p->phase);
+    cli_json_key_int(j, "files_done", p->files_done);
+    cli_json_key_int(j, "files_total", p->files_total);
+    cli_json_key_int(j, "triangles", p->triangles);
+    cli_json_key_double(j, "elapsed_seconds", p->elapsed_seconds);
+    cli_json_object_end(j);
 }

@@ -25,4 +25,10 @@ void cli_world_info_print(FILE *out, const trioct_world_info *w, const char *ind
  * 0, or -1 when out of memory. */
 int cli_world_table_print(FILE *out, const trioct_world_info *w, size_t n, const char *indent);
 
+/* A build under way in words: "world W: reading meshes, 1 of 2 files read, N triangles,
+ * 3.2 s (LOAD R of client C)". */
+void cli_load_progress_text(const trioct_load_progress *p, char *buf, size_t len);
+/* The same as a JSON object. */
+void cli_load_progress_json(cli_json *j, const trioct_load_progress *p);
+
 #endif

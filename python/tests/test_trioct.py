@@ -118,9 +118,9 @@ def cube_touches(t):
 
 class TestPackage(unittest.TestCase):
     def test_library_from_build_tree(self):
-        """Imported from the build tree, the package loads the build's libtrioct.so.2."""
+        """Imported from the build tree, the package loads the build's libtrioct.so.3."""
         self.assertNotIn("TRIOCT_LIBRARY", os.environ)
-        self.assertTrue(os.path.samefile(trioct.library_path, os.path.join(BUILD, "libtrioct.so.2")),
+        self.assertTrue(os.path.samefile(trioct.library_path, os.path.join(BUILD, "libtrioct.so.3")),
                         trioct.library_path)
         self.assertTrue(os.path.samefile(os.path.dirname(trioct.__file__), os.path.join(BUILD, "python", "trioct")))
 

@@ -17,7 +17,7 @@ from . import _constants
 # The soname this package was written against: a library of another major version has
 # another ABI, so no other name is ever tried (ctypes.util.find_library would happily
 # return a libtrioct.so.3).
-SONAME = "libtrioct.so.2"
+SONAME = "libtrioct.so.3"
 
 
 def _candidates():
@@ -188,7 +188,7 @@ class WorldInfo(ctypes.Structure):
         ("bytes_nodes", c_int64), ("bytes_leaf_lists", c_int64), ("bytes_triangles", c_int64),
         ("bytes_effects", c_int64), ("bytes_total", c_int64),
         ("memory_bytes", c_int64), ("memory_budget", c_int64), ("build_seconds", c_double),
-        ("objects", c_int64), ("queries", c_int64),
+        ("load_seconds", c_double), ("objects", c_int64), ("queries", c_int64),
         ("last_error", ctypes.c_char * (MAX_MESSAGE_LEN + 1)),
         ("num_shapes", c_int), ("shapes", NameBuf * MAX_SHAPES),
     ]
@@ -216,6 +216,12 @@ class ListResult(ctypes.Structure):
                 ("num_worlds", c_size_t), ("worlds", ctypes.POINTER(WorldInfo))]
 
 
+class LoadProgress(ctypes.Structure):
+    _c_name_ = "trioct_load_progress"
+    _fields_ = [("world", NameBuf), ("client_id", c_int64), ("request_id", c_int64), ("phase", ctypes.c_char * 32),
+                ("files_done", c_int), ("files_total", c_int), ("triangles", c_int64), ("elapsed_seconds", c_double)]
+
+
 class DaemonStatus(ctypes.Structure):
     _c_name_ = "trioct_daemon_status"
     _fields_ = [
@@ -226,11 +232,13 @@ class DaemonStatus(ctypes.Structure):
         ("num_status_codes", c_size_t), ("replies_by_status", ctypes.POINTER(c_int64)),
         ("latency_p50_us", c_int64), ("latency_p99_us", c_int64), ("latency_count", c_int64),
         ("num_worlds", c_size_t), ("worlds", ctypes.POINTER(WorldInfo)),
+        ("num_loads", c_size_t), ("loads", ctypes.POINTER(LoadProgress)),
     ]
 
 
 STRUCTS = (Vec3, Triangle, Pose, ConnectOptions, Reply, ObjectNames, RayQuery, RayHit, RayResult, MeshQuery,
-           MeshPair, MeshResult, WorldInfo, AdminResult, LoadOptions, ListOptions, ListResult, DaemonStatus)
+           MeshPair, MeshResult, WorldInfo, AdminResult, LoadOptions, ListOptions, ListResult, LoadProgress,
+           DaemonStatus)
 
 # ---- functions -----------------------------------------------------------------------------------
 

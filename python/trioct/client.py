@@ -215,7 +215,9 @@ def _world(w):
 class DaemonStatus(types.SimpleNamespace):
     """A daemon's heartbeat: the fields of trioct_daemon_status, with .daemon its name,
     .state one of 'starting', 'ready', 'reloading', 'stopping', .served and
-    .replies_by_status dicts, and .worlds a list of WorldInfo."""
+    .replies_by_status dicts, .worlds a list of WorldInfo and .loads the world builds under
+    way (dicts: world, client_id, request_id, phase, files_done, files_total, triangles,
+    elapsed_seconds)."""
 
     def __repr__(self):
         return "DaemonStatus(daemon=%r, state=%r, version=%r, worlds=%d)" % (
@@ -238,7 +240,15 @@ def _daemon_status(s):
         memory_used=s.memory_used, memory_budget=s.memory_budget, served=dict(zip(_SERVED, s.served)),
         malformed=s.malformed, duplicates_answered=s.duplicates_answered, duplicates_joined=s.duplicates_joined,
         replies_by_status=replies, latency_p50_us=s.latency_p50_us, latency_p99_us=s.latency_p99_us,
-        latency_count=s.latency_count, worlds=[_world(s.worlds[i]) for i in range(s.num_worlds)])
+        latency_count=s.latency_count, worlds=[_world(s.worlds[i]) for i in range(s.num_worlds)],
+        loads=[_load(s.loads[i]) for i in range(s.num_loads)])
+
+
+def _load(p):
+    """A build under way, as a dict of trioct_load_progress's fields."""
+    return {"world": _str(p.world), "client_id": p.client_id, "request_id": p.request_id,
+            "phase": p.phase.decode("utf-8", "replace"), "files_done": p.files_done,
+            "files_total": p.files_total, "triangles": p.triangles, "elapsed_seconds": p.elapsed_seconds}
 
 
 class _Names:

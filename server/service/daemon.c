@@ -135,6 +135,8 @@ static void destroy(daemon *d)
     }
     free(d->subs);
     failed_worlds_free(d->ctx.failed);
+    if (d->ctx.loads != NULL)
+        load_table_destroy(&d->loads);
     free(d->unload);
     free(d->pending);
     free(d);
@@ -255,6 +257,8 @@ int daemon_run(const daemon_options *opt, scene *sc)
     }
     d->ctx.worlds = registry_create();
     d->ctx.failed = failed_worlds_create();
+    load_table_init(&d->loads);
+    d->ctx.loads = &d->loads;
     d->replies = reply_cache_create(REPLY_CACHE_ENTRIES, REPLY_CACHE_BYTES);
     if (d->ctx.worlds == NULL || d->ctx.failed == NULL || d->replies == NULL) {
         LOG(LOG_ERROR, "out of memory");

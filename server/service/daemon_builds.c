@@ -25,7 +25,11 @@ static void work_build(uv_work_t *work)
 {
     build_job *job = work->data;
     job->status = TRIOCT_OK;
-    job->result = world_build(&job->spec, job->world_dir, &job->d->ctx.env, &job->status, job->err, sizeof job->err);
+    dispatch_ctx *ctx = &job->d->ctx;
+    world_env env = ctx->env; /* with this build's progress, which status shows */
+    env.progress = load_table_begin(ctx->loads, job->spec.name, 0, 0);
+    job->result = world_build(&job->spec, job->world_dir, &env, &job->status, job->err, sizeof job->err);
+    load_table_end(ctx->loads, env.progress);
 }
 
 

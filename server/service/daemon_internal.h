@@ -55,6 +55,7 @@ typedef struct daemon {
     dispatch_ctx ctx;
     scene *scene; /* owned; ctx.scene points at it */
     reply_cache *replies; /* recent answers, for clients' retries (loop thread only) */
+    load_table loads;     /* ctx.loads points here */
 
     lcm_t *lcm_in;
     lcm_t *lcm_out; /* lcm_in unless --publish-url differs */

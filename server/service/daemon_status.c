@@ -56,6 +56,24 @@ void daemon_publish_status(daemon *d)
     msg.latency_count = lat.count;
     msg.num_worlds = 0;
     msg.worlds = infos;
+    /* The builds under way, so a long LOAD is seen to move (trioct load --progress). */
+    load_entry *loads = malloc(LOAD_TABLE_SLOTS * sizeof *loads);
+    trioct_load_progress_t *progress = calloc(LOAD_TABLE_SLOTS, sizeof *progress);
+    size_t nl = loads != NULL && progress != NULL ? load_table_list(&d->loads, loads, LOAD_TABLE_SLOTS) : 0;
+    if (nl > LOAD_TABLE_SLOTS)
+        nl = LOAD_TABLE_SLOTS;
+    for (size_t i = 0; i < nl; i++) {
+        progress[i].world = loads[i].world;
+        progress[i].client_id = loads[i].client_id;
+        progress[i].request_id = loads[i].request_id;
+        progress[i].phase = (char *)world_phase_name(loads[i].phase);
+        progress[i].files_done = loads[i].files_done;
+        progress[i].files_total = loads[i].files_total;
+        progress[i].triangles = loads[i].triangles;
+        progress[i].elapsed_seconds = loads[i].elapsed_seconds;
+    }
+    msg.num_loads = (int32_t)nl;
+    msg.loads = progress;
     if (infos != NULL && space != NULL) {
         for (size_t i = 0; i < held; i++)
             dispatch_world_info(&d->ctx, &entries[i], &infos[msg.num_worlds++], space[i].shapes);
@@ -97,6 +115,8 @@ void daemon_publish_status(daemon *d)
     free(space);
     free(infos);
     free(failed);
+    free(loads);
+    free(progress);
     registry_entries_free(entries, held);
     daemon_tell_systemd(d, TELL_STATUS);
 }

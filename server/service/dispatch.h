@@ -11,6 +11,7 @@
 #include <stdint.h>
 
 #include "failed_worlds.h"
+#include "load_table.h"
 #include "../../common/channels.h"
 #include "../world/registry.h"
 #include "../world/scene.h"
@@ -30,6 +31,8 @@ typedef struct dispatch_ctx {
     /* The scene worlds not held because their build failed (NULL: none recorded): LIST
      * shows them and their requests are answered TRIOCT_ERR_LOAD_FAILED with why. */
     failed_worlds *failed;
+    /* The builds under way, for status (NULL: not reported). */
+    load_table *loads;
     /* The guard on changes over the bus; NULL refuses them all (no key). */
     admin_auth *auth;
     /* The scene LOAD reads sections from; swapped by the loop thread on SIGHUP. */

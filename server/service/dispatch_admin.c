@@ -58,6 +58,7 @@ void dispatch_world_info(const dispatch_ctx *ctx, const registry_entry *entry, t
     /* The octrees' build after the meshes were read, as the log says it; a version made by
      * an object edit has only its trees' own times. */
     info->build_seconds = w->build_seconds > 0 ? w->build_seconds : oi.build_seconds;
+    info->load_seconds = w->load_seconds;
 
     info->objects = (int64_t)w->objects->count;
     info->queries = (int64_t)atomic_load(&((world *)w)->queries);
@@ -237,7 +238,12 @@ static int admin_load(job *j, const trioct_admin_request_t *m)
     char err[TRIOCT_MAX_MESSAGE_LEN - 64];
     err[0] = '\0';
     int build_status = TRIOCT_ERR_LOAD_FAILED;
-    world *w = world_build(spec, j->ctx->world_dir, &j->ctx->env, &build_status, err, sizeof err);
+    world_env env = j->ctx->env; /* this build's own progress, which status shows */
+    env.progress = j->ctx->loads ? load_table_begin(j->ctx->loads, j->req.world, j->req.client_id, j->req.request_id)
+                                 : NULL;
+    world *w = world_build(spec, j->ctx->world_dir, &env, &build_status, err, sizeof err);
+    if (j->ctx->loads)
+        load_table_end(j->ctx->loads, env.progress);
     free(spec);
     if (!w) {
         if (build_status == TRIOCT_OK)

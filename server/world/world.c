@@ -143,6 +143,17 @@ typedef struct world_builder {
     double load_seconds; /* spent reading mesh files so far */
 } world_builder;
 
+const char *world_phase_name(int phase)
+{
+    return phase == WORLD_PHASE_READING ? "reading meshes" : phase == WORLD_PHASE_BUILDING ? "building octrees" : "queued";
+}
+
+static void note_building(world_builder *b)
+{
+    if (b->env && b->env->progress)
+        atomic_store(&b->env->progress->phase, WORLD_PHASE_BUILDING);
+}
+
 static double monotonic_seconds(void)
 {
     struct timespec ts;
@@ -236,9 +247,16 @@ static int load_file(world_builder *b, const char *rel, mesh_data *mesh, mesh_lo
     if (world_resolve_path_in(b->world_dir, b->env ? b->env->roots : NULL, rel, path, sizeof path, why, sizeof why) != 0)
         return build_fail(b, TRIOCT_ERR_BAD_PATH, "world '%s': %s", b->spec->name, why);
     size_t room = builder_room(b);
+    world_progress *progress = b->env ? b->env->progress : NULL;
+    if (progress)
+        atomic_store(&progress->phase, WORLD_PHASE_READING);
     double started = monotonic_seconds();
     int rc = read_file(b, rel, path, room, mesh, report, why, sizeof why);
     b->load_seconds += monotonic_seconds() - started;
+    if (progress && rc == 0) {
+        atomic_fetch_add(&progress->files_done, 1);
+        atomic_fetch_add(&progress->triangles, (long long)mesh->triangle_count);
+    }
     if (rc == 0 && b->spec->up_y)
         turn_to_z_up(mesh, report);
     return rc;
@@ -413,6 +431,7 @@ static object_model *make_model(world_builder *b, const char *key, mesh_data *me
     budget_tree(b, &def, mesh->triangle_count);
     mesh_view view = mesh_data_view(mesh);
     octree_error oerr;
+    note_building(b);
     octree *tree = octree_build(&view, &def, &oerr);
     if (!tree) {
         if (b->merging && oerr.triangle != SIZE_MAX) {
@@ -571,6 +590,7 @@ static int load_shape(world_builder *b, const world_shape_spec *spec, world_shap
     budget_tree(b, &def, mesh.triangle_count);
     mesh_view view = mesh_data_view(&mesh);
     octree_error oerr;
+    note_building(b);
     octree *tree = octree_build(&view, &def, &oerr);
     if (!tree) {
         mesh_data_free(&mesh);
@@ -702,6 +722,10 @@ world *world_build(const world_spec *spec, const char *world_dir, const world_en
         err[0] = '\0';
 
     double started = monotonic_seconds();
+    if (spec && env && env->progress) {
+        size_t shapes = (spec->effects & EFFECT_MESHES) ? spec->shape_count : 0;
+        atomic_store(&env->progress->files_total, (int)(spec->mesh_count + shapes));
+    }
     int failed = !spec ? build_fail(&b, TRIOCT_ERR_BAD_REQUEST, "no world spec given") : check_spec(&b);
     if (!failed) {
         b.w = calloc(1, sizeof *b.w);

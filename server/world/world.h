@@ -45,6 +45,23 @@ typedef struct world {
     atomic_int refs;
 } world;
 
+/* What a build in progress has done, for the daemon's status: written by the building
+ * thread, read by the loop thread, so every field is atomic. */
+typedef enum world_phase {
+    WORLD_PHASE_QUEUED = 0,
+    WORLD_PHASE_READING,  /* a mesh or shape file in the loader child */
+    WORLD_PHASE_BUILDING, /* an octree */
+} world_phase;
+
+typedef struct world_progress {
+    atomic_int phase;          /* world_phase */
+    atomic_int files_done, files_total;
+    atomic_llong triangles;    /* read so far */
+} world_progress;
+
+/* "queued", "reading meshes" or "building octrees". */
+const char *world_phase_name(int phase);
+
 /* Where a daemon's worlds get their meshes and their memory. */
 typedef struct world_env {
     /* Files are parsed in this child program (mesh_load_child.h); NULL: in this process
@@ -55,6 +72,8 @@ typedef struct world_env {
     memory_account *account;
     /* Where mesh paths may lead besides the world directory (scene.h); NULL: nowhere. */
     const mesh_roots *roots;
+    /* Where world_build reports how far it is (each caller its own); NULL: nowhere. */
+    world_progress *progress;
 } world_env;
 
 /* Resolves rel inside world_dir: refuses an absolute path, a ".." component and, after

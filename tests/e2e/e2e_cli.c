@@ -1384,6 +1384,38 @@ static void test_load_and_unload(void **state)
     assert_string_equal(jstr(v, "status"), "OK");
     jfree(v);
 
+    /* A load long enough to be seen (405,000 triangles) shows its progress with --progress:
+     * the daemon's heartbeat (every 200 ms here) lists it with this client's LOAD. */
+    char big[320];
+    path_in_dir(big, sizeof big, "big.obj");
+    FILE *bf = fopen(big, "w");
+    assert_non_null(bf);
+    enum { SIDE = 450 };
+    for (int i = 0; i <= SIDE; i++)
+        for (int k = 0; k <= SIDE; k++)
+            fprintf(bf, "v %d %d %d\n", i, k, (i * 7 + k * 13) % 5);
+    for (int i = 0; i < SIDE; i++)
+        for (int k = 0; k < SIDE; k++) {
+            int a = i * (SIDE + 1) + k + 1;
+            fprintf(bf, "f %d %d %d\nf %d %d %d\n", a, a + 1, a + SIDE + 2, a, a + SIDE + 2, a + SIDE + 1);
+        }
+    assert_int_equal(fclose(bf), 0);
+    cli_run shown = CLI("load", "big", "--mesh", "big.obj", "--effects", "rays", "--progress");
+    expect_code(&shown, 0);
+    expect_text(shown.out, "loaded big (version 1)");
+    expect_text(shown.err, "trioct load: world big: ");
+    expect_text(shown.err, " triangles, ");
+    expect_text(shown.err, " (LOAD ");
+    if (strstr(shown.err, "reading meshes") == NULL && strstr(shown.err, "building octrees") == NULL)
+        fail_msg("no phase in the progress:\n%s", shown.err);
+    run_free(&shown);
+    v = JSON(0, "info", "big");
+    assert_int_equal((int)jnum(v, "worlds.0.triangles"), 405000);
+    assert_true(jnum(v, "worlds.0.load_seconds") > 0 && jnum(v, "worlds.0.build_seconds") > 0);
+    jfree(v);
+    v = JSON(0, "unload", "big");
+    jfree(v);
+
     /* A mesh under a mesh_root loads by its absolute path; one outside every root does not. */
     char rooted[400];
     snprintf(rooted, sizeof rooted, "%s/box.obj", pkg_dir);

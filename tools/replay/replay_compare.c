@@ -337,7 +337,7 @@ static void cmp_world(diff *d, const char *where, const trioct_world_info_t *a, 
     cmp_i64(d, where, "bytes_triangles", a->bytes_triangles, b->bytes_triangles);
     cmp_i64(d, where, "bytes_effects", a->bytes_effects, b->bytes_effects);
     cmp_i64(d, where, "bytes_total", a->bytes_total, b->bytes_total);
-    /* build_seconds: wall clock, never compared. */
+    /* build_seconds, load_seconds: wall clock, never compared. */
     if (!(ignore & REPLAY_IGNORE_QUERIES))
         cmp_i64(d, where, "queries", a->queries, b->queries);
     char ea[TRIOCT_MAX_MESSAGE_LEN + 8], eb[TRIOCT_MAX_MESSAGE_LEN + 8];

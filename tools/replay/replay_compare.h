@@ -3,7 +3,7 @@
  *   request 17 (client 0x2a, ray_request_t on TRIOCT_RAY_yard): ray 3: t expected 2.5 got 2.5000000001
  *
  * Every field is compared exactly (doubles bit for bit, so -0 differs from 0), except:
- *   - world_info_t.build_seconds: wall-clock time of a build, never compared;
+ *   - world_info_t.build_seconds and load_seconds: wall-clock times of a build, never compared;
  *   - the message of an ERR_DEADLINE reply says how many microseconds ago the deadline
  *     passed (wall clock): that number is compared as "N"; and messages and last_error
  *     name the world directory (resolved, in a failed LOAD) as "." (replay_canon_text);

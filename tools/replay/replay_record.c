@@ -2,7 +2,7 @@
  * request followed by the daemon's reply to it, chunks in order.
  *
  * A few things in a reply depend on the moment or the machine, and are never compared as
- * they are (replay_compare.h): a world's build_seconds, the elapsed time an ERR_DEADLINE
+ * they are (replay_compare.h): a world's build_seconds and load_seconds, the elapsed time an ERR_DEADLINE
  * message states, and the world directory a failed LOAD names. They are written as 0, "N"
  * and ".", so recording a log twice, on any machine, at any thread count, gives the same
  * bytes: that is what makes a checked-in golden log reproducible. Everything else is the
@@ -98,6 +98,7 @@ static int normalise(const replay_event *raw, wire_type type, const char *world_
     if (errors != NULL && kept != NULL) {
         for (int32_t i = 0; i < worlds; i++) {
             a->worlds[i].build_seconds = 0;
+            a->worlds[i].load_seconds = 0;
             kept[i] = a->worlds[i].last_error;
             replay_canon_text(0, kept[i], world_dir, errors[i], sizeof errors[i]);
             a->worlds[i].last_error = errors[i];
