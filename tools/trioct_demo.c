@@ -16,12 +16,12 @@ static void show_world(const trioct_world_info *w)
     /* MiB, as trioct info and the daemon's log count memory. */
     const double mib = 1024.0 * 1024.0;
     printf("  %-12s v%lld  %8lld triangles  d = %.3g  L_max = %d  %7lld nodes  memory %6.2f MiB "
-           "(octree %.2f, effects %.2f)  effects:%s%s%s  octree built in %.3f s\n",
+           "(octree %.2f, effects %.2f)  effects:%s%s%s  meshes read in %.3f s, octrees built in %.3f s\n",
            w->name, (long long)w->version, (long long)w->triangles, w->resolution, w->max_level,
            (long long)w->nodes, w->bytes_total / mib, (w->bytes_total - w->bytes_effects) / mib,
            w->bytes_effects / mib, (w->effects & TRIOCT_EFFECT_RAYS) ? " rays" : "",
            (w->effects & TRIOCT_EFFECT_TRIANGLES) ? " triangles" : "",
-           (w->effects & TRIOCT_EFFECT_MESHES) ? " meshes" : "", w->build_seconds);
+           (w->effects & TRIOCT_EFFECT_MESHES) ? " meshes" : "", w->load_seconds, w->build_seconds);
 }
 
 static void show_status(const char *what, const trioct_reply *reply)
