@@ -244,6 +244,21 @@ static mesh_load_outcome read_mesh_frame(child *c, const mesh_load_frame_head *h
     return MESH_LOAD_OK;
 }
 
+/* Whether a frame's head is one the loader writes: the magic and a kind there is. */
+static int head_is_sound(const mesh_load_frame_head *head)
+{
+    return head->magic == MESH_LOAD_FRAME_MAGIC &&
+           (head->kind == MESH_LOAD_FRAME_MESH || head->kind == MESH_LOAD_FRAME_ERROR);
+}
+
+/* What follows a sound head: the loader's error, or the mesh. */
+static mesh_load_outcome read_frame_body(child *c, const mesh_load_frame_head *head, size_t max_mesh_bytes,
+                                         mesh_data *out)
+{
+    return head->kind == MESH_LOAD_FRAME_ERROR ? read_error_frame(c, head)
+                                                : read_mesh_frame(c, head, max_mesh_bytes, out);
+}
+
 mesh_load_outcome mesh_load_frame_read(int fd, const char *path, size_t max_mesh_bytes, mesh_data *out,
                                        mesh_load_report *report, char *err, size_t err_len)
 {
@@ -252,12 +267,9 @@ mesh_load_outcome mesh_load_frame_read(int fd, const char *path, size_t max_mesh
         memset(report, 0, sizeof *report);
     child c = {.path = path, .pid = -1, .fd = fd, .deadline = INT64_MAX, .err = err, .err_len = err_len};
     mesh_load_frame_head head;
-    if (read_full(&c, &head, sizeof head) != 0 || head.magic != MESH_LOAD_FRAME_MAGIC ||
-        (head.kind != MESH_LOAD_FRAME_MESH && head.kind != MESH_LOAD_FRAME_ERROR))
+    if (read_full(&c, &head, sizeof head) != 0 || !head_is_sound(&head))
         return error_text(err, err_len, "cannot load %s: the loader sent a malformed reply", path);
-    if (head.kind == MESH_LOAD_FRAME_ERROR)
-        return read_error_frame(&c, &head);
-    mesh_load_outcome outcome = read_mesh_frame(&c, &head, max_mesh_bytes, out);
+    mesh_load_outcome outcome = read_frame_body(&c, &head, max_mesh_bytes, out);
     if (outcome == MESH_LOAD_OK && report)
         *report = head.report;
     return outcome;
@@ -320,8 +332,7 @@ mesh_load_outcome mesh_load_child(const mesh_loader *loader, const char *path, s
 
     mesh_load_frame_head head;
     int got = read_full(&c, &head, sizeof head);
-    if (got != 0 || head.magic != MESH_LOAD_FRAME_MAGIC ||
-        (head.kind != MESH_LOAD_FRAME_MESH && head.kind != MESH_LOAD_FRAME_ERROR)) {
+    if (got != 0 || !head_is_sound(&head)) {
         int status = 0;
         if (got == 1)
             status = reap(&c);
@@ -333,8 +344,7 @@ mesh_load_outcome mesh_load_child(const mesh_loader *loader, const char *path, s
         return explain_end(&c, status);
     }
 
-    mesh_load_outcome outcome = head.kind == MESH_LOAD_FRAME_ERROR ? read_error_frame(&c, &head)
-                                                                   : read_mesh_frame(&c, &head, max_mesh_bytes, out);
+    mesh_load_outcome outcome = read_frame_body(&c, &head, max_mesh_bytes, out);
     if (outcome != MESH_LOAD_OK) {
         kill_and_reap(&c, 0);
         close(c.fd);
