@@ -3,7 +3,8 @@
 # in its private namespace; from outside, scripts/demo-shell runs `trioct worlds` and
 # `trioct render` there, and render_check compares sampled pixels of the depth picture
 # with the daemon's own answers to their rays; a TERM then stops the demo with exit 0 and
-# its namespace file gone. Needs root (exit 77 without).
+# its namespace file gone; and make run itself, in a terminal (a pty), ends with exit 0 and
+# no make error at Ctrl-C. Needs root (exit 77 without).
 #   tests/e2e/demo_test.sh BUILD
 set -u
 build=$1
@@ -64,3 +65,6 @@ demo=
 [ ! -e "$envfile" ] || fail "$envfile is left behind"
 grep -q "stopped:" "$tmp/run.log" || fail "the daemon did not log a clean stop"
 echo "ok: TERM stopped the demo with exit 0 and removed $envfile"
+
+# The way a user ends it: make run in a terminal, then Ctrl-C.
+"${PYTHON:-python3}" tests/e2e/ctrl_c.py "${MAKE:-make}" "$build" || fail "make run under Ctrl-C"
