@@ -1475,7 +1475,7 @@ static void test_exit_usage(void **state)
         {{"worlds", "--timeout", "0"}, "--timeout: '0' is not a whole number"},
         {{"worlds", "--bogus"}, "unknown option '--bogus'"},
         {{"tri", "box", "1", "2", "3"}, "expected 10 arguments"},
-        {{"mesh", "box", "cube", "--pose", "1 2"}, "expected 3 or 6 numbers"},
+        {{"mesh", "box", "cube", "--pose", "1 2"}, "expected 3, 6 or 7 numbers"},
         {{"load", "w", "--accuracy", "world"}, "is not exact, seed or fast"},
         {{"load", "w", "--effects", "sound"}, "unknown effect 'sound'"},
         {{"rays", "box", "/nonexistent/rays.csv"}, "cannot read /nonexistent/rays.csv"},
