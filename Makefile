@@ -105,18 +105,22 @@ E2E_BIN := $(BUILD)/tests/e2e_daemon
 $(E2E_BIN): $(BUILD)/tests/e2e/e2e_daemon.o $(ALL_LIBS)
 	$(CC) $(ALL_CFLAGS) $< $(ALL_LIBS) -lcmocka $(SYS_LIBS) -o $@
 
-# The trioct command (issue 5): client/cli/, linked with libtrioct.a alone, no server code.
-# Its pure parts (arguments, CSV, poses, JSON, text, progress) are unit-tested by
-# test_cli_parse; e2e_cli runs the command against a real daemon inside netns.sh.
+# The trioct command (issue 5): client/cli/, linked with libtrioct.a and none of the daemon's
+# service code; `mesh --shape-file` reads its file with the daemon's assimp reader, the one
+# self-contained part of server/ it takes (CLI_MESH_LOAD_OBJ), so that a file gives the CLI
+# the triangles it gives a scene. Its pure parts (arguments, CSV, poses, JSON, text,
+# progress) are unit-tested by test_cli_parse; e2e_cli runs the command against a real
+# daemon inside netns.sh.
 CLI_SRC      := $(wildcard client/cli/*.c)
 CLI_OBJ      := $(CLI_SRC:%.c=$(BUILD)/%.o)
+CLI_MESH_LOAD_OBJ := $(addprefix $(BUILD)/server/world/,mesh_load.o mesh_data.o error_text.o)
 CLI_PURE_OBJ := $(addprefix $(BUILD)/client/cli/,cli_args.o cli_csv.o cli_pose.o cli_json.o cli_text.o cli_progress.o \
                   cli_camera.o cli_render.o cli_png.o)
 CLI_BIN      := $(BUILD)/trioct
 E2E_CLI_BIN  := $(BUILD)/tests/e2e_cli
 all: $(CLI_BIN)
-$(CLI_BIN): $(CLI_OBJ) $(CLIENT_LIB)
-	$(CC) $(ALL_CFLAGS) $(CLI_OBJ) $(CLIENT_LIB) -llcm -lsodium -lpng -lm -pthread -o $@
+$(CLI_BIN): $(CLI_OBJ) $(CLI_MESH_LOAD_OBJ) $(CLIENT_LIB)
+	$(CC) $(ALL_CFLAGS) $(CLI_OBJ) $(CLI_MESH_LOAD_OBJ) $(CLIENT_LIB) -lassimp -llcm -lsodium -lpng -lm -pthread -o $@
 $(BUILD)/tests/test_cli_parse: $(BUILD)/tests/test_cli_parse.o $(CLI_PURE_OBJ)
 	$(CC) $(ALL_CFLAGS) $< $(CLI_PURE_OBJ) -lcmocka -lpng -lm -o $@
 $(E2E_CLI_BIN): $(BUILD)/tests/e2e/e2e_cli.o $(BUILD)/client/cli/cli_png.o $(ALL_LIBS)

@@ -327,7 +327,8 @@ TRIOCT_API void trioct_mesh_result_free(trioct_mesh_result *r);
 /* The pose of translation (x, y, z) and the rotation of quaternion (qw, qx, qy, qz),
  * normalised first, into *out: TRIOCT_OK, TRIOCT_ERR_NONFINITE for a NaN or infinite
  * component, or TRIOCT_ERR_BAD_POSE when the quaternion's length is not 1 within 1e-3 (a
- * mistake, not rounding). The daemon makes the same matrix from the same numbers. */
+ * mistake, not rounding). The daemon makes the same matrix from the same numbers; quarter and
+ * half turns about the axes come out with exact 0, 1, -1 entries. */
 TRIOCT_API int trioct_pose_from_quaternion(double x, double y, double z, double qw, double qx, double qy,
                                            double qz, trioct_pose *out);
 

@@ -407,11 +407,96 @@ static void test_parse_pose(void **state)
     assert_matrix(p.r, (double[9]){1, 0, 0, 0, 1, 0, 0, 0, 1});
     assert_int_equal(cli_parse_pose("1,2,3,0,0,90", &p, err, sizeof err), 0);
     assert_matrix(p.r, (double[9]){0, -1, 0, 1, 0, 0, 0, 0, 1});
+    /* Seven numbers: a position and a quaternion w x y z, normalised. */
+    assert_int_equal(cli_parse_pose("1 2 3 0 0 0 1.0005", &p, err, sizeof err), 0);
+    assert_true(p.t.x == 1 && p.t.y == 2 && p.t.z == 3);
+    assert_matrix(p.r, (double[9]){-1, 0, 0, 0, -1, 0, 0, 0, 1});
     assert_int_equal(cli_parse_pose("1 2 3 4", &p, err, sizeof err), -1);
-    assert_string_equal(err, "expected 3 or 6 numbers \"tx ty tz [rx ry rz]\" (degrees): found 4");
+    assert_string_equal(err, "expected 3, 6 or 7 numbers \"tx ty tz [rx ry rz | qw qx qy qz]\" "
+                             "(degrees or a quaternion): found 4");
+    assert_int_equal(cli_parse_pose("1 2 3 4 5 6 7 8", &p, err, sizeof err), -1);
+    assert_string_equal(err, "expected 3, 6 or 7 numbers \"tx ty tz [rx ry rz | qw qx qy qz]\" "
+                             "(degrees or a quaternion): more than 7 fields");
     assert_int_equal(cli_parse_pose("1 2 z", &p, err, sizeof err), -1);
-    assert_string_equal(err, "expected 3 or 6 numbers \"tx ty tz [rx ry rz]\" (degrees): "
-                             "field 3 'z' is not a finite number");
+    assert_string_equal(err, "expected 3, 6 or 7 numbers \"tx ty tz [rx ry rz | qw qx qy qz]\" "
+                             "(degrees or a quaternion): field 3 'z' is not a finite number");
+    /* A zero quaternion is no rotation, nor is one far from unit length. */
+    assert_int_equal(cli_parse_pose("1 2 3 0 0 0 0", &p, err, sizeof err), -1);
+    assert_string_equal(err, "the quaternion (0 0 0 0) is not of length 1 within 1e-3");
+    assert_int_equal(cli_parse_pose("1,2,3,1,0,0,1", &p, err, sizeof err), -1);
+    assert_string_equal(err, "the quaternion (1 0 0 1) is not of length 1 within 1e-3");
+}
+
+/* The nearest of 0, +-1/2, +-sqrt(1/2), +-1: the components of a turn of a cube, as a
+ * person would type them. */
+static double cube_component(double v)
+{
+    static const double exact[] = {0, 0.5, 0.7071067811865476, 1};
+    double best = 0;
+    for (size_t i = 0; i < sizeof exact / sizeof exact[0]; i++)
+        if (fabs(fabs(v) - exact[i]) < fabs(fabs(v) - best))
+            best = exact[i];
+    return v < 0 ? -best : best;
+}
+
+/* (w, x, y, z) of a turn by m quarter turns about one axis (0 x, 1 y, 2 z). */
+static void quarter_turns(int axis, int m, double q[4])
+{
+    static const double half_cos[4] = {1, 0.7071067811865476, 0, -0.7071067811865476};
+    static const double half_sin[4] = {0, 0.7071067811865476, 1, 0.7071067811865476};
+    q[0] = half_cos[m];
+    q[1] = q[2] = q[3] = 0;
+    q[1 + axis] = half_sin[m];
+}
+
+static void quaternion_product(const double a[4], const double b[4], double out[4])
+{
+    double r[4] = {
+        a[0] * b[0] - a[1] * b[1] - a[2] * b[2] - a[3] * b[3],
+        a[0] * b[1] + a[1] * b[0] + a[2] * b[3] - a[3] * b[2],
+        a[0] * b[2] - a[1] * b[3] + a[2] * b[0] + a[3] * b[1],
+        a[0] * b[3] + a[1] * b[2] - a[2] * b[1] + a[3] * b[0],
+    };
+    memcpy(out, r, sizeof r);
+}
+
+/* A pose of seven numbers is the very matrix of the same turn in degrees, for every
+ * combination of quarter turns about x, y and z (all the turns of a cube): what rests on
+ * a face in degrees rests on it as a quaternion. Also with sqrt(1/2) typed short and with
+ * the quaternion negated (the same rotation). */
+static void test_quaternion_pose_equals_degrees(void **state)
+{
+    (void)state;
+    char err[256], text[256];
+    for (int i = 0; i < 4; i++)
+        for (int j = 0; j < 4; j++)
+            for (int k = 0; k < 4; k++) {
+                trioct_pose euler, quat;
+                snprintf(text, sizeof text, "1 2 3 %d %d %d", 90 * i, 90 * j, 90 * k);
+                assert_int_equal(cli_parse_pose(text, &euler, err, sizeof err), 0);
+                /* R = Rz Ry Rx: the quaternion qz qy qx. */
+                double qx[4], qy[4], qz[4], zy[4], q[4];
+                quarter_turns(0, i, qx);
+                quarter_turns(1, j, qy);
+                quarter_turns(2, k, qz);
+                quaternion_product(qz, qy, zy);
+                quaternion_product(zy, qx, q);
+                for (int c = 0; c < 4; c++)
+                    q[c] = cube_component(q[c]);
+                snprintf(text, sizeof text, "1 2 3 %.17g %.17g %.17g %.17g", q[0], q[1], q[2], q[3]);
+                assert_int_equal(cli_parse_pose(text, &quat, err, sizeof err), 0);
+                assert_matrix(quat.r, euler.r);
+                assert_true(quat.t.x == 1 && quat.t.y == 2 && quat.t.z == 3);
+            }
+    trioct_pose euler, quat;
+    assert_int_equal(cli_parse_pose("0 0 0 0 0 90", &euler, err, sizeof err), 0);
+    assert_int_equal(cli_parse_pose("0 0 0 0.70710678 0 0 0.70710678", &quat, err, sizeof err), 0);
+    assert_matrix(quat.r, euler.r);
+    assert_int_equal(cli_parse_pose("0 0 0 -0.7071 0 0 -0.7071", &quat, err, sizeof err), 0);
+    assert_matrix(quat.r, euler.r);
+    assert_int_equal(cli_parse_pose("0 0 0 -90 0 0", &euler, err, sizeof err), 0);
+    assert_int_equal(cli_parse_pose("0,0,0,0.7071067811865476,-0.7071067811865476,0,0", &quat, err, sizeof err), 0);
+    assert_matrix(quat.r, euler.r);
 }
 
 /* x y z qw qx qy qz: a quarter turn about z is exact in the rows that do not involve it,
@@ -454,10 +539,25 @@ static void test_read_poses(void **state)
     assert_true(list.poses[0].t.x == 9);
     assert_true(list.poses[1].t.z == 1);
     assert_true(list.poses[2].t.x == 2 && list.poses[2].r[1] == -1);
+    /* Lines of 7: a quaternion, here half a turn about z and a quarter turn about x. */
+    f = file_of("3 0 0 0 0 0 1\n# x\n4,0,0,0.7071067811865476,0.7071067811865476,0,0\n");
+    assert_int_equal(cli_read_poses(f, "p.csv", &list, err, sizeof err), 0);
+    fclose(f);
+    assert_int_equal(list.count, 5);
+    assert_true(list.poses[3].t.x == 3);
+    assert_matrix(list.poses[3].r, (double[9]){-1, 0, 0, 0, -1, 0, 0, 0, 1});
+    assert_true(list.poses[4].t.x == 4);
+    assert_matrix(list.poses[4].r, (double[9]){1, 0, 0, 0, 0, -1, 0, 1, 0});
     f = file_of("0,0,1\n0,0\n");
     assert_int_equal(cli_read_poses(f, "p.csv", &list, err, sizeof err), -1);
     fclose(f);
-    assert_string_equal(err, "p.csv:2: expected 3 or 6 numbers \"tx ty tz [rx ry rz]\" (degrees): found 2");
+    assert_string_equal(err, "p.csv:2: expected 3, 6 or 7 numbers \"tx ty tz [rx ry rz | qw qx qy qz]\" "
+                             "(degrees or a quaternion): found 2");
+    /* A zero quaternion is named by its line. */
+    f = file_of("0 0 1 1 0 0 0\n\n# next\n0 0 1 0 0 0 0\n");
+    assert_int_equal(cli_read_poses(f, "p.csv", &list, err, sizeof err), -1);
+    fclose(f);
+    assert_string_equal(err, "p.csv:4: the quaternion (0 0 0 0) is not of length 1 within 1e-3");
     cli_pose_list_free(&list);
 }
 
@@ -892,6 +992,7 @@ int main(void)
         cmocka_unit_test(test_rotation_exact_quarter_turns),
         cmocka_unit_test(test_rotation_general_angle),
         cmocka_unit_test(test_parse_pose),
+        cmocka_unit_test(test_quaternion_pose_equals_degrees),
         cmocka_unit_test(test_read_poses),
         cmocka_unit_test(test_json_escaping),
         cmocka_unit_test(test_json_writer),

@@ -604,11 +604,15 @@ static void test_pose_checks(void **state)
         assert_true(q.r[k] == half_turn[k]);
     assert_int_equal(octree_pose_from_quaternion((vec3){0, 0, 0}, 0, 0, 0, 0, &q), OCTREE_ERR_INVALID);
     assert_int_equal(octree_pose_from_quaternion((vec3){0, 0, 0}, NAN, 0, 0, 1, &q), OCTREE_ERR_NONFINITE);
-    /* A quarter turn about x: y goes to z. */
+    /* A quarter turn about x: y goes to z, exactly, as a pose in degrees would (sqrt(0.5)
+     * is not 1/sqrt(2), yet the matrix's entries are 0 and 1 all the same). */
     assert_int_equal(octree_pose_from_quaternion((vec3){0, 0, 0}, sqrt(0.5), sqrt(0.5), 0, 0, &q), OCTREE_OK);
     assert_int_equal(octree_pose_check(&q), OCTREE_OK);
+    const double quarter_x[9] = {1, 0, 0, 0, 0, -1, 0, 1, 0};
+    for (int k = 0; k < 9; k++)
+        assert_true(q.r[k] == quarter_x[k]);
     vec3 y = octree_pose_point(&q, (vec3){0, 1, 0});
-    assert_true(fabs(y.x) < 1e-15 && fabs(y.y) < 1e-15 && fabs(y.z - 1) < 1e-15);
+    assert_true(y.x == 0 && y.y == 0 && y.z == 1);
 
     /* The posed ray refuses what the check refuses, and modes other than exact. */
     mesh_data m = meshgen_box((box3){{0, 0, 0}, {1, 1, 1}});

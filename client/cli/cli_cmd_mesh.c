@@ -1,6 +1,7 @@
-/* The mesh subcommand: one of the world's query shapes at one or many poses. Like rays, a
- * pose list of any length is cut into requests of TRIOCT_MAX_POSES and the answers joined,
- * poses numbered as given. */
+/* The mesh subcommand: one of the world's query shapes, or the triangles of a mesh file sent
+ * inline, at one or many poses. Like rays, a pose list of any length is cut into requests
+ * (of TRIOCT_MAX_POSES, or fewer beside inline triangles) and the answers joined, poses
+ * numbered as given. */
 #include <inttypes.h>
 #include <stdlib.h>
 #include <string.h>
@@ -11,13 +12,26 @@
 #include "cli_batch.h"
 #include "cli_pose.h"
 #include "cli_progress.h"
+#include "cli_shape_file.h"
 #include "cli_text.h"
 
-enum { OPT_POSE, OPT_POSES, OPT_PAIRS, OPT_ACCURACY };
+enum { OPT_POSE, OPT_POSES, OPT_PAIRS, OPT_ACCURACY, OPT_SHAPE_FILE };
+
+/* A request must fit one datagram (TRIOCT_MAX_REQUEST_BYTES), and inline triangles share it
+ * with the poses: 512 of them leave room for fewer than TRIOCT_MAX_POSES. A pose is 96 bytes
+ * on the wire (pose_t: 12 doubles), a triangle 72 (triangle_t: 9); everything else of a
+ * mesh_request_t, the header's names at their longest included, is under 200 bytes, and
+ * MESH_REQUEST_OTHER_BYTES leaves room to spare. */
+#define MESH_POSE_BYTES 96
+#define MESH_TRIANGLE_BYTES 72
+#define MESH_REQUEST_OTHER_BYTES 512
 
 typedef struct mesh_args {
     cli_pose_list poses; /* from --pose, in order */
     const char *poses_file;
+    const char *shape_file;      /* --shape-file; NULL: SHAPE names a shape of the scene */
+    trioct_triangle *triangles;  /* the shape file's, sent inline */
+    size_t num_triangles;
     int pairs;
     int accuracy;
     int out_of_memory;
@@ -28,6 +42,7 @@ static const cli_option mesh_options[] = {
     {"poses", 0, 1, OPT_POSES},
     {"pairs", 0, 0, OPT_PAIRS},
     {"accuracy", 0, 1, OPT_ACCURACY},
+    {"shape-file", 0, 1, OPT_SHAPE_FILE},
     {NULL, 0, 0, 0},
 };
 
@@ -58,9 +73,27 @@ static int mesh_option(void *user, int id, const char *value, char *err, size_t 
         return 0;
     case OPT_ACCURACY:
         return cli_accuracy_option(value, &a->accuracy, err, err_len);
+    case OPT_SHAPE_FILE:
+        if (a->shape_file != NULL) {
+            snprintf(err, err_len, "--shape-file given twice");
+            return -1;
+        }
+        a->shape_file = value;
+        return 0;
     }
     return -1;
 }
+
+/* Poses per request: TRIOCT_MAX_POSES, or what fits beside num_triangles inline ones. */
+static size_t poses_per_request(size_t num_triangles)
+{
+    size_t room = TRIOCT_MAX_REQUEST_BYTES - MESH_REQUEST_OTHER_BYTES - num_triangles * MESH_TRIANGLE_BYTES;
+    size_t n = room / MESH_POSE_BYTES;
+    return n < TRIOCT_MAX_POSES ? n : TRIOCT_MAX_POSES;
+}
+_Static_assert(TRIOCT_MAX_REQUEST_BYTES - MESH_REQUEST_OTHER_BYTES >
+                   TRIOCT_MAX_INLINE_SHAPE_TRIANGLES * MESH_TRIANGLE_BYTES + MESH_POSE_BYTES,
+               "a request of the most inline triangles still carries a pose");
 
 /* The answers of every request, joined. */
 typedef struct mesh_answer {
@@ -98,6 +131,7 @@ static int mesh_answer_add(mesh_answer *a, const trioct_mesh_result *res, size_t
     return 0;
 }
 
+/* shape: a query shape of the world's scene, or NULL for args' inline triangles. */
 static int place_shape(cli_context *ctx, const char *world, const char *shape, const mesh_args *args,
                        mesh_answer *answer)
 {
@@ -107,7 +141,10 @@ static int place_shape(cli_context *ctx, const char *world, const char *shape, c
         .detail = args->pairs ? TRIOCT_MESH_PAIRS : TRIOCT_MESH_YESNO,
         .accuracy = args->accuracy,
         .shape = shape,
+        .num_shape_triangles = shape ? 0 : args->num_triangles,
+        .shape_triangles = shape ? NULL : args->triangles,
     };
+    size_t per_request = poses_per_request(q.num_shape_triangles);
     answer->detail = q.detail;
     answer->num_poses = count;
     answer->found = calloc(count, sizeof *answer->found);
@@ -120,7 +157,7 @@ static int place_shape(cli_context *ctx, const char *world, const char *shape, c
                        "poses", count, cli_now_ns());
     int rc = CLI_EXIT_OK;
     for (size_t done = 0; done < count && rc == CLI_EXIT_OK;) {
-        size_t n = count - done < TRIOCT_MAX_POSES ? count - done : TRIOCT_MAX_POSES;
+        size_t n = count - done < per_request ? count - done : per_request;
         q.num_poses = n;
         q.poses = args->poses.poses + done;
         trioct_mesh_result res;
@@ -143,7 +180,8 @@ static int place_shape(cli_context *ctx, const char *world, const char *shape, c
     return rc;
 }
 
-static void mesh_json(cli_context *ctx, const mesh_answer *a, const char *shape, int accuracy)
+/* shape: the scene's shape name, or the file's path when args->shape_file is set. */
+static void mesh_json(cli_context *ctx, const mesh_answer *a, const char *shape, const mesh_args *args)
 {
     /* The first request's version: a rebuild during the batch was warned about. */
     trioct_reply reply = a->batch.reply;
@@ -155,8 +193,11 @@ static void mesh_json(cli_context *ctx, const mesh_answer *a, const char *shape,
     cli_json_init(&j, ctx->out);
     cli_json_envelope(&j, ctx, CLI_EXIT_OK, &reply);
     cli_json_key_string(&j, "shape", shape);
+    cli_json_key_bool(&j, "shape_file", args->shape_file != NULL);
+    if (args->shape_file != NULL)
+        cli_json_key_int(&j, "shape_triangles", (int64_t)args->num_triangles);
     cli_json_key_string(&j, "detail", a->detail == TRIOCT_MESH_PAIRS ? "pairs" : "yesno");
-    cli_json_key_string(&j, "accuracy", cli_accuracy_name(accuracy));
+    cli_json_key_string(&j, "accuracy", cli_accuracy_name(args->accuracy));
     cli_json_key_int(&j, "poses", (int64_t)a->num_poses);
     cli_json_key_int(&j, "requests", (int64_t)a->batch.requests);
     cli_json_key_int(&j, "touching_poses", (int64_t)touching);
@@ -179,13 +220,19 @@ static void mesh_json(cli_context *ctx, const mesh_answer *a, const char *shape,
     cli_json_finish(&j);
 }
 
-static int mesh_print(cli_context *ctx, const mesh_answer *a, const char *shape)
+static int mesh_print(cli_context *ctx, const mesh_answer *a, const char *shape, const mesh_args *args)
 {
     size_t touching = 0;
     for (size_t i = 0; i < a->num_poses; i++)
         touching += a->found[i] > 0;
-    fprintf(ctx->out, "world %s (version %" PRId64 ", daemon %s), shape %s: %zu of %zu pose%s touching\n",
-            a->batch.reply.world, a->batch.first_version, a->batch.reply.daemon, shape, touching, a->num_poses,
+    char what[TRIOCT_MAX_PATH_LEN + 64];
+    if (args->shape_file != NULL)
+        snprintf(what, sizeof what, "shape file %s (%zu triangle%s)", shape, args->num_triangles,
+                 args->num_triangles == 1 ? "" : "s");
+    else
+        snprintf(what, sizeof what, "shape %s", shape);
+    fprintf(ctx->out, "world %s (version %" PRId64 ", daemon %s), %s: %zu of %zu pose%s touching\n",
+            a->batch.reply.world, a->batch.first_version, a->batch.reply.daemon, what, touching, a->num_poses,
             a->num_poses == 1 ? "" : "s");
     cli_table t;
     int pairs = a->detail == TRIOCT_MESH_PAIRS;
@@ -236,13 +283,22 @@ static int mesh_with_args(cli_context *ctx, int argc, char **argv, mesh_args *a)
                               pos, &npos);
     if (rc >= 0)
         return rc;
-    if (npos != 2)
-        return cli_usage_error(ctx, "expected 2 arguments, WORLD and SHAPE; got %d", npos);
+    if (a->shape_file != NULL && npos == 2)
+        return cli_usage_error(ctx, "SHAPE (%.40s) and --shape-file exclude each other: give one", pos[1]);
+    if (a->shape_file != NULL && npos != 1)
+        return cli_usage_error(ctx, "expected 1 argument with --shape-file, WORLD; got %d", npos);
+    if (a->shape_file == NULL && npos != 2)
+        return cli_usage_error(ctx, "expected 2 arguments, WORLD and SHAPE (or WORLD and --shape-file FILE); got %d",
+                               npos);
     if ((rc = cli_check_name(ctx, "world", pos[0])) >= 0 ||
-        (rc = cli_check_name(ctx, "shape", pos[1])) >= 0)
+        (a->shape_file == NULL && (rc = cli_check_name(ctx, "shape", pos[1])) >= 0))
         return rc;
     if (a->poses_file != NULL && (rc = read_pose_file(ctx, a)) >= 0)
         return rc;
+    char err[1024];
+    if (a->shape_file != NULL && cli_read_shape_file(a->shape_file, &a->triangles, &a->num_triangles, err,
+                                                     sizeof err) != 0)
+        return cli_usage_error(ctx, "%s", err);
     if (a->poses.count == 0 && a->poses_file != NULL)
         return cli_usage_error(ctx, "%s holds no poses", a->poses_file);
     trioct_pose identity = {.r = {1, 0, 0, 0, 1, 0, 0, 0, 1}};
@@ -253,11 +309,12 @@ static int mesh_with_args(cli_context *ctx, int argc, char **argv, mesh_args *a)
     if ((rc = cli_connect(ctx)) >= 0)
         return rc;
     mesh_answer answer = {0};
-    rc = place_shape(ctx, pos[0], pos[1], a, &answer);
+    const char *shape = a->shape_file != NULL ? a->shape_file : pos[1];
+    rc = place_shape(ctx, pos[0], a->shape_file != NULL ? NULL : shape, a, &answer);
     if (rc == CLI_EXIT_OK && ctx->json)
-        mesh_json(ctx, &answer, pos[1], a->accuracy);
+        mesh_json(ctx, &answer, shape, a);
     else if (rc == CLI_EXIT_OK)
-        rc = mesh_print(ctx, &answer, pos[1]);
+        rc = mesh_print(ctx, &answer, shape, a);
     mesh_answer_free(&answer);
     return rc;
 }
@@ -267,25 +324,34 @@ static int run_mesh(cli_context *ctx, int argc, char **argv)
     mesh_args a = {.accuracy = TRIOCT_ACCURACY_WORLD};
     int rc = mesh_with_args(ctx, argc, argv, &a);
     cli_pose_list_free(&a.poses);
+    free(a.triangles);
     return rc;
 }
 
 const cli_command cli_command_mesh = {
     "mesh",
-    "place one of the world's query shapes at poses: touching or not, and which pairs",
-    "Usage: trioct mesh WORLD SHAPE [--pose \"tx ty tz [rx ry rz]\"]... [--poses FILE|-]\n"
-    "                   [--pairs] [--accuracy MODE] [global options]\n"
+    "place a query shape, the world's or a mesh file, at poses: touching, and which pairs",
+    "Usage: trioct mesh WORLD SHAPE [--pose POSE]... [--poses FILE|-] [--pairs] [--accuracy MODE]\n"
+    "       trioct mesh WORLD --shape-file FILE [--pose POSE]... [--poses FILE|-] [--pairs] ...\n"
+    "                   [global options]\n"
     "\n"
     "Places SHAPE, a query shape WORLD's scene names (shape.<name> = file), at each pose\n"
-    "and tells whether it touches the world there. A pose is a translation and, optionally,\n"
-    "rotation angles in degrees about the fixed x, then y, then z axes (the scene files'\n"
-    "convention; multiples of 90 are exact). Without any pose the shape is tested where it\n"
-    "is. --pose repeats; --poses reads one pose a line (\"tx,ty,tz[,rx,ry,rz]\", blank lines\n"
-    "and # comments skipped) after the --pose ones. Lists longer than 512 poses\n"
-    "(TRIOCT_MAX_POSES) are sent as several requests, numbered as given all the same.\n"
+    "and tells whether it touches the world there. With --shape-file, the shape is FILE\n"
+    "instead (any format assimp reads, node transforms applied), read here and its\n"
+    "triangles sent with each request: at most 512 (TRIOCT_MAX_INLINE_SHAPE_TRIANGLES).\n"
+    "\n"
+    "A pose is \"tx ty tz\", a translation; \"tx ty tz rx ry rz\", and rotation angles in\n"
+    "degrees about the fixed x, then y, then z axes (the scene files' convention); or\n"
+    "\"tx ty tz qw qx qy qz\", and a quaternion, normalised, refused when its length is off 1\n"
+    "by more than 1e-3. Quarter turns are exact either way. Without any pose the shape is\n"
+    "tested where it is. --pose repeats; --poses reads one pose a line (3, 6 or 7 numbers,\n"
+    "commas or blanks; blank lines and # comments skipped) after the --pose ones. Lists\n"
+    "longer than a request carries (512 poses, TRIOCT_MAX_POSES, or fewer beside a shape\n"
+    "file's triangles) are sent as several requests, numbered as given all the same.\n"
     "\n"
     "Options:\n"
-    "  --pose \"tx ty tz [rx ry rz]\"  one pose (repeatable)\n"
+    "  --shape-file FILE             the shape from a mesh file, instead of SHAPE\n"
+    "  --pose POSE                   one pose (repeatable): \"tx ty tz [rx ry rz | qw qx qy qz]\"\n"
     "  --poses FILE|-                poses from a file or standard input\n"
     "  --pairs                       every touching (pose, shape triangle, world triangle)\n"
     "  --accuracy MODE               exact, seed, fast, or world (default)\n"
@@ -293,6 +359,7 @@ const cli_command cli_command_mesh = {
     "Examples:\n"
     "  trioct mesh yard gripper --pose \"1 2 0.5\"\n"
     "  trioct mesh yard gripper --pose \"1 2 0.5 0 0 90\" --pose \"3 2 0.5\" --pairs\n"
+    "  trioct mesh yard --shape-file gripper.stl --pose \"1 2 0.5 0.7071 0 0 0.7071\"\n"
     "  trioct mesh cell probe --poses path.csv --json\n",
     run_mesh,
 };

@@ -53,18 +53,34 @@ void cli_rotation_degrees(double rx, double ry, double rz, double r[9])
         r[i] += 0.0; /* no -0 entries: a printed matrix says 0 */
 }
 
-int cli_parse_pose(const char *text, trioct_pose *out, char *err, size_t err_len)
+/* The pose of v = x y z qw qx qy qz. The library's trioct_pose_from_quaternion makes the same
+ * matrix; the header-only form keeps this file free of the library, as the parser's tests
+ * link it alone. 0, or -1 with err. */
+static int quaternion_pose(const double v[7], trioct_pose *out, char *err, size_t err_len)
 {
-    double v[6];
-    char why[160];
-    int n = cli_parse_numbers(text, v, 6, why, sizeof why);
-    if (n != 3 && n != 6) {
-        if (n >= 0)
-            snprintf(why, sizeof why, "found %d", n);
-        snprintf(err, err_len, "expected 3 or 6 numbers \"tx ty tz [rx ry rz]\" (degrees): %s",
-                 why);
+    if (trioct_quaternion_matrix(v[3], v[4], v[5], v[6], out->r) != TRIOCT_QUATERNION_OK) {
+        snprintf(err, err_len, "the quaternion (%g %g %g %g) is not of length 1 within 1e-3", v[3], v[4], v[5],
+                 v[6]);
         return -1;
     }
+    out->t = (trioct_vec3){v[0], v[1], v[2]};
+    return 0;
+}
+
+int cli_parse_pose(const char *text, trioct_pose *out, char *err, size_t err_len)
+{
+    double v[7];
+    char why[160];
+    int n = cli_parse_numbers(text, v, 7, why, sizeof why);
+    if (n != 3 && n != 6 && n != 7) {
+        if (n >= 0)
+            snprintf(why, sizeof why, "found %d", n);
+        snprintf(err, err_len, "expected 3, 6 or 7 numbers \"tx ty tz [rx ry rz | qw qx qy qz]\" "
+                 "(degrees or a quaternion): %s", why);
+        return -1;
+    }
+    if (n == 7)
+        return quaternion_pose(v, out, err, err_len);
     if (n == 3)
         v[3] = v[4] = v[5] = 0.0;
     cli_rotation_degrees(v[3], v[4], v[5], out->r);
@@ -126,14 +142,11 @@ int cli_parse_quaternion_pose(char *const text[7], const char *what, trioct_pose
             snprintf(err, err_len, "%s: '%.40s' is not a finite number (x y z qw qx qy qz)", what, text[k]);
             return -1;
         }
-    /* The library's trioct_pose_from_quaternion makes the same matrix; the header-only form
-     * keeps this file free of the library, as the parser's tests link it alone. */
-    if (trioct_quaternion_matrix(v[3], v[4], v[5], v[6], out->r) != TRIOCT_QUATERNION_OK) {
-        snprintf(err, err_len, "%s: the quaternion (%g %g %g %g) is not of length 1 within 1e-3", what, v[3], v[4],
-                 v[5], v[6]);
+    char why[160];
+    if (quaternion_pose(v, out, why, sizeof why) != 0) {
+        snprintf(err, err_len, "%s: %s", what, why);
         return -1;
     }
-    out->t = (trioct_vec3){v[0], v[1], v[2]};
     if (q != NULL)
         memcpy(q, &v[3], 4 * sizeof *q);
     return 0;

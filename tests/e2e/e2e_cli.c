@@ -1209,6 +1209,183 @@ static void test_mesh(void **state)
     run_free(&r);
 }
 
+/* The corners and faces (1-based, as in cube_obj) of the query shape. */
+static const double cube_corner[8][3] = {{-0.5, -0.5, -0.5}, {0.5, -0.5, -0.5}, {0.5, 0.5, -0.5}, {-0.5, 0.5, -0.5},
+                                         {-0.5, -0.5, 0.5},  {0.5, -0.5, 0.5},  {0.5, 0.5, 0.5},  {-0.5, 0.5, 0.5}};
+static const int cube_face[12][3] = {{5, 6, 7}, {5, 7, 8}, {1, 3, 2}, {1, 4, 3}, {1, 2, 6}, {1, 6, 5},
+                                     {2, 3, 7}, {2, 7, 6}, {3, 4, 8}, {3, 8, 7}, {4, 1, 5}, {4, 5, 8}};
+
+/* cube_obj's triangles, in its order, as an ASCII STL (another format than the scene's
+ * cube.obj, and one without shared vertices), `copies` times over. Returns its path. */
+static void write_cube_stl(const char *name, int copies, char *path, size_t len)
+{
+    path_in_dir(path, len, name);
+    FILE *f = fopen(path, "w");
+    assert_non_null(f);
+    fprintf(f, "solid cube\n");
+    for (int c = 0; c < copies; c++)
+        for (int t = 0; t < 12; t++) {
+            fprintf(f, " facet normal 0 0 0\n  outer loop\n");
+            for (int k = 0; k < 3; k++) {
+                const double *p = cube_corner[cube_face[t][k] - 1];
+                fprintf(f, "   vertex %g %g %g\n", p[0], p[1], p[2]);
+            }
+            fprintf(f, "  endloop\n endfacet\n");
+        }
+    fprintf(f, "endsolid cube\n");
+    assert_int_equal(fclose(f), 0);
+}
+
+/* Pairs i and k of a and b: the same pose (after a pose offset), shape triangle, object
+ * and world triangle. */
+static int same_pair(const jv *a, size_t i, const jv *b, size_t k, int pose_offset)
+{
+    const jv *p = &jget(a, "pairs")->items[i], *q = &jget(b, "pairs")->items[k];
+    return (int)jnum(p, "pose") + pose_offset == (int)jnum(q, "pose") &&
+           (int)jnum(p, "shape_triangle") == (int)jnum(q, "shape_triangle") &&
+           strcmp(jstr(p, "object"), jstr(q, "object")) == 0 &&
+           (int)jnum(p, "world_triangle") == (int)jnum(q, "world_triangle");
+}
+
+/* The pairs of one pose in v: first index and count (pairs are sorted by pose). */
+static void pose_pairs(const jv *v, int pose, size_t *first, size_t *count)
+{
+    size_t n = jlen(v, "pairs");
+    *first = n;
+    *count = 0;
+    for (size_t i = 0; i < n; i++)
+        if ((int)jnum(&jget(v, "pairs")->items[i], "pose") == pose) {
+            if (*count == 0)
+                *first = i;
+            ++*count;
+        }
+}
+
+/* --shape-file: the cube as a file of this test's, its triangles sent inline, answers as the
+ * scene's cube does, touching and pairs alike, at poses given in degrees and as quaternions
+ * (a quaternion pose of a quarter turn rests on the top exactly as its Euler twin does). */
+static void test_mesh_shape_file(void **state)
+{
+    (void)state;
+    char stl[320];
+    write_cube_stl("cube_copy.stl", 1, stl, sizeof stl);
+#define MESH_POSES                                                                                                \
+    "--pose", "2 2 2.5", "--pose", "2,2,5", "--pose", "2 2 2.5 0 0 45", "--pose", "2 2 2.5 90 0 0", "--pose",         \
+        "2 2 2.5 0.7071067811865476 0.7071067811865476 0 0", "--pose", "2 2 3 0.70710678 0.70710678 0 0", "--pose", \
+        "2 2 2.5 0 0 0 1", "--pose", "0 0 0"
+    static const int touching[8] = {1, 0, 1, 1, 1, 0, 1, 1};
+    jv *named = JSON(0, "mesh", "box", "cube", MESH_POSES, "--pairs");
+    jv *file = JSON(0, "mesh", "box", "--shape-file", stl, MESH_POSES, "--pairs");
+    jv *yesno = JSON(0, "mesh", "box", "--shape-file", stl, MESH_POSES);
+#undef MESH_POSES
+    assert_string_equal(jstr(named, "shape"), "cube");
+    assert_false(jbool(named, "shape_file"));
+    assert_null(jget(named, "shape_triangles"));
+    assert_string_equal(jstr(file, "shape"), stl);
+    assert_true(jbool(file, "shape_file"));
+    assert_int_equal((int)jnum(file, "shape_triangles"), 12);
+    assert_int_equal((int)jnum(file, "requests"), 1);
+    assert_int_equal((int)jnum(yesno, "touching_poses"), 6);
+    for (int i = 0; i < 8; i++) {
+        char p[32];
+        snprintf(p, sizeof p, "found.%d", i);
+        assert_int_equal((int)jnum(named, p) > 0, touching[i]);
+        assert_int_equal((int)jnum(file, p), (int)jnum(named, p));
+        assert_int_equal((int)jnum(yesno, p), touching[i]);
+    }
+    size_t n = jlen(named, "pairs");
+    assert_true(n > 0);
+    assert_int_equal(jlen(file, "pairs"), n);
+    for (size_t i = 0; i < n; i++)
+        if (!same_pair(named, i, file, i, 0))
+            fail_msg("pair %zu differs between the scene's cube and %s", i, stl);
+    /* Pose 4, a quaternion, is pose 3 in degrees: the very same pairs, for both shapes. */
+    const jv *answers[2] = {named, file};
+    for (int a = 0; a < 2; a++) {
+        size_t first3, count3, first4, count4;
+        pose_pairs(answers[a], 3, &first3, &count3);
+        pose_pairs(answers[a], 4, &first4, &count4);
+        assert_true(count3 > 0);
+        assert_int_equal(count4, count3);
+        for (size_t i = 0; i < count3; i++)
+            if (!same_pair(answers[a], first3 + i, answers[a], first4 + i, 1))
+                fail_msg("pair %zu of the quaternion pose differs from its Euler twin's", i);
+    }
+    jfree(named);
+    jfree(file);
+    jfree(yesno);
+
+    cli_run r = CLI("mesh", "box", "--shape-file", stl, "--pose", "2 2 2.5", "--pose", "2 2 5");
+    expect_code(&r, 0);
+    char says[400];
+    snprintf(says, sizeof says, "shape file %s (12 triangles): 1 of 2 poses touching", stl);
+    expect_text(r.out, says);
+    expect_text(r.out, "POSE  TOUCHING\n   0  yes\n   1  no\n");
+    run_free(&r);
+
+    /* 504 triangles (the cube 42 times over) leave room for fewer poses a request than
+     * TRIOCT_MAX_POSES: 600 poses from a file, degrees, translations and quaternions mixed,
+     * take 3 requests and come back numbered as one list. */
+    char big[320], path[320];
+    write_cube_stl("cubes.stl", 42, big, sizeof big);
+    path_in_dir(path, sizeof path, "shape_poses.csv");
+    FILE *f = fopen(path, "w");
+    assert_non_null(f);
+    for (int i = 0; i < 600; i++)
+        fprintf(f, i % 3 == 0 ? "2, 2, 2.5, 0, 0, %d\n" : i % 3 == 1 ? "2,2,5\n" : "2 2 2.5 0.7071 0 0 0.7071\n",
+                i % 360);
+    assert_int_equal(fclose(f), 0);
+    jv *v = JSON(0, "mesh", "box", "--shape-file", big, "--poses", path);
+    assert_int_equal((int)jnum(v, "shape_triangles"), 504);
+    assert_int_equal((int)jnum(v, "poses"), 600);
+    assert_int_equal((int)jnum(v, "requests"), 3);
+    assert_int_equal((int)jnum(v, "touching_poses"), 400);
+    for (int i = 0; i < 600; i++) {
+        char p[32];
+        snprintf(p, sizeof p, "found.%d", i);
+        assert_int_equal((int)jnum(v, p), i % 3 != 1);
+    }
+    jfree(v);
+
+    /* Usage errors, each naming what is wrong: nothing is sent. */
+    char missing[320], over[320], lines[320], zero[320];
+    path_in_dir(missing, sizeof missing, "missing.stl");
+    write_cube_stl("too_many.stl", 43, over, sizeof over); /* 516 triangles */
+    write_text("lines.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nl 1 2\nl 2 3\n");
+    path_in_dir(lines, sizeof lines, "lines.obj");
+    write_text("zero_q.csv", "2 2 2.5\n\n2 2 2.5 0 0 0 0\n");
+    path_in_dir(zero, sizeof zero, "zero_q.csv");
+    char says_missing[400], says_lines[400], says_zero[400];
+    snprintf(says_missing, sizeof says_missing, "--shape-file: cannot open %s: No such file or directory", missing);
+    snprintf(says_lines, sizeof says_lines, "--shape-file: no triangles in %s", lines);
+    snprintf(says_zero, sizeof says_zero, "%s:3: the quaternion (0 0 0 0) is not of length 1 within 1e-3", zero);
+    struct {
+        const char *args[8];
+        const char *says;
+    } cases[] = {
+        {{"mesh", "box", "--shape-file", missing}, says_missing},
+        {{"mesh", "box", "cube", "--shape-file", stl}, "SHAPE (cube) and --shape-file exclude each other"},
+        {{"mesh", "box", "--shape-file", stl, "--shape-file", stl}, "--shape-file given twice"},
+        {{"mesh", "box", "--shape-file", over}, "holds 516 triangles, over the cap of 512 a request carries inline "
+                                                "(TRIOCT_MAX_INLINE_SHAPE_TRIANGLES)"},
+        {{"mesh", "box", "--shape-file", lines}, says_lines},
+        {{"mesh", "box", "--shape-file", stl, "--pose", "2 2 2.5 0 0 0 0"},
+         "--pose '2 2 2.5 0 0 0 0': the quaternion (0 0 0 0) is not of length 1 within 1e-3"},
+        {{"mesh", "box", "cube", "--poses", zero}, says_zero},
+        {{"mesh", "box"}, "expected 2 arguments, WORLD and SHAPE (or WORLD and --shape-file FILE); got 1"},
+    };
+    for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
+        r = run_cli(NULL, cases[i].args);
+        expect_code(&r, 2);
+        expect_text(r.err, cases[i].says);
+        assert_string_equal(r.out, "");
+        run_free(&r);
+    }
+    v = JSON(2, "mesh", "box", "--shape-file", missing);
+    expect_text(jstr(v, "message"), says_missing);
+    jfree(v);
+}
+
 /* Objects of box_rays: the section is one object named after it; the cube added as `lid`
  * above the box, moved (a quarter turn about z, which keeps its top at exactly z = 5.5),
  * and removed, with a ray straight down at (2, 2) naming what it meets at each step. */
@@ -1475,7 +1652,7 @@ static void test_exit_usage(void **state)
         {{"worlds", "--timeout", "0"}, "--timeout: '0' is not a whole number"},
         {{"worlds", "--bogus"}, "unknown option '--bogus'"},
         {{"tri", "box", "1", "2", "3"}, "expected 10 arguments"},
-        {{"mesh", "box", "cube", "--pose", "1 2"}, "expected 3 or 6 numbers"},
+        {{"mesh", "box", "cube", "--pose", "1 2"}, "expected 3, 6 or 7 numbers"},
         {{"load", "w", "--accuracy", "world"}, "is not exact, seed or fast"},
         {{"load", "w", "--effects", "sound"}, "unknown effect 'sound'"},
         {{"rays", "box", "/nonexistent/rays.csv"}, "cannot read /nonexistent/rays.csv"},
@@ -1752,6 +1929,7 @@ int main(int argc, char **argv)
         cmocka_unit_test(test_rays_batch),
         cmocka_unit_test(test_tri),
         cmocka_unit_test(test_mesh),
+        cmocka_unit_test(test_mesh_shape_file),
         cmocka_unit_test(test_load_and_unload),
         cmocka_unit_test(test_exit_usage),
         cmocka_unit_test(test_exit_daemon_error),
