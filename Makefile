@@ -319,6 +319,39 @@ all test: $(REPLAY_BIN) $(MAKE_LOGS_BIN)
 logs: $(MAKE_LOGS_BIN) $(REPLAY_BIN) $(DAEMON_BIN)
 	sh tools/replay/make_logs.sh $(BUILD) tests/logs
 
+# Java types for lcm-spy and Java programs (docs/protocol.md, "Watching the bus with lcm-spy"):
+# lcm-gen -j turns proto/*.lcm into Java (package trioct) in $(BUILD)/java/src, javac
+# compiles it against Debian's lcm.jar (liblcm-java) for Java 8 bytecode, as lcm.jar's own,
+# and $(JAVA_JAR) packs the classes; generated, never committed. `make java` builds it,
+# installing a JDK and liblcm-java when they are missing (as root; otherwise
+# scripts/deps.sh prints the apt-get line and it fails). `all` builds it only when javac,
+# jar and lcm.jar are all there already, and so does `make install`, which installs it
+# when it is built. scripts/lcm-spy runs lcm-spy with it. tests/java/java_test.sh checks
+# the jar against proto/ and decodes C-encoded messages and tests/logs with it.
+LCM_JAR    ?= /usr/share/java/lcm.jar
+JAVAC      ?= javac
+JAR        ?= jar
+JAVA_DIR   := $(BUILD)/java
+JAVA_JAR   := $(BUILD)/trioct-lcm-types.jar
+JAVA_FOUND := $(and $(shell command -v $(JAVAC) 2>/dev/null),$(shell command -v $(JAR) 2>/dev/null),$(wildcard $(LCM_JAR)))
+JAVA_FIXTURE_BIN := $(BUILD)/tests/java/fixture_log
+.PHONY: java java-deps install-java
+java: $(JAVA_JAR)
+java-deps:
+	@missing=; command -v $(JAVAC) >/dev/null 2>&1 && command -v $(JAR) >/dev/null 2>&1 || missing=default-jdk-headless; \
+	[ -r $(LCM_JAR) ] || missing="$$missing liblcm-java"; \
+	[ -z "$$missing" ] || sh scripts/deps.sh $$missing
+$(JAVA_JAR): $(PROTO) | $(DEPS_STAMP) java-deps
+	rm -rf $(JAVA_DIR) && mkdir -p $(JAVA_DIR)/src $(JAVA_DIR)/classes
+	lcm-gen -j --jpath $(JAVA_DIR)/src $(PROTO)
+	$(JAVAC) --release 8 -Xlint:-options -cp $(LCM_JAR) -d $(JAVA_DIR)/classes $(JAVA_DIR)/src/trioct/*.java
+	rm -f $@ && $(JAR) cf $@ -C $(JAVA_DIR)/classes trioct
+all: $(if $(JAVA_FOUND),$(JAVA_JAR))
+# The C half of the Java test: a log of messages the generated C code encodes.
+$(JAVA_FIXTURE_BIN): $(BUILD)/tests/java/fixture_log.o $(PROTO_LIB)
+	$(CC) $(ALL_CFLAGS) $< $(PROTO_LIB) -llcm $(LDLIBS_ENGINE) -o $@
+test: $(JAVA_FIXTURE_BIN)
+
 # ---- make install, make uninstall ----------------------------------------------------------
 # Laid out as a Debian package would be, every directory a variable (on the command line:
 # `make install PREFIX=/usr LIBDIR=/usr/lib/x86_64-linux-gnu DESTDIR=...`), and what is read
@@ -335,6 +368,7 @@ logs: $(MAKE_LOGS_BIN) $(REPLAY_BIN) $(DAEMON_BIN)
 #                     reads /usr/local/lib/python3.X/dist-packages instead)
 #   SYSTEMD_UNIT_DIR  $(PREFIX)/lib/systemd/system, which systemd reads for /usr and
 #                     /usr/local alike
+#   JAVADIR           $(PREFIX)/share/java: trioct-lcm-types.jar, when it is built (`make java`)
 # trioct-load goes to $(PREFIX)/libexec/trioct/, where trioctd looks for it (../libexec/trioct/
 # from its own directory). tests/e2e/install_test.sh checks the tree file by file, and that
 # `make uninstall` with the same variables leaves no file behind.
@@ -345,13 +379,14 @@ INCLUDEDIR  = $(PREFIX)/include
 LOADER_DIR  = $(PREFIX)/libexec/trioct
 MAN_DIR    ?= $(PREFIX)/share/man
 PYTHONDIR  ?= $(PREFIX)/lib/python3/dist-packages
+JAVADIR    ?= $(PREFIX)/share/java
 SYSTEMD_UNIT_DIR ?= $(PREFIX)/lib/systemd/system
 PC_VERSION := $(or $(shell sed -n 's/^\#define TRIOCT_VERSION "\(.*\)"/\1/p' common/trioct_version.h),0)
 PUBLIC_HEADERS := client/trioct.h common/trioct_limits.h common/trioct_status.h
 MAN_PAGES  := man1/trioct.1 man1/trioct-replay.1 man8/trioctd.8
 PY_INSTALLED := $(notdir $(PY_OUT))
 .PHONY: install install-lib install-python install-service uninstall
-install: install-lib install-python install-service
+install: install-lib install-python install-service install-java
 
 # The programs, both libraries, the header with the two it includes (in include/trioct/,
 # where its quoted includes find them) and trioct.pc. Its Cflags name include/ and
@@ -393,6 +428,12 @@ install-service:
 	    install -m 0644 systemd/scene.ini $(DESTDIR)/etc/trioct/scene.ini
 	for page in $(MAN_PAGES); do install -m 0644 man/$${page#*/} $(DESTDIR)$(MAN_DIR)/$$page || exit 1; done
 
+# The Java types jar (see `make java`), built first when a JDK and lcm.jar are there; a
+# machine without them installs no jar, as `all` built none.
+install-java: $(if $(JAVA_FOUND),$(JAVA_JAR))
+	if [ -f $(JAVA_JAR) ]; then install -d $(DESTDIR)$(JAVADIR) && \
+	    install -m 0644 $(JAVA_JAR) $(DESTDIR)$(JAVADIR)/trioct-lcm-types.jar; fi
+
 # Removes what install put there, with the same variables, and the directories it made under
 # trioct's own names once they are empty; shared directories (bin, lib, share/man, ...) stay.
 # /etc/trioct/scene.ini goes only when it is still the shipped scene: an edited one is the
@@ -408,6 +449,7 @@ uninstall:
 	    $(addprefix $(DESTDIR)$(INCLUDEDIR)/trioct/,$(notdir $(PUBLIC_HEADERS))) \
 	    $(addprefix $(DESTDIR)$(MAN_DIR)/,$(MAN_PAGES)) \
 	    $(DESTDIR)$(SYSTEMD_UNIT_DIR)/trioctd.service $(DESTDIR)$(PREFIX)/share/trioct/scene.ini.example \
+	    $(DESTDIR)$(JAVADIR)/trioct-lcm-types.jar \
 	    $(addprefix $(DESTDIR)$(PYTHONDIR)/trioct/,$(PY_INSTALLED))
 	rm -f $(foreach f,$(basename $(PY_INSTALLED)),$(DESTDIR)$(PYTHONDIR)/trioct/__pycache__/$(f).*.pyc)
 	for d in $(DESTDIR)$(INCLUDEDIR)/trioct $(DESTDIR)$(LOADER_DIR) $(DESTDIR)$(PREFIX)/share/trioct \

@@ -54,6 +54,8 @@ run() {
 for t in $TEST_BIN; do
     run "$t" "$t" "$t"
 done
+run java_test.sh "tests/java/java_test.sh (make java's types jar: C-encoded messages and tests/logs decoded in Java, scripts/lcm-spy headless)" \
+    env MAKE="$MAKE" sh tests/java/java_test.sh "$build"
 run systemd_test.sh "tests/e2e/systemd_test.sh (the unit, its sandbox score, man pages, install)" \
     env MAKE="$MAKE" sh tests/e2e/systemd_test.sh "$build"
 run install_test.sh "tests/e2e/install_test.sh (make install into a DESTDIR, pkg-config, C and C++ users)" \

@@ -1,9 +1,9 @@
 #!/bin/sh
 # make install, checked the way a packager and a library user meet it:
 #   - `make install DESTDIR=... PREFIX=/usr` installs exactly the expected tree: every file,
-#     link and directory, modes included, the binaries, libraries, headers and Python
-#     package identical to the built ones, trioct.pc with the prefix written in (and
-#     /usr/local by default);
+#     link and directory, modes included, the binaries, libraries, headers, Python package
+#     and Java types jar (when a JDK and lcm.jar built it) identical to the built ones,
+#     trioct.pc with the prefix written in (and /usr/local by default);
 #   - pkg-config, pointed into the DESTDIR, gives the flags that build against it, and a C
 #     user including <trioct/trioct.h> and one including "trioct.h" build with them from a
 #     non-standard prefix (/opt/trioct) and run;
@@ -101,6 +101,10 @@ EOF
     for f in python/trioct/*.py; do echo "usr/lib/python3/dist-packages/trioct/${f##*/} f 644"; done
     # The command, once client/cli/ exists.
     if ls client/cli/*.c >/dev/null 2>&1; then echo "usr/bin/trioct f 755"; fi
+    # The Java types, when there is a JDK and lcm.jar to build them with (`make java`).
+    if [ -f "$build/trioct-lcm-types.jar" ]; then
+        printf 'usr/share/java d\nusr/share/java/trioct-lcm-types.jar f 644\n'
+    fi
     # install-service (issue 7): the unit, the example scene, the man pages; their contents
     # are tests/e2e/systemd_test.sh's to check.
     cat <<'EOF'
@@ -133,10 +137,11 @@ for pair in "$build/trioctd usr/bin/trioctd" "$build/trioct-load usr/libexec/tri
     "$build/trioct usr/bin/trioct" "$build/trioct-replay usr/bin/trioct-replay" \
     "$build/libtrioct.a usr/lib/libtrioct.a" "$build/libtrioct.so.3 usr/lib/libtrioct.so.3" \
     "client/trioct.h usr/include/trioct/trioct.h" \
+    "$build/trioct-lcm-types.jar usr/share/java/trioct-lcm-types.jar" \
     "common/trioct_limits.h usr/include/trioct/trioct_limits.h" \
     "common/trioct_status.h usr/include/trioct/trioct_status.h"; do
     set -- $pair
-    [ -e "$1" ] || [ -e "$dest/$2" ] || continue # the command, before client/cli/ exists
+    [ -e "$1" ] || [ -e "$dest/$2" ] || continue # the command, before client/cli/ exists; the jar without Java
     if cmp -s "$1" "$dest/$2"; then ok "/$2 is $1"; else not_ok "/$2 differs from $1"; fi
 done
 
