@@ -38,16 +38,7 @@ esac
 
 tmp=$(mktemp -d /tmp/trioct_install_XXXXXX)
 trap 'rm -rf "$tmp"' EXIT
-passed=0
-failed=0
-ok() {
-    passed=$((passed + 1))
-    echo "ok: $1"
-}
-not_ok() {
-    failed=$((failed + 1))
-    echo "FAILED: $1"
-}
+. tests/support/checks.sh
 # Runs "$@", printing its output only when it fails.
 quiet() {
     "$@" >"$tmp/cmd.log" 2>&1 && return 0
@@ -414,5 +405,4 @@ else
     not_ok "make uninstall removed an edited /etc/trioct/scene.ini or left other files (above)"
 fi
 
-echo "install_test: $passed passed, $failed failed"
-[ "$failed" -eq 0 ]
+checks_summary install_test

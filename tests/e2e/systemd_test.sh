@@ -28,17 +28,8 @@ EXPOSURE_MAX=2.0
 
 tmp=$(mktemp -d /tmp/trioct_systemd_XXXXXX)
 trap 'rm -rf "$tmp"' EXIT
-passed=0
-failed=0
+. tests/support/checks.sh
 skipped=0
-ok() {
-    passed=$((passed + 1))
-    echo "ok: $1"
-}
-not_ok() {
-    failed=$((failed + 1))
-    echo "FAILED: $1"
-}
 # Files and their contents; shows the difference when they differ.
 same_file() {
     if cmp -s "$1" "$2"; then return 0; fi
@@ -254,5 +245,4 @@ else
     not_ok "PREFIX=/usr: unit, man page or scene wrong"
 fi
 
-echo "systemd_test: $passed passed, $failed failed, $skipped skipped"
-[ "$failed" -eq 0 ]
+checks_summary systemd_test

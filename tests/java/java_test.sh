@@ -28,19 +28,9 @@ jar=$build/trioct-lcm-types.jar
 
 tmp=$(mktemp -d /tmp/trioct_java_XXXXXX)
 trap 'rm -rf "$tmp"' EXIT
-passed=0
-failed=0
-ok() {
-    passed=$((passed + 1))
-    echo "ok: $1"
-}
-not_ok() {
-    failed=$((failed + 1))
-    echo "FAILED: $1"
-}
+. tests/support/checks.sh
 finish() {
-    echo "java_test: $passed passed, $failed failed"
-    [ "$failed" -eq 0 ]
+    checks_summary java_test
     exit
 }
 
