@@ -268,6 +268,11 @@ static int admin_load(job *j, const trioct_admin_request_t *m)
     j->world_version = (int64_t)w->version;
     registry_entry entry = {.w = w, .last_error = ""};
     status = reply_worlds(j, &entry, 1, NULL, 0);
+    if (status == TRIOCT_OK)
+        LOG(LOG_INFO, "LOAD of world '%s' by client %" PRIx64 " (request %" PRId64 "): OK, version %" PRIu64
+            ", %zu triangles; meshes read in %.3f s, octrees built in %.3f s", j->req.world,
+            (uint64_t)j->req.client_id, j->req.request_id, w->version, w->report.triangles, w->load_seconds,
+            w->build_seconds);
     world_release(w);
     if (status != TRIOCT_OK)
         return job_fail(j, status, "world %s was loaded as version %lld, but the reply failed: %s", j->req.world,
@@ -276,25 +281,16 @@ static int admin_load(job *j, const trioct_admin_request_t *m)
 }
 
 /* Every change over the bus is logged with who asked and how it went: what an operator
- * reads to learn why a world changed, or why it did not. */
+ * reads to learn why a world changed, or why it did not. A granted LOAD is logged by
+ * admin_load, which holds the world it built. */
 static void log_change(const job *j, const char *op, int status)
 {
-    if (status != TRIOCT_OK) {
+    if (status != TRIOCT_OK)
         LOG(LOG_WARN, "%s of world '%s' by client %" PRIx64 " (request %" PRId64 "): %s: %s", op, j->req.world,
             (uint64_t)j->req.client_id, j->req.request_id, trioct_status_name(status), j->message);
-        return;
-    }
-    world *w = strcmp(op, "LOAD") == 0 ? registry_acquire(j->ctx->worlds, j->req.world) : NULL;
-    if (w == NULL) {
+    else
         LOG(LOG_INFO, "%s of world '%s' by client %" PRIx64 " (request %" PRId64 "): OK", op, j->req.world,
             (uint64_t)j->req.client_id, j->req.request_id);
-        return;
-    }
-    LOG(LOG_INFO, "%s of world '%s' by client %" PRIx64 " (request %" PRId64 "): OK, version %" PRIu64
-        ", %zu triangles; meshes read in %.3f s, octrees built in %.3f s", op, j->req.world,
-        (uint64_t)j->req.client_id, j->req.request_id, w->version, w->report.triangles, w->load_seconds,
-        w->build_seconds);
-    world_release(w);
 }
 
 int dispatch_admin(job *j, const trioct_admin_request_t *m)
@@ -311,7 +307,8 @@ int dispatch_admin(job *j, const trioct_admin_request_t *m)
         return status;
     case TRIOCT_ADMIN_REQUEST_T_LOAD:
         status = dispatch_authorize(j) == TRIOCT_OK ? admin_load(j, m) : j->status;
-        log_change(j, "LOAD", status);
+        if (status != TRIOCT_OK)
+            log_change(j, "LOAD", status);
         return status;
     default:
         /* check_header admits only the op its channel serves. */
