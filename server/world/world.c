@@ -72,11 +72,12 @@ int world_resolve_path_in(const char *world_dir, const mesh_roots *roots, const 
     if (out && out_len)
         out[0] = '\0';
     int have_roots = roots != NULL && roots->count > 0;
+    int absolute = rel && rel[0] == '/';
     if (!world_dir || !world_dir[0])
         return error_text(err, err_len, "no world directory is set");
     if (!rel || !rel[0])
         return error_text(err, err_len, "empty file path");
-    if (rel[0] == '/' && !have_roots)
+    if (absolute && !have_roots)
         return error_text(err, err_len, "%s: absolute paths are refused; give a path relative to the world directory "
                           "(or name its directory as a mesh_root)", rel);
     if (has_parent_component(rel))
@@ -85,29 +86,31 @@ int world_resolve_path_in(const char *world_dir, const mesh_roots *roots, const 
     char *dir = realpath(world_dir, NULL);
     if (!dir)
         return error_text(err, err_len, "world directory %s: %s", world_dir, strerror(errno));
-    size_t joined_len = strlen(dir) + 1 + strlen(rel) + 1;
-    char *joined = malloc(joined_len);
-    if (!joined) {
-        free(dir);
-        return error_text(err, err_len, "%s: out of memory", rel);
-    }
-    if (rel[0] == '/')
-        snprintf(joined, joined_len, "%s", rel);
-    else
+    char *joined = NULL; /* a relative path, joined to the world directory */
+    if (!absolute) {
+        size_t joined_len = strlen(dir) + 1 + strlen(rel) + 1;
+        if (!(joined = malloc(joined_len))) {
+            free(dir);
+            return error_text(err, err_len, "%s: out of memory", rel);
+        }
         snprintf(joined, joined_len, "%s/%s", dir, rel);
-    char *resolved = realpath(joined, NULL);
+    }
+    char *resolved = realpath(absolute ? rel : joined, NULL);
     int why = errno;
     free(joined);
     int status = 0;
-    if (!resolved)
-        status = rel[0] == '/' ? error_text(err, err_len, "%s: %s", rel, strerror(why))
-                               : error_text(err, err_len, "%s: %s (in world directory %s)", rel, strerror(why), world_dir);
-    else if (rel[0] == '/' ? root_holding(roots, resolved) == NULL
-                           : !is_inside(dir, resolved) && root_holding(roots, resolved) == NULL)
-        status = rel[0] == '/'
-                     ? error_text(err, err_len, "%s: lies outside every mesh_root (it resolves to %s)", rel, resolved)
-                     : error_text(err, err_len, "%s: leads outside the world directory %s%s (to %s)", rel, world_dir,
-                                  have_roots ? " and every mesh_root" : "", resolved);
+    /* An absolute path may lead into a root only; a relative one into the world directory
+     * or a root. */
+    int allowed = resolved && ((!absolute && is_inside(dir, resolved)) || root_holding(roots, resolved) != NULL);
+    if (!resolved && absolute)
+        status = error_text(err, err_len, "%s: %s", rel, strerror(why));
+    else if (!resolved)
+        status = error_text(err, err_len, "%s: %s (in world directory %s)", rel, strerror(why), world_dir);
+    else if (!allowed && absolute)
+        status = error_text(err, err_len, "%s: lies outside every mesh_root (it resolves to %s)", rel, resolved);
+    else if (!allowed)
+        status = error_text(err, err_len, "%s: leads outside the world directory %s%s (to %s)", rel, world_dir,
+                            have_roots ? " and every mesh_root" : "", resolved);
     else if (!out || strlen(resolved) >= out_len)
         status = error_text(err, err_len, "%s: resolved path longer than %zu characters", rel,
                            out_len ? out_len - 1 : 0);
