@@ -34,13 +34,8 @@ case $out in *"no demo is running"*) ;; *) fail "demo-shell without a demo said:
 
 sh scripts/run_demo.sh "$build" >"$tmp/run.log" 2>&1 &
 demo=$!
-i=0
-until [ -f "$envfile" ] && grep -q "Ctrl-C stops it" "$tmp/run.log"; do
-    i=$((i + 1))
-    [ $i -gt 600 ] && fail "the demo was not up within 120 s"
-    kill -0 "$demo" 2>/dev/null || fail "the demo ended before it was up"
-    sleep 0.2
-done
+. scripts/demo_wait.sh
+why=$(demo_wait "$build" "$tmp/run.log" "$demo") || fail "$why"
 echo "ok: the demo is up and says how to reach it ($(grep -c demo-shell "$tmp/run.log") demo-shell lines)"
 
 worlds=$(sh scripts/demo-shell trioct worlds 2>&1) || fail "trioct worlds through demo-shell: $worlds"
