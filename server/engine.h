@@ -398,4 +398,41 @@ octree_status octree_mesh_tree_batch(const octree *world, const octree *shape, c
                                      mesh_output *outs, octree_status *statuses,
                                      query_stats *stats);
 
+/* ---------- distances ---------- */
+/* The part of a triangle a nearest point lies on. Edge k joins vertices k and k + 1
+ * (mod 3); vertex k is the triangle's vertex k. */
+typedef enum distance_feature {
+    DISTANCE_FACE = 0,
+    DISTANCE_EDGE = 1,
+    DISTANCE_VERTEX = 2,
+} distance_feature;
+
+/* A distance with its proven error (docs/engine.md, "Distances"): the real distance of the
+ * double inputs lies in [lower, upper], and distance is their midpoint, so
+ * |distance - real| <= bound = (upper - lower) / 2 rounded up. */
+typedef struct distance_output {
+    int found;          /* 0: every triangle is proven farther than max_distance */
+    double distance, bound;
+    double lower, upper;
+    vec3 point;         /* the nearest point found on the world, rounded */
+    uint32_t triangle;  /* the caller's id of the triangle it lies on */
+    distance_feature feature;
+    int feature_index;  /* the edge or vertex number (0 for a face) */
+} distance_output;
+
+/* The nearest point of the tree's triangles to p: walked nearest node first (each node's
+ * box distance a lower bound, the best upper bound so far the search radius), every
+ * candidate bounded in outward-rounded interval arithmetic. Triangles proven farther than
+ * max_distance (INFINITY: no limit) are not looked for; found is 0 when none is nearer.
+ * Ties in upper go to the smaller triangle id. OCTREE_ERR_NONFINITE for a non-finite p,
+ * OCTREE_ERR_INVALID for a NaN or negative max_distance. Every accuracy mode's tree
+ * answers it exactly alike. */
+octree_status octree_point_distance(const octree *tree, vec3 p, double max_distance, distance_output *out,
+                                    query_stats *stats);
+
+/* The same against a tree placed at `at`: the answer on a tree of the posed triangles
+ * (octree_pose_point of each vertex), the walk run in the tree's frame. */
+octree_status octree_point_distance_posed(const octree *tree, const pose *at, vec3 p, double max_distance,
+                                          distance_output *out, query_stats *stats);
+
 #endif

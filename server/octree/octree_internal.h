@@ -428,6 +428,12 @@ octree_status octree_posed_triangle_setup(const octree *tree, const pose *at, co
 octree_status octree_posed_pair_setup(const octree *world, const pose *world_at, const octree *shape,
                                       const pose *shape_at, pose *relative, double *grow);
 
+/* A world point taken into a posed tree's frame for a distance walk (octree_pose.c): the
+ * local point, what node boxes grow by, and the factor a squared box distance takes to
+ * stay a lower bound of the world distance. */
+octree_status octree_posed_point_setup(const octree *tree, const pose *at, vec3 p, vec3 *local, double *grow,
+                                       double *shrink2);
+
 /* octree_mesh's argument checks: OCTREE_OK, or the status octree_mesh returns for them. */
 octree_status octree_mesh_check(const mesh_view *shape, const pose *at, accuracy_mode mode);
 

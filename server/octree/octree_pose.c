@@ -295,3 +295,27 @@ octree_status octree_posed_pair_setup(const octree *world, const pose *world_at,
     *grow = (delta + g_s) * (1 + 16 * U) + DBL_MIN;
     return *grow < INFINITY ? OCTREE_OK : OCTREE_ERR_NONFINITE;
 }
+
+/* A world point taken into a posed tree's frame, for distances: every posed tree triangle
+ * has its real preimage within 2e (max norm) of the tree's triangle (as for rays), and
+ * the computed local point is within (16u + 4 tau)(|p| + |t|) of p's real preimage (as a
+ * ray's origin). A posed triangle at world distance r from p thus has a point of its tree
+ * triangle within r / sqrt(1 - tau) of the local point, in the 2-norm, after the two
+ * reaches in the max norm: a node box grown by *grow on every side whose distance from
+ * the local point, squared and times *shrink2, exceeds r^2, holds no such triangle. */
+octree_status octree_posed_point_setup(const octree *tree, const pose *at, vec3 p, vec3 *local, double *grow,
+                                       double *shrink2)
+{
+    double tau;
+    octree_status st = rotation_check(at, &tau);
+    if (st != OCTREE_OK)
+        return st;
+    *local = unrotate(at->r, vec3_sub(p, at->t));
+    if (!vec3_is_finite(*local))
+        return OCTREE_ERR_NONFINITE;
+    double g = (16 * U + 4 * tau) * (max_abs3(p) + max_abs3(at->t));
+    *grow = (2 * pose_point_error(at, tree->world) + g) * (1 + 16 * U) + DBL_MIN;
+    /* 1 - tau >= sigma_min(R)^2, less 16u for the rounding of the products it scales. */
+    *shrink2 = (1 - tau) * (1 - 16 * U);
+    return *grow < INFINITY ? OCTREE_OK : OCTREE_ERR_NONFINITE;
+}
