@@ -1,6 +1,6 @@
 /* A world of named objects (server/world/object_set.h): rays and triangles over posed
  * objects answer as one tree of all their posed triangles would, to the bit, ties between
- * coincident faces of two objects included; edit lists apply all or nothing and make new versions while
+ * coincident faces of two objects included, and so do point distances; edit lists apply all or nothing and make new versions while
  * old ones keep answering as they did; objects that share a mesh share one model. */
 #include <math.h>
 #include <setjmp.h>
@@ -194,6 +194,30 @@ static void check_against_union(const object_set *s, int rays, uint64_t seed)
         check_triangle(s, u, offsets, q, &touched);
     }
     assert_true(touched >= (size_t)rays / 2 * 2 / 3);
+    /* Point distances: the union tree's nearest triangle and upper bound, to the bit; on
+     * the surface (a vertex, an edge's midpoint) and around it. */
+    for (int i = 0; i < rays / 2; i++) {
+        size_t t = rng_next(&r) % all.triangle_count;
+        vec3 a = mesh_data_corner(&all, t, 0), c1 = mesh_data_corner(&all, t, 1);
+        vec3 p = i % 3 == 0 ? a : i % 3 == 1 ? vec3_scale(vec3_add(a, c1), 0.5) : rng_point_in_box(&r, around);
+        object_distance_output got;
+        distance_output want;
+        assert_int_equal(object_set_point_distance(s, p, INFINITY, &got, NULL), OCTREE_OK);
+        assert_int_equal(octree_point_distance(u, p, INFINITY, &want, NULL), OCTREE_OK);
+        assert_true(got.found && want.found);
+        uint32_t object, triangle;
+        split_id(s, offsets, want.triangle, &object, &triangle);
+        assert_int_equal(got.object, object);
+        assert_int_equal(got.distance.triangle, triangle);
+        assert_true(got.distance.upper == want.upper);
+        assert_true(got.distance.lower <= got.distance.upper);
+        assert_true(got.distance.distance - got.distance.bound <= got.distance.lower);
+        /* Nothing within half the lower bound. */
+        if (got.distance.lower > 0) {
+            assert_int_equal(object_set_point_distance(s, p, got.distance.lower / 2, &got, NULL), OCTREE_OK);
+            assert_false(got.found);
+        }
+    }
     octree_free(u);
     mesh_data_free(&all);
 }

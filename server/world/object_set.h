@@ -166,4 +166,17 @@ typedef struct object_tri_output {
 octree_status object_set_triangle(const object_set *s, const vec3 tri[3], tri_detail detail,
                                   object_tri_output *out, query_stats *stats);
 
+/* The nearest point of any object to p: octree_point_distance's contract over the union
+ * of the posed triangles, found = 0 when every object is proven farther than
+ * max_distance. The answer is the smallest upper bound's (ties: the smaller object
+ * index, then triangle), its lower bound the smallest of every object that found one. */
+typedef struct object_distance_output {
+    int found;
+    distance_output distance; /* triangle: the index in the object's mesh */
+    uint32_t object;
+} object_distance_output;
+
+octree_status object_set_point_distance(const object_set *s, vec3 p, double max_distance, object_distance_output *out,
+                                        query_stats *stats);
+
 #endif
