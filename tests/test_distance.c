@@ -19,6 +19,7 @@
 
 #include "engine.h"
 #include "geom/point_distance.h"
+#include "geom/tri_distance.h"
 #include "support/meshgen.h"
 #include "support/oracle_distance.h"
 
@@ -193,7 +194,7 @@ static void test_hard_triangles(void **state)
  * what the walk must name. */
 static void scan(const mesh_data *m, vec3 p, point_triangle_distance *best, uint32_t *id)
 {
-    best->hi2 = INFINITY;
+    *best = (point_triangle_distance){INFINITY, INFINITY, DISTANCE_FACE, 0, {0, 0, 0}};
     *id = UINT32_MAX;
     for (size_t i = 0; i < m->triangle_count; i++) {
         vec3 v[3];
@@ -365,6 +366,139 @@ static void test_posed_matches_built(void **state)
     mesh_data_free(&torus);
 }
 
+/* Two triangles: enclosed exactly, and (when tight is given) upper - lower within
+ * tight times the pair's extent. */
+static void check_pair(const vec3 a[3], const vec3 b[3], double tight)
+{
+    triangle_pair_distance r;
+    triangle_pair_distance_bounds(a, b, &r);
+    double lower = iv_sqrt_nonnegative((interval){r.lo2, r.lo2}).lo;
+    double upper = iv_sqrt_nonnegative((interval){r.hi2, r.hi2}).hi;
+    if (!(lower <= upper) || oracle_triangle_pair_compare(a, b, lower) < 0 ||
+        oracle_triangle_pair_compare(a, b, upper) > 0) {
+        fprintf(stderr, "a (%.17g %.17g %.17g) (%.17g %.17g %.17g) (%.17g %.17g %.17g)\n"
+                        "b (%.17g %.17g %.17g) (%.17g %.17g %.17g) (%.17g %.17g %.17g)\n"
+                        "lower %.17g upper %.17g exact^2 %.17g\n",
+                a[0].x, a[0].y, a[0].z, a[1].x, a[1].y, a[1].z, a[2].x, a[2].y, a[2].z, b[0].x, b[0].y, b[0].z,
+                b[1].x, b[1].y, b[1].z, b[2].x, b[2].y, b[2].z, lower, upper, oracle_triangle_pair_distance2(a, b));
+        fail();
+    }
+    if (tight > 0) {
+        double m = 0;
+        for (int k = 0; k < 3; k++)
+            m = fmax(m, fmax(max_norm_from(a[k], b), max_norm_from(b[k], a)));
+        if (!(upper - lower <= tight * m)) {
+            fprintf(stderr, "loose pair: lower %.17g upper %.17g extent %.3g exact %.17g\n", lower, upper, m,
+                    sqrt(oracle_triangle_pair_distance2(a, b)));
+            fprintf(stderr, "a (%.17g %.17g %.17g) (%.17g %.17g %.17g) (%.17g %.17g %.17g)\n"
+                            "b (%.17g %.17g %.17g) (%.17g %.17g %.17g) (%.17g %.17g %.17g)\n",
+                    a[0].x, a[0].y, a[0].z, a[1].x, a[1].y, a[1].z, a[2].x, a[2].y, a[2].z, b[0].x, b[0].y, b[0].z,
+                    b[1].x, b[1].y, b[1].z, b[2].x, b[2].y, b[2].z);
+            fail();
+        }
+    }
+}
+
+static int well_shaped(const vec3 v[3])
+{
+    vec3 e0 = vec3_sub(v[1], v[0]), e1 = vec3_sub(v[2], v[1]), e2 = vec3_sub(v[0], v[2]);
+    double area2 = vec3_length(vec3_cross(e0, e2));
+    double l0 = vec3_length(e0), l1 = vec3_length(e1), l2 = vec3_length(e2);
+    return fmin(area2 / (l0 * l2), fmin(area2 / (l0 * l1), area2 / (l1 * l2))) > 0.1;
+}
+
+/* Random pairs at many scales and offsets, apart (tight unless nearly touching) and
+ * crossing (exactly 0). */
+static void test_random_pairs(void **state)
+{
+    (void)state;
+    rng r = rng_seeded(seed + 10);
+    box3 unit = {{-1, -1, -1}, {1, 1, 1}};
+    for (int i = 0; i < 6000; i++) {
+        double scale = ldexp(1.0, (int)rng_uniform(&r, -20, 20));
+        vec3 offset = i % 3 == 1 ? (vec3){1e9, -1e9, 1e9} : (vec3){0, 0, 0};
+        vec3 shift = vec3_scale(rng_point_in_box(&r, unit), scale * (i % 2 ? 4 : 1));
+        vec3 a[3], b[3];
+        for (int k = 0; k < 3; k++) {
+            a[k] = vec3_add(offset, vec3_scale(rng_point_in_box(&r, unit), scale));
+            b[k] = vec3_add(vec3_add(offset, shift), vec3_scale(rng_point_in_box(&r, unit), scale));
+        }
+        vec3 pa, pb;
+        double d2 = triangle_pair_distance_estimate(a, b, &pa, &pb);
+        /* Tight when apart by more than a millionth of the size (nearer, the gap's
+         * direction is itself a rounding: still enclosed, with a bound of that size). */
+        int apart = sqrt(d2) > 1e-6 * scale;
+        check_pair(a, b, apart && well_shaped(a) && well_shaped(b) ? 0x1p-36 : 0);
+    }
+}
+
+/* Pairs built to be hard: a shared vertex, a shared edge, coplanar overlap and coplanar
+ * apart, parallel faces, parallel and crossing edges, rotated copies whose edges are
+ * parallel only to rounding, zero-area triangles, and the same at 2^30. */
+static void test_hard_pairs(void **state)
+{
+    (void)state;
+    const vec3 t[3] = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}};
+    struct {
+        vec3 b[3];
+        double distance; /* exact; -1 when only enclosure is checked */
+    } cases[] = {
+        {{{0, 0, 0}, {-1, 0, 0}, {0, -1, 0}}, 0},        /* a shared vertex */
+        {{{1, 0, 0}, {0, 1, 0}, {1, 1, 0}}, 0},          /* a shared edge, coplanar */
+        {{{1, 0, 0}, {0, 1, 0}, {1, 1, 1}}, 0},          /* a shared edge, folded */
+        {{{0.25, 0.25, 0}, {2, 0.25, 0}, {0.25, 2, 0}}, 0}, /* coplanar overlap */
+        {{{2, 0, 0}, {3, 0, 0}, {2, 1, 0}}, 1},          /* coplanar apart, vertex to vertex */
+        {{{0, 0, 2}, {1, 0, 2}, {0, 1, 2}}, 2},          /* parallel faces */
+        {{{0.25, 0.25, 3}, {0.5, 0.25, 3}, {0.25, 0.5, 5}}, 3}, /* a vertex above the face */
+        {{{0.5, -1, 1}, {0.5, 1, 1}, {0.5, 0, 5}}, -1},  /* an edge across, above */
+        {{{2, 0, 0}, {3, 0, 0}, {3, 0, 0}}, 1},          /* a segment (zero area) */
+        {{{-2, -2, 0}, {-2, -2, 0}, {-2, -2, 0}}, -1},   /* a point */
+        {{{0.25, 0.25, -1}, {0.25, 0.25, 1}, {0.3, 0.3, 1}}, 0}, /* piercing */
+        {{{0, -1, 0.5}, {0, 1, 0.5}, {0, 0, 1}}, 0.5},   /* parallel edges */
+    };
+    for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
+        for (int scaled = 0; scaled < 3; scaled++) {
+            /* As built, at a 2^30 offset, and shrunk by 2^-40: all exact. */
+            vec3 a[3], b[3];
+            double f = scaled == 2 ? 0x1p-40 : 1, o = scaled == 1 ? 0x1p30 : 0;
+            for (int k = 0; k < 3; k++) {
+                a[k] = (vec3){t[k].x * f + o, t[k].y * f - o, t[k].z * f + o};
+                b[k] = (vec3){cases[i].b[k].x * f + o, cases[i].b[k].y * f - o, cases[i].b[k].z * f + o};
+            }
+            check_pair(a, b, 0);
+            check_pair(b, a, 0);
+            if (cases[i].distance >= 0) {
+                triangle_pair_distance r;
+                triangle_pair_distance_bounds(a, b, &r);
+                double want = cases[i].distance * f;
+                double lower = sqrt(r.lo2), upper = sqrt(r.hi2);
+                assert_true(fabs(lower - want) <= 0x1p-40 * fmax(f, o) && fabs(upper - want) <= 0x1p-40 * fmax(f, o));
+                if (cases[i].distance == 0)
+                    assert_true(r.lo2 == 0 && r.hi2 == 0);
+            }
+        }
+    }
+    /* Two copies of a box's face triangles rotated alike and set apart: their edges are
+     * parallel only to rounding, and the bound must still be tight. */
+    rng r = rng_seeded(seed + 11);
+    for (int i = 0; i < 500; i++) {
+        vec3 axis = rng_unit_vector(&r);
+        double angle = rng_uniform(&r, -3, 3);
+        pose at;
+        assert_int_equal(octree_pose_from_quaternion((vec3){0, 0, 0}, cos(angle / 2), axis.x * sin(angle / 2),
+                                                     axis.y * sin(angle / 2), axis.z * sin(angle / 2), &at),
+                         OCTREE_OK);
+        const vec3 face[3] = {{0, 0, 0}, {1, 0, 0}, {1, 1, 0}};
+        vec3 lift = {rng_uniform(&r, -0.5, 0.5), rng_uniform(&r, -0.5, 0.5), i % 2 ? 0.25 : 1e-3};
+        vec3 a[3], b[3];
+        for (int k = 0; k < 3; k++) {
+            a[k] = octree_pose_point(&at, face[k]);
+            b[k] = octree_pose_point(&at, vec3_add(face[k], lift));
+        }
+        check_pair(a, b, 0x1p-36);
+    }
+}
+
 static void test_bad_input(void **state)
 {
     (void)state;
@@ -392,6 +526,8 @@ int main(void)
         cmocka_unit_test(test_exact_answers),
         cmocka_unit_test(test_random_triangles),
         cmocka_unit_test(test_hard_triangles),
+        cmocka_unit_test(test_random_pairs),
+        cmocka_unit_test(test_hard_pairs),
         cmocka_unit_test(test_walk_matches_scan),
         cmocka_unit_test(test_posed_matches_built),
         cmocka_unit_test(test_bad_input),

@@ -170,3 +170,95 @@ double oracle_point_triangle_distance2(vec3 p, const vec3 v[3], int *feature)
         *feature = f;
     return d;
 }
+
+/* The interior critical point of two segments' squared distance, when both parameters are
+ * strictly inside: |r + s d1 - t d2|^2 with (s, t) from the 2x2 normal equations. */
+static void segment_interior(vec3 p1, vec3 q1, vec3 p2, vec3 q2, mpq_t best, int *have)
+{
+    qvec a1, b1, a2, b2, d1, d2, r, minus_d1;
+    qvec *all[] = {&a1, &b1, &a2, &b2, &d1, &d2, &r, &minus_d1};
+    for (int k = 0; k < 8; k++)
+        qvec_init(all[k]);
+    qvec_set(&a1, p1);
+    qvec_set(&b1, q1);
+    qvec_set(&a2, p2);
+    qvec_set(&b2, q2);
+    qvec_sub(&d1, &b1, &a1);
+    qvec_sub(&d2, &b2, &a2);
+    qvec_sub(&r, &a1, &a2);
+    for (int k = 0; k < 3; k++)
+        mpq_neg(minus_d1.c[k], d1.c[k]);
+    mpq_t a, b, e, c, f, det, s, t, m, one, value;
+    mpq_inits(a, b, e, c, f, det, s, t, m, one, value, NULL);
+    mpq_set_ui(one, 1, 1);
+    qvec_dot(a, &d1, &d1);
+    qvec_dot(b, &d1, &d2);
+    qvec_dot(e, &d2, &d2);
+    qvec_dot(c, &d1, &r);
+    qvec_dot(f, &d2, &r);
+    mpq_mul(det, b, b);
+    mpq_mul(m, a, e);
+    mpq_sub(det, det, m); /* b^2 - a e */
+    if (mpq_sgn(det) != 0) {
+        mpq_mul(s, c, e);
+        mpq_mul(m, b, f);
+        mpq_sub(s, s, m);
+        mpq_div(s, s, det); /* (c e - b f) / det */
+        mpq_mul(t, b, c);
+        mpq_mul(m, a, f);
+        mpq_sub(t, t, m);
+        mpq_div(t, t, det); /* (b c - a f) / det */
+        if (mpq_sgn(s) > 0 && mpq_cmp(s, one) < 0 && mpq_sgn(t) > 0 && mpq_cmp(t, one) < 0) {
+            residual2(value, &r, &minus_d1, s, &d2, t);
+            if (!*have || mpq_cmp(value, best) < 0)
+                mpq_set(best, value);
+            *have = 1;
+        }
+    }
+    mpq_clears(a, b, e, c, f, det, s, t, m, one, value, NULL);
+    for (int k = 0; k < 8; k++)
+        qvec_clear(all[k]);
+}
+
+static void exact_pair_distance2(const vec3 a[3], const vec3 b[3], mpq_t best)
+{
+    mpq_set_ui(best, 0, 1);
+    if (oracle_tri_tri(a, b))
+        return;
+    int have = 0, feature;
+    mpq_t value;
+    mpq_init(value);
+    for (int side = 0; side < 2; side++)
+        for (int i = 0; i < 3; i++) {
+            exact_distance2(side ? b[i] : a[i], side ? a : b, value, &feature);
+            if (!have || mpq_cmp(value, best) < 0)
+                mpq_set(best, value);
+            have = 1;
+        }
+    for (int i = 0; i < 3; i++)
+        for (int j = 0; j < 3; j++)
+            segment_interior(a[i], a[(i + 1) % 3], b[j], b[(j + 1) % 3], best, &have);
+    mpq_clear(value);
+}
+
+int oracle_triangle_pair_compare(const vec3 a[3], const vec3 b[3], double dist)
+{
+    mpq_t best, d2;
+    mpq_inits(best, d2, NULL);
+    exact_pair_distance2(a, b, best);
+    mpq_set_d(d2, dist);
+    mpq_mul(d2, d2, d2);
+    int c = mpq_cmp(best, d2);
+    mpq_clears(best, d2, NULL);
+    return (c > 0) - (c < 0);
+}
+
+double oracle_triangle_pair_distance2(const vec3 a[3], const vec3 b[3])
+{
+    mpq_t best;
+    mpq_init(best);
+    exact_pair_distance2(a, b, best);
+    double d = mpq_get_d(best);
+    mpq_clear(best);
+    return d;
+}

@@ -1,0 +1,315 @@
+/* Triangle to triangle distance bounds (tri_distance.h).
+ *
+ * Two disjoint closed triangles are nearest at a vertex of one and a point of the other,
+ * or at two edges' points: the search tries the six vertices against the other triangle
+ * and the nine edge pairs, in doubles, by the usual region tests (the closest point of a
+ * triangle to a point by its Voronoi regions; of two segments by the clamped solution of
+ * their 2x2 normal equations). Nothing there needs to be exact: the proof that follows
+ * holds for any pair of points and any direction, and a poor choice only loosens it. */
+#include "tri_distance.h"
+
+#include "interval.h"
+#include "tri_tri.h"
+
+static double clamp01(double x)
+{
+    return x > 0 ? (x < 1 ? x : 1.0) : 0.0; /* a NaN goes to 0 */
+}
+
+/* The point of triangle t nearest p: t0 + v (t1 - t0) + w (t2 - t0); *face is 1 when it
+ * lies inside the face rather than on an edge or at a vertex. */
+static vec3 closest_on_triangle(vec3 p, const vec3 t[3], double *v_out, double *w_out, int *face)
+{
+    vec3 ab = vec3_sub(t[1], t[0]), ac = vec3_sub(t[2], t[0]), ap = vec3_sub(p, t[0]);
+    double d1 = vec3_dot(ab, ap), d2 = vec3_dot(ac, ap);
+    double v = 0, w = 0;
+    *face = 0;
+    if (d1 <= 0 && d2 <= 0)
+        goto done; /* vertex 0 */
+    vec3 bp = vec3_sub(p, t[1]);
+    double d3 = vec3_dot(ab, bp), d4 = vec3_dot(ac, bp);
+    if (d3 >= 0 && d4 <= d3) {
+        v = 1;
+        goto done; /* vertex 1 */
+    }
+    double vc = d1 * d4 - d3 * d2;
+    if (vc <= 0 && d1 >= 0 && d3 <= 0) {
+        v = d1 / (d1 - d3);
+        goto done; /* edge 0-1 */
+    }
+    vec3 cp = vec3_sub(p, t[2]);
+    double d5 = vec3_dot(ab, cp), d6 = vec3_dot(ac, cp);
+    if (d6 >= 0 && d5 <= d6) {
+        w = 1;
+        goto done; /* vertex 2 */
+    }
+    double vb = d5 * d2 - d1 * d6;
+    if (vb <= 0 && d2 >= 0 && d6 <= 0) {
+        w = d2 / (d2 - d6);
+        goto done; /* edge 0-2 */
+    }
+    double va = d3 * d6 - d5 * d4;
+    if (va <= 0 && d4 - d3 >= 0 && d5 - d6 >= 0) {
+        w = (d4 - d3) / ((d4 - d3) + (d5 - d6));
+        v = 1 - w;
+        goto done; /* edge 1-2 */
+    }
+    double sum = va + vb + vc;
+    v = vb / sum;
+    w = vc / sum;
+    *face = 1;
+    if (!(v >= 0 && w >= 0 && v + w <= 1)) { /* no area, or rounding: take the vertex */
+        v = w = 0;
+        *face = 0;
+    }
+done:
+    *v_out = clamp01(v);
+    *w_out = clamp01(w);
+    return (vec3){t[0].x + *v_out * ab.x + *w_out * ac.x, t[0].y + *v_out * ab.y + *w_out * ac.y,
+                  t[0].z + *v_out * ab.z + *w_out * ac.z};
+}
+
+/* The nearest points p1 + s d1 and p2 + t d2 of two segments, s and t in [0, 1]. */
+static void closest_on_segments(vec3 p1, vec3 q1, vec3 p2, vec3 q2, double *s_out, double *t_out)
+{
+    vec3 d1 = vec3_sub(q1, p1), d2 = vec3_sub(q2, p2), r = vec3_sub(p1, p2);
+    double a = vec3_dot(d1, d1), e = vec3_dot(d2, d2), f = vec3_dot(d2, r);
+    double s = 0, t = 0;
+    if (a == 0 && e == 0) {
+        /* two points */
+    } else if (a == 0) {
+        t = clamp01(f / e);
+    } else {
+        double c = vec3_dot(d1, r);
+        if (e == 0) {
+            s = clamp01(-c / a);
+        } else {
+            double b = vec3_dot(d1, d2), denom = a * e - b * b;
+            s = denom > 0 ? clamp01((b * f - c * e) / denom) : 0.0;
+            t = (b * s + f) / e;
+            if (t < 0) {
+                t = 0;
+                s = clamp01(-c / a);
+            } else if (t > 1) {
+                t = 1;
+                s = clamp01((b - c) / a);
+            }
+            t = clamp01(t);
+        }
+    }
+    *s_out = s;
+    *t_out = t;
+}
+
+typedef enum pair_kind { PAIR_A_VERTEX, PAIR_B_VERTEX, PAIR_EDGES } pair_kind;
+
+/* The best pair the double search found: which features, and where on them. */
+typedef struct pair_choice {
+    double d2;
+    pair_kind kind;
+    int i, j;    /* the vertex, or a's edge and b's edge (edge k joins k and k + 1) */
+    double s, t; /* on the other triangle (v, w), or along a's and b's edges */
+    int face;    /* a vertex's nearest point inside the other's face */
+    vec3 a_point, b_point;
+} pair_choice;
+
+static vec3 on_segment(vec3 p, vec3 q, double s)
+{
+    return (vec3){p.x + s * (q.x - p.x), p.y + s * (q.y - p.y), p.z + s * (q.z - p.z)};
+}
+
+static double dist2(vec3 a, vec3 b)
+{
+    vec3 d = vec3_sub(a, b);
+    return vec3_dot(d, d);
+}
+
+/* The search runs on the triangles moved by -a0 (each coordinate rounded once): points
+ * near 1e9 would round its candidates' squared distances by their 1e-7 steps and pick the
+ * wrong pair among near ties. The parameters it finds are the proof's; the points are
+ * moved back for the caller. */
+static void search_near_origin(const vec3 a[3], const vec3 b[3], pair_choice *best)
+{
+    best->d2 = INFINITY;
+    for (int side = 0; side < 2; side++) {
+        const vec3 *from = side ? b : a, *to = side ? a : b;
+        for (int i = 0; i < 3; i++) {
+            double v, w;
+            int face;
+            vec3 x = closest_on_triangle(from[i], to, &v, &w, &face);
+            double d2 = dist2(from[i], x);
+            if (d2 < best->d2)
+                *best = (pair_choice){d2, side ? PAIR_B_VERTEX : PAIR_A_VERTEX, i, 0, v, w, face,
+                                      side ? x : from[i], side ? from[i] : x};
+        }
+    }
+    for (int i = 0; i < 3; i++)
+        for (int j = 0; j < 3; j++) {
+            double s, t;
+            vec3 p1 = a[i], q1 = a[(i + 1) % 3], p2 = b[j], q2 = b[(j + 1) % 3];
+            closest_on_segments(p1, q1, p2, q2, &s, &t);
+            vec3 x = on_segment(p1, q1, s), y = on_segment(p2, q2, t);
+            double d2 = dist2(x, y);
+            if (d2 < best->d2)
+                *best = (pair_choice){d2, PAIR_EDGES, i, j, s, t, 0, x, y};
+        }
+}
+
+static void search(const vec3 a[3], const vec3 b[3], pair_choice *best)
+{
+    vec3 la[3], lb[3];
+    for (int k = 0; k < 3; k++) {
+        la[k] = vec3_sub(a[k], a[0]);
+        lb[k] = vec3_sub(b[k], a[0]);
+    }
+    search_near_origin(la, lb, best);
+    best->a_point = vec3_add(best->a_point, a[0]);
+    best->b_point = vec3_add(best->b_point, a[0]);
+}
+
+double triangle_pair_distance_estimate(const vec3 a[3], const vec3 b[3], vec3 *a_point, vec3 *b_point)
+{
+    pair_choice best;
+    search(a, b, &best);
+    *a_point = best.a_point;
+    *b_point = best.b_point;
+    return best.d2;
+}
+
+/* A real point of a closed triangle, as its vertex t0 and bounds on the offset
+ * v (t1 - t0) + w (t2 - t0), v and w made a point of the triangle first: in [0, 1], and w
+ * at most the real 1 - v. The offset is kept apart from the vertex so that two points
+ * far from the origin are subtracted as offsets (a difference of coordinates near 1e9
+ * in doubles would carry their 1e-7 steps into the bound). */
+typedef struct triangle_point {
+    vec3 base;
+    interval3 offset;
+} triangle_point;
+
+static triangle_point point_of_triangle(const vec3 t[3], double v, double w)
+{
+    v = clamp01(v);
+    double room = iv_down(1 - v);
+    w = clamp01(w < room ? w : room);
+    interval3 e1 = iv3_diff(t[1], t[0]), e2 = iv3_diff(t[2], t[0]);
+    interval iv = iv_point(v), iw = iv_point(w);
+    return (triangle_point){t[0], {iv_add(iv_mul(iv, e1.x), iv_mul(iw, e2.x)), iv_add(iv_mul(iv, e1.y), iv_mul(iw, e2.y)),
+                                   iv_add(iv_mul(iv, e1.z), iv_mul(iw, e2.z))}};
+}
+
+static triangle_point point_of_segment(vec3 p, vec3 q, double s)
+{
+    const vec3 t[3] = {p, q, p};
+    return point_of_triangle(t, s, 0.0);
+}
+
+static triangle_point point_at(vec3 p)
+{
+    return (triangle_point){p, {{0, 0}, {0, 0}, {0, 0}}};
+}
+
+/* Bounds on x - y: (x.base - y.base) + x.offset - y.offset. */
+static interval3 points_difference(triangle_point x, triangle_point y)
+{
+    interval3 d = iv3_diff(x.base, y.base);
+    return (interval3){iv_sub(iv_add(d.x, x.offset.x), y.offset.x), iv_sub(iv_add(d.y, x.offset.y), y.offset.y),
+                       iv_sub(iv_add(d.z, x.offset.z), y.offset.z)};
+}
+
+static interval3 iv3_of(vec3 p)
+{
+    return (interval3){iv_point(p.x), iv_point(p.y), iv_point(p.z)};
+}
+
+/* A lower bound of the squared distance from the gap of the triangles along n: every x in
+ * a and y in b have n . (x - y) >= min_i n . a_i - max_j n . b_j (a linear function's
+ * extremes over a triangle are at vertices), so |x - y| >= gap / |n| when the gap is
+ * positive. Measured from b0, so that far-off coordinates do not swamp it. */
+static double gap_lower2(const vec3 a[3], const vec3 b[3], vec3 n)
+{
+    interval3 in = iv3_of(n);
+    double min_a = INFINITY, max_b = 0.0;
+    for (int i = 0; i < 3; i++) {
+        double lo = iv3_dot(in, iv3_diff(a[i], b[0])).lo;
+        min_a = lo < min_a ? lo : min_a;
+        if (!(lo == lo))
+            return 0.0;
+    }
+    for (int j = 1; j < 3; j++) {
+        double hi = iv3_dot(in, iv3_diff(b[j], b[0])).hi;
+        max_b = hi > max_b ? hi : max_b;
+        if (!(hi == hi))
+            return 0.0;
+    }
+    double gap = iv_down(min_a - max_b);
+    if (!(gap > 0))
+        return 0.0;
+    interval nn = iv3_norm2(in);
+    double lo2 = iv_down(iv_down(gap * gap) / nn.hi);
+    return lo2 > 0 ? lo2 : 0.0;
+}
+
+/* gap_lower2 along n turned to point along `between` (from b's point to a's); 0 when n
+ * is no direction. */
+static double oriented_gap_lower2(const vec3 a[3], const vec3 b[3], vec3 n, vec3 between)
+{
+    double side = vec3_dot(n, between);
+    if (!(side != 0) || !vec3_is_finite(n))
+        return 0.0;
+    return gap_lower2(a, b, side < 0 ? vec3_scale(n, -1.0) : n);
+}
+
+void triangle_pair_distance_bounds(const vec3 a[3], const vec3 b[3], triangle_pair_distance *out)
+{
+    pair_choice best;
+    search(a, b, &best);
+
+    /* The upper bound: the two points found, as the real points of the triangles they
+     * stand for. */
+    triangle_point pa, pb;
+    vec3 n;
+    switch (best.kind) {
+    case PAIR_A_VERTEX:
+        pa = point_at(a[best.i]);
+        pb = point_of_triangle(b, best.s, best.t);
+        n = best.face ? vec3_cross(vec3_sub(b[1], b[0]), vec3_sub(b[2], b[0])) : (vec3){0, 0, 0};
+        break;
+    case PAIR_B_VERTEX:
+        pb = point_at(b[best.i]);
+        pa = point_of_triangle(a, best.s, best.t);
+        n = best.face ? vec3_cross(vec3_sub(a[1], a[0]), vec3_sub(a[2], a[0])) : (vec3){0, 0, 0};
+        break;
+    default: {
+        vec3 p1 = a[best.i], q1 = a[(best.i + 1) % 3], p2 = b[best.j], q2 = b[(best.j + 1) % 3];
+        pa = point_of_segment(p1, q1, best.s);
+        pb = point_of_segment(p2, q2, best.t);
+        int interior = best.s > 0 && best.s < 1 && best.t > 0 && best.t < 1;
+        n = interior ? vec3_cross(vec3_sub(q1, p1), vec3_sub(q2, p2)) : (vec3){0, 0, 0};
+        break;
+    }
+    }
+    interval3 apart = points_difference(pa, pb);
+    interval hi = iv_sanitize_nonnegative(iv3_norm2(apart));
+    out->hi2 = hi.hi;
+    out->a_point = best.a_point;
+    out->b_point = best.b_point;
+
+    /* The lower bound: the gap along n, pointed from b towards a; and when that leaves
+     * room (a direction from a sliver's normal or nearly parallel edges, whose rounding
+     * tilts it), the gap along the line between the points as well. */
+    vec3 between = iv3_mid(apart); /* as offsets: best.a_point - best.b_point would round */
+    if (n.x == 0 && n.y == 0 && n.z == 0)
+        n = between; /* a vertex or edge end: the line between the points */
+    out->lo2 = oriented_gap_lower2(a, b, n, between);
+    if (out->lo2 < out->hi2 * (1 - 0x1p-30))
+        out->lo2 = fmax(out->lo2, oriented_gap_lower2(a, b, between, between));
+    if (out->lo2 > 0)
+        return;
+    /* Not parted: touching, or too near for the direction's rounding. */
+    if (tri_tri_overlap_exact(a, b)) {
+        vec3 p, q;
+        tri_tri_contact_segment(a, b, &p, &q);
+        out->lo2 = out->hi2 = 0.0;
+        out->a_point = out->b_point = p;
+    }
+}

@@ -1,0 +1,28 @@
+/* The distance between two closed triangles, with proven bounds. Found in two steps: the
+ * nearest pair of points is searched in plain doubles (each vertex against the other
+ * triangle, each edge against each edge), and the answer is then proven in outward-rounded
+ * interval arithmetic (interval.h): the upper bound is the distance between the two points
+ * found, both real points of the triangles; the lower bound is the triangles' gap along a
+ * direction (the feature pair's own: a face normal, an edge pair's cross product, or the
+ * line between the points), which no pair of points can be closer than. Triangles the
+ * lower bound cannot part are tested for contact exactly (tri_tri.h): touching ones are at
+ * distance 0 exactly. */
+#ifndef TRIOCT_GEOM_TRI_DISTANCE_H
+#define TRIOCT_GEOM_TRI_DISTANCE_H
+
+#include "../engine.h"
+
+typedef struct triangle_pair_distance {
+    /* Bounds on the squared distance: lo2 <= |x - y|^2 <= hi2 for the real nearest x in a,
+     * y in b. */
+    double lo2, hi2;
+    vec3 a_point, b_point; /* the nearest points found, rounded */
+} triangle_pair_distance;
+
+void triangle_pair_distance_bounds(const vec3 a[3], const vec3 b[3], triangle_pair_distance *out);
+
+/* The plain double search alone: the squared distance of the points found, and the points.
+ * What the bound above starts from; exposed for tests. */
+double triangle_pair_distance_estimate(const vec3 a[3], const vec3 b[3], vec3 *a_point, vec3 *b_point);
+
+#endif
