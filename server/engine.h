@@ -435,4 +435,31 @@ octree_status octree_point_distance(const octree *tree, vec3 p, double max_dista
 octree_status octree_point_distance_posed(const octree *tree, const pose *at, vec3 p, double max_distance,
                                           distance_output *out, query_stats *stats);
 
+/* The nearest points of a shape and a world, with the distance's proven bounds as in
+ * distance_output. */
+typedef struct shape_distance_output {
+    int found; /* 0: every pair of triangles is proven farther than max_distance */
+    double distance, bound;
+    double lower, upper;
+    vec3 world_point, shape_point; /* the witnesses, rounded; one point when touching */
+    uint32_t world_triangle, shape_triangle; /* the caller's ids */
+} shape_distance_output;
+
+/* A shape tree placed at shape_at against a world tree placed at world_at (either NULL: as
+ * built), both answered as trees of their posed vertices: the minimum distance between
+ * their triangles, 0 exactly when they touch. Walked over both trees at once, nearest
+ * pair of nodes first; each triangle pair bounded by tri_distance.h's proof. Ties in
+ * upper go to the smaller world triangle, then shape triangle. The shape tree is best
+ * built with octree_def.node_bounds (tighter boxes); any tree works. OCTREE_ERR_INVALID
+ * for a pose octree_pose_check refuses or a NaN or negative max_distance. */
+octree_status octree_shape_distance(const octree *world, const pose *world_at, const octree *shape,
+                                    const pose *shape_at, double max_distance, shape_distance_output *out,
+                                    query_stats *stats);
+
+/* Clearance: *clear = 1 when every point of the placed shape is proven farther than radius
+ * from the world, else 0 (some pair could not be proven beyond it: never 1 when the real
+ * distance is <= radius). Stops at the first such pair. */
+octree_status octree_shape_clearance(const octree *world, const pose *world_at, const octree *shape,
+                                     const pose *shape_at, double radius, int *clear, query_stats *stats);
+
 #endif

@@ -499,6 +499,148 @@ static void test_hard_pairs(void **state)
     }
 }
 
+static octree *build_shape(const mesh_data *m)
+{
+    mesh_view view = mesh_data_view(m);
+    octree_def def = octree_default_def();
+    def.node_bounds = 1;
+    octree_error err;
+    octree *t = octree_build(&view, &def, &err);
+    assert_non_null(t);
+    return t;
+}
+
+static void mesh_triangle(const mesh_data *m, size_t i, const pose *at, vec3 out[3])
+{
+    for (int k = 0; k < 3; k++) {
+        out[k] = m->vertices[m->indices[3 * i + k]];
+        if (at)
+            out[k] = octree_pose_point(at, out[k]);
+    }
+}
+
+/* One placed shape against a (placed) world: the walk names the pair a scan of every pair
+ * names, with its upper bound to the bit; no pair is nearer than the lower bound (the
+ * pairs whose boxes are not surely farther are checked exactly); clearance agrees. */
+static void check_shape(const octree *world, const mesh_data *wm, const pose *world_at, const octree *shape,
+                        const mesh_data *sm, const pose *shape_at)
+{
+    shape_distance_output out;
+    query_stats stats = {0};
+    assert_int_equal(octree_shape_distance(world, world_at, shape, shape_at, INFINITY, &out, &stats), OCTREE_OK);
+    assert_true(out.found);
+    double best = INFINITY;
+    uint32_t bw = 0, bs = 0;
+    vec3 a[3], b[3];
+    for (size_t i = 0; i < wm->triangle_count; i++) {
+        mesh_triangle(wm, i, world_at, a);
+        for (size_t j = 0; j < sm->triangle_count; j++) {
+            mesh_triangle(sm, j, shape_at, b);
+            triangle_pair_distance r;
+            triangle_pair_distance_bounds(a, b, &r);
+            if (r.hi2 < best) {
+                best = r.hi2;
+                bw = (uint32_t)i;
+                bs = (uint32_t)j;
+            }
+        }
+    }
+    assert_int_equal(out.world_triangle, bw);
+    assert_int_equal(out.shape_triangle, bs);
+    assert_true(out.upper == iv_sqrt_nonnegative((interval){best, best}).hi);
+    assert_true(out.lower <= out.distance && out.distance <= out.upper);
+    assert_true(out.distance - out.bound <= out.lower && out.distance + out.bound >= out.upper);
+    mesh_triangle(wm, bw, world_at, a);
+    mesh_triangle(sm, bs, shape_at, b);
+    assert_true(oracle_triangle_pair_compare(a, b, out.upper) <= 0);
+    size_t exact = 0;
+    for (size_t i = 0; i < wm->triangle_count; i++) {
+        mesh_triangle(wm, i, world_at, a);
+        box3 ba = {vec3_min(vec3_min(a[0], a[1]), a[2]), vec3_max(vec3_max(a[0], a[1]), a[2])};
+        for (size_t j = 0; j < sm->triangle_count; j++) {
+            mesh_triangle(sm, j, shape_at, b);
+            box3 bb = {vec3_min(vec3_min(b[0], b[1]), b[2]), vec3_max(vec3_max(b[0], b[1]), b[2])};
+            vec3 gap = vec3_max(vec3_max(vec3_sub(ba.lo, bb.hi), vec3_sub(bb.lo, ba.hi)), (vec3){0, 0, 0});
+            if (vec3_length(gap) * (1 - 1e-9) > out.lower)
+                continue;
+            exact++;
+            assert_true(oracle_triangle_pair_compare(a, b, out.lower) >= 0);
+        }
+    }
+    assert_true(exact >= 1);
+    if (!(stats.candidates_tested < wm->triangle_count * sm->triangle_count / 2 || out.lower == 0)) {
+        fprintf(stderr, "%llu candidates of %zu x %zu, distance %g, nodes %llu\n",
+                (unsigned long long)stats.candidates_tested, wm->triangle_count, sm->triangle_count, out.distance,
+                (unsigned long long)stats.nodes_visited);
+        fail();
+    }
+    /* Clearance: clear below the lower bound, never at or above the upper one. */
+    int clear;
+    if (out.lower > 0) {
+        assert_int_equal(octree_shape_clearance(world, world_at, shape, shape_at, out.lower * 0.999, &clear, NULL),
+                         OCTREE_OK);
+        assert_true(clear);
+        shape_distance_output none;
+        assert_int_equal(octree_shape_distance(world, world_at, shape, shape_at, out.lower * 0.5, &none, NULL),
+                         OCTREE_OK);
+        assert_false(none.found);
+    }
+    assert_int_equal(octree_shape_clearance(world, world_at, shape, shape_at, out.upper, &clear, NULL), OCTREE_OK);
+    assert_false(clear);
+}
+
+static pose random_pose(rng *r, vec3 t)
+{
+    vec3 axis = rng_unit_vector(r);
+    double angle = rng_uniform(r, -3, 3);
+    pose at;
+    assert_int_equal(octree_pose_from_quaternion(t, cos(angle / 2), axis.x * sin(angle / 2), axis.y * sin(angle / 2),
+                                                 axis.z * sin(angle / 2), &at),
+                     OCTREE_OK);
+    return at;
+}
+
+/* Shapes near, touching and inside worlds, placed by random poses and exact quarter
+ * turns, the world itself placed or not, and at a 1e6 offset. */
+static void test_shape_distance(void **state)
+{
+    (void)state;
+    rng r = rng_seeded(seed + 20);
+    mesh_data sphere = meshgen_icosphere((vec3){0, 0, 0}, 0.5, 1);
+    mesh_data box = meshgen_box((box3){{-0.5, -0.5, -0.5}, {0.5, 0.5, 0.5}});
+    octree *sphere_tree = build_shape(&sphere), *box_tree = build_shape(&box);
+    box3 region = {{-4, -4, -1}, {4, 4, 1}};
+    mesh_data terrain = meshgen_terrain(seed, region, 12, 12);
+    mesh_data blocks = meshgen_blocks(seed, 3, 3, 2, 1.0);
+    const mesh_data *worlds[] = {&terrain, &blocks};
+    for (int wi = 0; wi < 2; wi++) {
+        const mesh_data *wm = worlds[wi];
+        octree *world = build(wm, 1);
+        box3 wb = mesh_data_bounds(wm);
+        for (int i = 0; i < 24; i++) {
+            vec3 t = rng_point_in_box(&r, (box3){vec3_sub(wb.lo, (vec3){1, 1, 1}), vec3_add(wb.hi, (vec3){1, 1, 1})});
+            pose at = random_pose(&r, t);
+            if (i % 4 == 3) /* a quarter turn: faces parallel to the blocks' */
+                at = (pose){{0, -1, 0, 1, 0, 0, 0, 0, 1}, {floor(t.x) + 0.5, floor(t.y) + 0.5, wb.hi.z + 0.5 + (i % 8 == 3)}};
+            check_shape(world, wm, NULL, i % 2 ? sphere_tree : box_tree, i % 2 ? &sphere : &box, &at);
+        }
+        /* The world placed too, far from the origin. */
+        pose wat = random_pose(&r, (vec3){1e6, -1e6, 5});
+        for (int i = 0; i < 8; i++) {
+            vec3 local = rng_point_in_box(&r, wb);
+            pose at = random_pose(&r, octree_pose_point(&wat, local));
+            check_shape(world, wm, &wat, i % 2 ? sphere_tree : box_tree, i % 2 ? &sphere : &box, &at);
+        }
+        octree_free(world);
+    }
+    mesh_data_free(&terrain);
+    mesh_data_free(&blocks);
+    octree_free(sphere_tree);
+    octree_free(box_tree);
+    mesh_data_free(&sphere);
+    mesh_data_free(&box);
+}
+
 static void test_bad_input(void **state)
 {
     (void)state;
@@ -530,6 +672,7 @@ int main(void)
         cmocka_unit_test(test_hard_pairs),
         cmocka_unit_test(test_walk_matches_scan),
         cmocka_unit_test(test_posed_matches_built),
+        cmocka_unit_test(test_shape_distance),
         cmocka_unit_test(test_bad_input),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);

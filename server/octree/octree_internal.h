@@ -434,6 +434,11 @@ octree_status octree_posed_pair_setup(const octree *world, const pose *world_at,
 octree_status octree_posed_point_setup(const octree *tree, const pose *at, vec3 p, vec3 *local, double *grow,
                                        double *shrink2);
 
+/* How far, in the max norm, a point of a tree's triangle placed at `at` (the triangle of
+ * posed vertices) may be from octree_pose_box of a box holding its preimage point: what a
+ * posed node's world box grows by. The pose must have passed octree_pose_check. */
+double octree_pose_reach(const octree *tree, const pose *at);
+
 /* octree_mesh's argument checks: OCTREE_OK, or the status octree_mesh returns for them. */
 octree_status octree_mesh_check(const mesh_view *shape, const pose *at, accuracy_mode mode);
 

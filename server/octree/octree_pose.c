@@ -319,3 +319,12 @@ octree_status octree_posed_point_setup(const octree *tree, const pose *at, vec3 
     *shrink2 = (1 - tau) * (1 - 16 * U);
     return *grow < INFINITY ? OCTREE_OK : OCTREE_ERR_NONFINITE;
 }
+
+double octree_pose_reach(const octree *tree, const pose *at)
+{
+    /* Each posed vertex within e of the real image of the tree's (max norm), so by
+     * convexity every point of a posed triangle within e of the real image of a point of
+     * the tree's triangle, and that image within e of the posed box of any box holding
+     * the point (octree_pose_box poses the corners alike): 2e covers both. */
+    return 2 * pose_point_error(at, tree->world) * (1 + 16 * U) + DBL_MIN;
+}

@@ -1,0 +1,273 @@
+/* Shape distance and clearance: the nearest points of a shape's tree at a pose and a world
+ * tree (itself placed, or as built), and whether anything comes within a radius; bounds
+ * proven per triangle pair (server/geom/tri_distance.h).
+ *
+ * The two trees are descended together, depth first, nearest pair first: a pair of a
+ * world node and a shape node has the distance between their boxes in the world frame as
+ * a lower bound of every pair of triangle points they hold, and is entered only while that
+ * is within the search radius, the best upper bound so far (or the caller's limit). The
+ * larger node of a pair is split. A world node's box is its cube, a shape node's the
+ * bounds of its triangles within its cell (octree_def.node_bounds) or its cell; placed by
+ * a pose, each is the box of its posed corners grown by what the pose's rounding can move
+ * a point (octree_pose_reach). Clearance is the same walk with the radius fixed: it stops
+ * at the first pair that cannot be proven beyond it. */
+#include <math.h>
+#include <string.h>
+
+#include "../geom/interval.h"
+#include "../geom/tri_distance.h"
+#include "octree_internal.h"
+
+typedef struct pair_entry {
+    uint32_t world_node, shape_node;
+    double lb2;
+    box3 world_cell, shape_cell; /* the nodes' cells in their own frames */
+} pair_entry;
+
+typedef struct shape_walk {
+    const octree *world, *shape;
+    const pose *world_at, *shape_at; /* NULL: as built */
+    double world_grow, shape_grow;
+    double limit2;
+    int clearance;   /* stop at the first pair not proven beyond the limit */
+    int found;
+    double lower2;
+    triangle_pair_distance best;
+    uint32_t best_world, best_shape; /* caller's ids */
+    uint64_t recent[64];
+    query_stats stats;
+} shape_walk;
+
+static box3 grown(box3 b, double g)
+{
+    if (g > 0)
+        b = (box3){{iv_down(b.lo.x - g), iv_down(b.lo.y - g), iv_down(b.lo.z - g)},
+                   {iv_up(b.hi.x + g), iv_up(b.hi.y + g), iv_up(b.hi.z + g)}};
+    return b;
+}
+
+/* A node's box in the world frame. */
+static box3 world_box_of(box3 local, double grow, const pose *at)
+{
+    return at ? grown(octree_pose_box(at, local), grow) : local;
+}
+
+static box3 shape_node_world_box(const shape_walk *w, uint32_t node, box3 cell)
+{
+    box3 b = w->shape->node_bounds ? w->shape->node_bounds[node] : cell;
+    return world_box_of(b, w->shape_grow, w->shape_at);
+}
+
+/* A lower bound of the squared distance between two closed boxes: each gap rounded down,
+ * squared and summed rounded down. A box that holds nothing (inverted bounds) is at
+ * infinity. */
+static double boxes_distance2_below(box3 a, box3 b)
+{
+    if (!(b.lo.x <= b.hi.x) || !(a.lo.x <= a.hi.x))
+        return INFINITY;
+    const double alo[3] = {a.lo.x, a.lo.y, a.lo.z}, ahi[3] = {a.hi.x, a.hi.y, a.hi.z};
+    const double blo[3] = {b.lo.x, b.lo.y, b.lo.z}, bhi[3] = {b.hi.x, b.hi.y, b.hi.z};
+    double s = 0;
+    for (int k = 0; k < 3; k++) {
+        double g1 = iv_down(alo[k] - bhi[k]), g2 = iv_down(blo[k] - ahi[k]);
+        double g = g1 > g2 ? g1 : g2;
+        if (g > 0)
+            s = iv_down(s + iv_down(g * g));
+    }
+    return s;
+}
+
+static double pair_bound(const shape_walk *w, box3 world_cell, uint32_t shape_node, box3 shape_cell)
+{
+    return boxes_distance2_below(world_box_of(world_cell, w->world_grow, w->world_at),
+                                 shape_node_world_box(w, shape_node, shape_cell));
+}
+
+static void triangle_in_world(const octree *tree, const pose *at, uint32_t id, vec3 out[3])
+{
+    octree_triangle_vertices(tree, id, out);
+    if (at)
+        for (int k = 0; k < 3; k++)
+            out[k] = octree_apply_pose(at, out[k]);
+}
+
+static box3 triangle_bounds(const vec3 v[3])
+{
+    return (box3){vec3_min(vec3_min(v[0], v[1]), v[2]), vec3_max(vec3_max(v[0], v[1]), v[2])};
+}
+
+/* 1 when the walk may stop: a clearance found a pair it cannot prove clear. */
+static int take_pair(shape_walk *w, uint32_t wid, const vec3 wv[3], uint32_t sid)
+{
+    uint64_t key = (uint64_t)wid << 32 | sid;
+    uint64_t *slot = &w->recent[(wid * 0x9e3779b1u ^ sid) % 64];
+    if (*slot == key)
+        return 0;
+    *slot = key;
+    vec3 sv[3];
+    triangle_in_world(w->shape, w->shape_at, sid, sv);
+    if (boxes_distance2_below(triangle_bounds(wv), triangle_bounds(sv)) > w->limit2)
+        return 0;
+    w->stats.candidates_tested++;
+    triangle_pair_distance r;
+    triangle_pair_distance_bounds(wv, sv, &r);
+    if (!(r.lo2 <= w->limit2))
+        return 0;
+    w->found = 1;
+    if (w->clearance)
+        return 1;
+    uint32_t ow = w->world->original_id[wid], os = w->shape->original_id[sid];
+    w->lower2 = r.lo2 < w->lower2 ? r.lo2 : w->lower2;
+    if (r.hi2 < w->best.hi2 || (r.hi2 == w->best.hi2 && (ow < w->best_world || (ow == w->best_world && os < w->best_shape)))) {
+        w->best = r;
+        w->best_world = ow;
+        w->best_shape = os;
+    }
+    w->limit2 = w->best.hi2 < w->limit2 ? w->best.hi2 : w->limit2;
+    return 0;
+}
+
+/* Every world triangle of the leaf against every shape triangle of the other, a world
+ * triangle first against the shape leaf's box as a whole. */
+static int leaf_pair(shape_walk *w, octree_node wn, octree_node sn, box3 shape_box)
+{
+    w->stats.leaves_visited++;
+    for (uint32_t i = 0; i < wn.count; i++) {
+        uint32_t wid = w->world->leaf_items[wn.first + i];
+        vec3 wv[3];
+        triangle_in_world(w->world, w->world_at, wid, wv);
+        if (boxes_distance2_below(triangle_bounds(wv), shape_box) > w->limit2)
+            continue;
+        for (uint32_t j = 0; j < sn.count; j++)
+            if (take_pair(w, wid, wv, w->shape->leaf_items[sn.first + j]))
+                return 1;
+    }
+    return 0;
+}
+
+static double cell_size(box3 b)
+{
+    return fmax(b.hi.x - b.lo.x, fmax(b.hi.y - b.lo.y, b.hi.z - b.lo.z));
+}
+
+#define PAIR_STACK_MAX (8 * (2 * OCTREE_MAX_DEPTH_CAP + 2) + 2)
+
+static void walk_pairs(shape_walk *w)
+{
+    const octree *world = w->world, *shape = w->shape;
+    pair_entry stack[PAIR_STACK_MAX];
+    size_t top = 0;
+    if (world->nodes[0].count == 0 || shape->nodes[0].count == 0)
+        return;
+    double root = pair_bound(w, world->world, 0, shape->world);
+    if (root <= w->limit2)
+        stack[top++] = (pair_entry){0, 0, root, world->world, shape->world};
+    while (top > 0) {
+        pair_entry e = stack[--top];
+        if (e.lb2 > w->limit2)
+            continue;
+        w->stats.nodes_visited++;
+        octree_node wn = world->nodes[e.world_node], sn = shape->nodes[e.shape_node];
+        int world_leaf = wn.count != NODE_INTERIOR, shape_leaf = sn.count != NODE_INTERIOR;
+        if (world_leaf && shape_leaf) {
+            if (leaf_pair(w, wn, sn, shape_node_world_box(w, e.shape_node, e.shape_cell)))
+                return;
+            continue;
+        }
+        /* Split the world node unless it is a leaf or the shape's cell is the larger. */
+        int split_world = !world_leaf && (shape_leaf || cell_size(e.world_cell) >= cell_size(e.shape_cell));
+        box3 cell = split_world ? e.world_cell : e.shape_cell;
+        const octree *tree = split_world ? world : shape;
+        octree_node node = split_world ? wn : sn;
+        vec3 c = octree_split_point(tree, cell);
+        pair_entry near[8];
+        int n = 0;
+        for (int k = 0; k < 8; k++) {
+            uint32_t child = node.first + (uint32_t)k;
+            if (tree->nodes[child].count == 0)
+                continue;
+            box3 cb = box_child(cell, c, box_octant_upper_bits[k]);
+            pair_entry p = split_world ? (pair_entry){child, e.shape_node, 0, cb, e.shape_cell}
+                                       : (pair_entry){e.world_node, child, 0, e.world_cell, cb};
+            p.lb2 = pair_bound(w, p.world_cell, p.shape_node, p.shape_cell);
+            if (p.lb2 > w->limit2)
+                continue;
+            int j = n++;
+            while (j > 0 && near[j - 1].lb2 < p.lb2) {
+                near[j] = near[j - 1];
+                j--;
+            }
+            near[j] = p;
+        }
+        for (int j = 0; j < n; j++)
+            stack[top++] = near[j];
+    }
+}
+
+static octree_status walk_setup(shape_walk *w, const octree *world, const pose *world_at, const octree *shape,
+                                const pose *shape_at, double limit)
+{
+    memset(w, 0, sizeof *w);
+    if (!(limit >= 0))
+        return OCTREE_ERR_INVALID;
+    octree_status st = world_at ? octree_pose_check(world_at) : OCTREE_OK;
+    if (st == OCTREE_OK && shape_at)
+        st = octree_pose_check(shape_at);
+    if (st != OCTREE_OK)
+        return st;
+    w->world = world;
+    w->shape = shape;
+    w->world_at = world_at;
+    w->shape_at = shape_at;
+    w->world_grow = world_at ? octree_pose_reach(world, world_at) : 0.0;
+    w->shape_grow = shape_at ? octree_pose_reach(shape, shape_at) : 0.0;
+    if (!(w->world_grow < INFINITY) || !(w->shape_grow < INFINITY))
+        return OCTREE_ERR_NONFINITE;
+    w->limit2 = limit == INFINITY ? INFINITY : iv_up(limit * limit);
+    w->lower2 = INFINITY;
+    w->best = (triangle_pair_distance){INFINITY, INFINITY, {0, 0, 0}, {0, 0, 0}};
+    w->best_world = w->best_shape = UINT32_MAX;
+    memset(w->recent, 0xff, sizeof w->recent);
+    return OCTREE_OK;
+}
+
+octree_status octree_shape_distance(const octree *world, const pose *world_at, const octree *shape,
+                                    const pose *shape_at, double max_distance, shape_distance_output *out,
+                                    query_stats *stats)
+{
+    memset(out, 0, sizeof *out);
+    shape_walk w;
+    octree_status st = walk_setup(&w, world, world_at, shape, shape_at, max_distance);
+    if (st != OCTREE_OK)
+        return st;
+    walk_pairs(&w);
+    query_stats_finish(stats, &w.stats, 0, 0);
+    if (!w.found)
+        return OCTREE_OK;
+    out->found = 1;
+    out->lower = iv_sqrt_nonnegative((interval){w.lower2, w.lower2}).lo;
+    out->upper = iv_sqrt_nonnegative((interval){w.best.hi2, w.best.hi2}).hi;
+    out->distance = 0.5 * out->lower + 0.5 * out->upper;
+    double below = iv_up(out->distance - out->lower), above = iv_up(out->upper - out->distance);
+    out->bound = below > above ? below : above;
+    out->world_point = w.best.a_point;
+    out->shape_point = w.best.b_point;
+    out->world_triangle = w.best_world;
+    out->shape_triangle = w.best_shape;
+    return OCTREE_OK;
+}
+
+octree_status octree_shape_clearance(const octree *world, const pose *world_at, const octree *shape,
+                                     const pose *shape_at, double radius, int *clear, query_stats *stats)
+{
+    *clear = 0;
+    shape_walk w;
+    octree_status st = walk_setup(&w, world, world_at, shape, shape_at, radius);
+    if (st != OCTREE_OK)
+        return st;
+    w.clearance = 1;
+    walk_pairs(&w);
+    query_stats_finish(stats, &w.stats, 0, 0);
+    *clear = !w.found;
+    return OCTREE_OK;
+}
