@@ -219,14 +219,22 @@ bench-peers:
 	@st=0; sh $(PEER_ENSURE) || st=$$?; \
 	if [ $$st -eq 3 ]; then echo "== $(PEER_BIN) skipped: Embree and FCL are not installed"; \
 	elif [ $$st -ne 0 ]; then exit $$st; \
-	else $(MAKE) --no-print-directory $(PEER_BIN) $(STATES_BIN) && \
+	else $(MAKE) --no-print-directory $(PEER_BIN) $(STATES_BIN) $(DISTANCE_BIN) && \
 	    echo "== $(PEER_BIN) (trioct vs Embree and FCL, one core)" && $(PEER_BIN) && \
 	    echo "== $(STATES_BIN) (robot states: trioct vs FCL's broadphase and narrow phase, one core)" && \
-	    $(STATES_BIN); fi
+	    $(STATES_BIN) && \
+	    echo "== $(DISTANCE_BIN) (distances: trioct vs FCL's distance, one core)" && $(DISTANCE_BIN); fi
 STATES_BIN := $(BUILD)/bench/peers/bench_states
 STATES_OBJ := $(BUILD)/bench/peers/bench_states.o $(BUILD)/bench/peers/fcl_peer.o
 $(STATES_BIN): $(STATES_OBJ) $(ALL_LIBS)
 	$(CXX) $(OPT) $(SAN) -pthread $(STATES_OBJ) $(ALL_LIBS) $(SYS_LIBS) -lfcl -o $@
+DISTANCE_BIN := $(BUILD)/bench/peers/bench_distance
+DISTANCE_OBJ := $(BUILD)/bench/peers/bench_distance.o $(BUILD)/bench/peers/fcl_peer.o
+$(DISTANCE_BIN): $(DISTANCE_OBJ) $(ALL_LIBS)
+	$(CXX) $(OPT) $(SAN) -pthread $(DISTANCE_OBJ) $(ALL_LIBS) $(SYS_LIBS) -lfcl -o $@
+.PHONY: bench-distance
+bench-distance:
+	@sh $(PEER_ENSURE) && $(MAKE) --no-print-directory $(DISTANCE_BIN) && $(DISTANCE_BIN)
 $(BUILD)/bench/peers/fcl_peer.o: bench/peers/fcl_peer.cpp | $(DEPS_STAMP)
 	@mkdir -p $(dir $@)
 	$(CXX) $(PEER_CXXFLAGS) -MMD -MP -c $< -o $@

@@ -449,7 +449,8 @@ typedef struct shape_distance_output {
  * built), both answered as trees of their posed vertices: the minimum distance between
  * their triangles, 0 exactly when they touch. Walked over both trees at once, nearest
  * pair of nodes first; each triangle pair bounded by tri_distance.h's proof. Ties in
- * upper go to the smaller world triangle, then shape triangle. The shape tree is best
+ * upper go to the smaller world triangle, then shape triangle; when they touch, the
+ * answer is the first touching pair the walk meets (the walk is deterministic). The shape tree is best
  * built with octree_def.node_bounds (tighter boxes); any tree works. OCTREE_ERR_INVALID
  * for a pose octree_pose_check refuses or a NaN or negative max_distance. */
 octree_status octree_shape_distance(const octree *world, const pose *world_at, const octree *shape,

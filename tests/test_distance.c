@@ -545,6 +545,15 @@ static void check_shape(const octree *world, const mesh_data *wm, const pose *wo
             }
         }
     }
+    if (best == 0) {
+        /* Touching: distance 0 exactly, and the pair named (the first touching pair the
+         * walk met) touches. */
+        assert_true(out.lower == 0 && out.upper == 0);
+        mesh_triangle(wm, out.world_triangle, world_at, a);
+        mesh_triangle(sm, out.shape_triangle, shape_at, b);
+        assert_true(oracle_tri_tri(a, b));
+        return;
+    }
     assert_int_equal(out.world_triangle, bw);
     assert_int_equal(out.shape_triangle, bs);
     assert_true(out.upper == iv_sqrt_nonnegative((interval){best, best}).hi);

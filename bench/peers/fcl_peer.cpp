@@ -162,3 +162,34 @@ extern "C" void fcl_peer_move(fcl_peer_model *link, const double r[9], const dou
     link->object.setTransform(transform_of(r, t));
     link->object.computeAABB();
 }
+
+extern "C" double fcl_peer_point_distance(const fcl_peer_model *world, const double p[3], double nearest[3])
+{
+    // A point as FCL takes one: a sphere of radius 0, placed at p.
+    static thread_local std::shared_ptr<fcl::Sphered> point = std::make_shared<fcl::Sphered>(0.0);
+    static const double identity[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1};
+    fcl::CollisionObjectd object(point, transform_of(identity, p));
+    fcl::DistanceRequestd request(nearest != nullptr);
+    fcl::DistanceResultd result;
+    fcl::distance(&world->object, &object, request, result);
+    if (nearest)
+        for (int k = 0; k < 3; k++)
+            nearest[k] = result.nearest_points[0][k];
+    return result.min_distance;
+}
+
+extern "C" double fcl_peer_distance(fcl_peer_model *shape, const double r[9], const double t[3],
+                                    const fcl_peer_model *world, double world_point[3], double shape_point[3])
+{
+    shape->object.setTransform(transform_of(r, t));
+    shape->object.computeAABB();
+    fcl::DistanceRequestd request(world_point != nullptr);
+    fcl::DistanceResultd result;
+    fcl::distance(&world->object, &shape->object, request, result);
+    if (world_point)
+        for (int k = 0; k < 3; k++) {
+            world_point[k] = result.nearest_points[0][k];
+            shape_point[k] = result.nearest_points[1][k];
+        }
+    return result.min_distance;
+}

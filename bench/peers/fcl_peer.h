@@ -54,6 +54,16 @@ int fcl_peer_links_collide(const fcl_peer_model *a, const fcl_peer_model *b);
 /* Puts a link at p' = R p + t (transform and AABB) without asking anything. */
 void fcl_peer_move(fcl_peer_model *link, const double r[9], const double t[3]);
 
+/* The distance from p to the world's triangles, as FCL answers it for a point (a sphere
+ * of radius 0 placed at p, fcl::distance); the nearest world point when nearest is not
+ * NULL (witnesses asked for). */
+double fcl_peer_point_distance(const fcl_peer_model *world, const double p[3], double nearest[3]);
+
+/* fcl::distance of `shape` placed by p' = R p + t and `world` at the identity: the
+ * minimum distance (0 or less when they touch), with both witness points when asked. */
+double fcl_peer_distance(fcl_peer_model *shape, const double r[9], const double t[3], const fcl_peer_model *world,
+                         double world_point[3], double shape_point[3]);
+
 #ifdef __cplusplus
 }
 #endif

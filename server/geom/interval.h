@@ -112,7 +112,9 @@ static inline interval iv_sanitize_nonnegative(interval a)
 static inline interval iv_sqrt_nonnegative(interval a)
 {
     a = iv_sanitize_nonnegative(a);
-    double lo = iv_down(sqrt(a.lo)), hi = a.hi == INFINITY ? INFINITY : iv_up(sqrt(a.hi));
+    /* sqrt(0) is exact: a distance proven 0 stays 0. */
+    double lo = a.lo > 0 ? iv_down(sqrt(a.lo)) : 0.0;
+    double hi = a.hi == INFINITY ? INFINITY : a.hi > 0 ? iv_up(sqrt(a.hi)) : 0.0;
     return (interval){lo > 0 ? lo : 0.0, hi};
 }
 

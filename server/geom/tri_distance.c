@@ -249,6 +249,43 @@ static double gap_lower2(const vec3 a[3], const vec3 b[3], vec3 n)
     return lo2 > 0 ? lo2 : 0.0;
 }
 
+double convex_gap_lower2(const vec3 *a, int na, const vec3 *b, int nb, vec3 n)
+{
+    /* In plain doubles with a forward error bound, this being a filter run per pair:
+     * each d = n . (p - o) has the difference's rounding (u |p - o| a coordinate) and the
+     * dot product's (gamma_3 of |n| . |p - o|), together within 5u |n|_1 M for M the
+     * largest max-norm |p - o|; the gap, a difference of two of them, within 10u |n|_1 M
+     * plus its own rounding. */
+    if (!vec3_is_finite(n) || (n.x == 0 && n.y == 0 && n.z == 0))
+        return 0.0;
+    vec3 o = b[0];
+    double min_a = INFINITY, max_a = -INFINITY, min_b = INFINITY, max_b = -INFINITY, reach = 0;
+    for (int i = 0; i < na + nb; i++) {
+        vec3 q = vec3_sub(i < na ? a[i] : b[i - na], o);
+        double d = n.x * q.x + n.y * q.y + n.z * q.z;
+        double ax = fabs(q.x), ay = fabs(q.y), az = fabs(q.z);
+        double m = ax > ay ? (ax > az ? ax : az) : (ay > az ? ay : az);
+        reach = m > reach ? m : reach;
+        if (i < na) {
+            min_a = d < min_a ? d : min_a;
+            max_a = d > max_a ? d : max_a;
+        } else {
+            min_b = d < min_b ? d : min_b;
+            max_b = d > max_b ? d : max_b;
+        }
+    }
+    double up = min_a - max_b, down = min_b - max_a;
+    double gap = up > down ? up : down;
+    double slack = 0x1.4p-49 * (fabs(n.x) + fabs(n.y) + fabs(n.z)) * reach + 0x1p-52 * fabs(gap) + 0x1p-1020;
+    gap -= slack;
+    if (!(gap > 0) || !(gap < INFINITY))
+        return 0.0;
+    /* gap^2 / |n|^2, each of the five roundings within u: 2^-48 of it covers them. */
+    double nn = vec3_dot(n, n);
+    double lo2 = gap * gap / nn * (1 - 0x1p-48);
+    return lo2 > 0 && lo2 < INFINITY ? lo2 : 0.0;
+}
+
 /* gap_lower2 along n turned to point along `between` (from b's point to a's); 0 when n
  * is no direction. */
 static double oriented_gap_lower2(const vec3 a[3], const vec3 b[3], vec3 n, vec3 between)

@@ -21,6 +21,12 @@ typedef struct triangle_pair_distance {
 
 void triangle_pair_distance_bounds(const vec3 a[3], const vec3 b[3], triangle_pair_distance *out);
 
+/* A lower bound of the squared distance between the convex hulls of a[0..na) and
+ * b[0..nb) from their gap along n (either way along it): 0 when they overlap along n or
+ * n is no direction. Cheap (one dot product a point): what prunes pairs before the full
+ * bounds are worth their cost, with n a face normal. */
+double convex_gap_lower2(const vec3 *a, int na, const vec3 *b, int nb, vec3 n);
+
 /* The plain double search alone: the squared distance of the points found, and the points.
  * What the bound above starts from; exposed for tests. */
 double triangle_pair_distance_estimate(const vec3 a[3], const vec3 b[3], vec3 *a_point, vec3 *b_point);

@@ -61,25 +61,30 @@ static box3 shape_node_world_box(const shape_walk *w, uint32_t node, box3 cell)
 /* A lower bound of the squared distance between two closed boxes: each gap rounded down,
  * squared and summed rounded down. A box that holds nothing (inverted bounds) is at
  * infinity. */
+/* The larger of two gaps, or 0 (fmax is a call at -O2). */
+static inline double gap_of(double x, double y)
+{
+    double g = x > y ? x : y;
+    return g > 0 ? g : 0.0;
+}
+
 static double boxes_distance2_below(box3 a, box3 b)
 {
     if (!(b.lo.x <= b.hi.x) || !(a.lo.x <= a.hi.x))
         return INFINITY;
-    const double alo[3] = {a.lo.x, a.lo.y, a.lo.z}, ahi[3] = {a.hi.x, a.hi.y, a.hi.z};
-    const double blo[3] = {b.lo.x, b.lo.y, b.lo.z}, bhi[3] = {b.hi.x, b.hi.y, b.hi.z};
-    double s = 0;
-    for (int k = 0; k < 3; k++) {
-        double g1 = iv_down(alo[k] - bhi[k]), g2 = iv_down(blo[k] - ahi[k]);
-        double g = g1 > g2 ? g1 : g2;
-        if (g > 0)
-            s = iv_down(s + iv_down(g * g));
-    }
-    return s;
+    /* Each gap is one rounded subtraction (within u of the real one), squared and summed
+     * in four more roundings: 2^-50 of the sum covers them, 2^-1060 an underflow. */
+    double gx = gap_of(a.lo.x - b.hi.x, b.lo.x - a.hi.x), gy = gap_of(a.lo.y - b.hi.y, b.lo.y - a.hi.y),
+           gz = gap_of(a.lo.z - b.hi.z, b.lo.z - a.hi.z);
+    double s = (gx * gx + gy * gy + gz * gz) * (1 - 0x1p-50) - 0x1p-1060;
+    return s > 0 ? s : 0.0;
 }
 
-static double pair_bound(const shape_walk *w, box3 world_cell, uint32_t shape_node, box3 shape_cell)
+static double pair_bound(const shape_walk *w, uint32_t world_node, box3 world_cell, uint32_t shape_node,
+                         box3 shape_cell)
 {
-    return boxes_distance2_below(world_box_of(world_cell, w->world_grow, w->world_at),
+    box3 wb = w->world->node_bounds ? w->world->node_bounds[world_node] : world_cell;
+    return boxes_distance2_below(world_box_of(wb, w->world_grow, w->world_at),
                                  shape_node_world_box(w, shape_node, shape_cell));
 }
 
@@ -96,6 +101,18 @@ static box3 triangle_bounds(const vec3 v[3])
     return (box3){vec3_min(vec3_min(v[0], v[1]), v[2]), vec3_max(vec3_max(v[0], v[1]), v[2])};
 }
 
+static vec3 triangle_normal(const vec3 v[3])
+{
+    return vec3_cross(vec3_sub(v[1], v[0]), vec3_sub(v[2], v[0]));
+}
+
+/* The eight corners of a box. */
+static void box_corners(box3 b, vec3 out[8])
+{
+    for (int q = 0; q < 8; q++)
+        out[q] = (vec3){q & 1 ? b.hi.x : b.lo.x, q & 2 ? b.hi.y : b.lo.y, q & 4 ? b.hi.z : b.lo.z};
+}
+
 /* 1 when the walk may stop: a clearance found a pair it cannot prove clear. */
 static int take_pair(shape_walk *w, uint32_t wid, const vec3 wv[3], uint32_t sid)
 {
@@ -108,6 +125,12 @@ static int take_pair(shape_walk *w, uint32_t wid, const vec3 wv[3], uint32_t sid
     triangle_in_world(w->shape, w->shape_at, sid, sv);
     if (boxes_distance2_below(triangle_bounds(wv), triangle_bounds(sv)) > w->limit2)
         return 0;
+    /* Each triangle's plane parts the pair when the other lies beyond it by more than the
+     * radius: a near-parallel pair of surfaces, which boxes cannot tell apart, is decided
+     * at a sixth of the full bounds' cost. */
+    if (convex_gap_lower2(sv, 3, wv, 3, triangle_normal(wv)) > w->limit2 ||
+        convex_gap_lower2(wv, 3, sv, 3, triangle_normal(sv)) > w->limit2)
+        return 0;
     w->stats.candidates_tested++;
     triangle_pair_distance r;
     triangle_pair_distance_bounds(wv, sv, &r);
@@ -116,6 +139,17 @@ static int take_pair(shape_walk *w, uint32_t wid, const vec3 wv[3], uint32_t sid
     w->found = 1;
     if (w->clearance)
         return 1;
+    if (r.hi2 == 0) {
+        /* Touching (decided exactly): the distance is 0 and no pair can do better. The
+         * first touching pair met is the answer; finding the smallest ids among every
+         * touching pair of a deep penetration would cost a contact query's work. */
+        w->lower2 = 0;
+        w->best = r;
+        w->best_world = w->world->original_id[wid];
+        w->best_shape = w->shape->original_id[sid];
+        w->limit2 = 0;
+        return 1;
+    }
     uint32_t ow = w->world->original_id[wid], os = w->shape->original_id[sid];
     w->lower2 = r.lo2 < w->lower2 ? r.lo2 : w->lower2;
     if (r.hi2 < w->best.hi2 || (r.hi2 == w->best.hi2 && (ow < w->best_world || (ow == w->best_world && os < w->best_shape)))) {
@@ -132,11 +166,14 @@ static int take_pair(shape_walk *w, uint32_t wid, const vec3 wv[3], uint32_t sid
 static int leaf_pair(shape_walk *w, octree_node wn, octree_node sn, box3 shape_box)
 {
     w->stats.leaves_visited++;
+    vec3 corners[8];
+    box_corners(shape_box, corners);
     for (uint32_t i = 0; i < wn.count; i++) {
         uint32_t wid = w->world->leaf_items[wn.first + i];
         vec3 wv[3];
         triangle_in_world(w->world, w->world_at, wid, wv);
-        if (boxes_distance2_below(triangle_bounds(wv), shape_box) > w->limit2)
+        if (boxes_distance2_below(triangle_bounds(wv), shape_box) > w->limit2 ||
+            convex_gap_lower2(corners, 8, wv, 3, triangle_normal(wv)) > w->limit2)
             continue;
         for (uint32_t j = 0; j < sn.count; j++)
             if (take_pair(w, wid, wv, w->shape->leaf_items[sn.first + j]))
@@ -159,7 +196,7 @@ static void walk_pairs(shape_walk *w)
     size_t top = 0;
     if (world->nodes[0].count == 0 || shape->nodes[0].count == 0)
         return;
-    double root = pair_bound(w, world->world, 0, shape->world);
+    double root = pair_bound(w, 0, world->world, 0, shape->world);
     if (root <= w->limit2)
         stack[top++] = (pair_entry){0, 0, root, world->world, shape->world};
     while (top > 0) {
@@ -189,7 +226,7 @@ static void walk_pairs(shape_walk *w)
             box3 cb = box_child(cell, c, box_octant_upper_bits[k]);
             pair_entry p = split_world ? (pair_entry){child, e.shape_node, 0, cb, e.shape_cell}
                                        : (pair_entry){e.world_node, child, 0, e.world_cell, cb};
-            p.lb2 = pair_bound(w, p.world_cell, p.shape_node, p.shape_cell);
+            p.lb2 = pair_bound(w, p.world_node, p.world_cell, p.shape_node, p.shape_cell);
             if (p.lb2 > w->limit2)
                 continue;
             int j = n++;
