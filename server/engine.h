@@ -173,6 +173,9 @@ typedef struct octree_info {
 
 void octree_get_info(const octree *tree, octree_info *info);
 
+/* The world cube, its upper corner as built (rounded up): every vertex lies in it. */
+box3 octree_world_box(const octree *tree);
+
 /* ---------- queries ---------- */
 
 /* What a query visited: honest work counters. */

@@ -1,6 +1,6 @@
 /* A world of named objects (server/world/object_set.h): rays and triangles over posed
  * objects answer as one tree of all their posed triangles would, to the bit, ties between
- * coincident faces of two objects included, and so do point distances; edit lists apply all or nothing and make new versions while
+ * coincident faces of two objects included, and so do point and shape distances; edit lists apply all or nothing and make new versions while
  * old ones keep answering as they did; objects that share a mesh share one model. */
 #include <math.h>
 #include <setjmp.h>
@@ -218,6 +218,51 @@ static void check_against_union(const object_set *s, int rays, uint64_t seed)
             assert_false(got.found);
         }
     }
+    /* Shape distance and clearance: a small sphere at poses around the scene answers as
+     * against the union tree: the same pair and upper bound when apart, 0 when touching. */
+    mesh_data ball = meshgen_icosphere((vec3){0, 0, 0}, 0.3, 1);
+    mesh_view bv = mesh_data_view(&ball);
+    octree_def bdef = octree_default_def();
+    bdef.node_bounds = 1;
+    octree *ball_tree = octree_build(&bv, &bdef, &e);
+    assert_non_null(ball_tree);
+    for (int i = 0; i < rays / 8; i++) {
+        pose at;
+        vec3 axis = rng_unit_vector(&r);
+        double angle = rng_uniform(&r, -3, 3);
+        assert_int_equal(octree_pose_from_quaternion(rng_point_in_box(&r, around), cos(angle / 2),
+                                                     axis.x * sin(angle / 2), axis.y * sin(angle / 2),
+                                                     axis.z * sin(angle / 2), &at),
+                         OCTREE_OK);
+        object_shape_distance_output got;
+        shape_distance_output want;
+        assert_int_equal(object_set_shape_distance(s, ball_tree, &at, INFINITY, &got, NULL), OCTREE_OK);
+        assert_int_equal(octree_shape_distance(u, NULL, ball_tree, &at, INFINITY, &want, NULL), OCTREE_OK);
+        assert_true(got.found && want.found);
+        if (want.upper == 0) {
+            assert_true(got.distance.upper == 0 && got.distance.lower == 0);
+        } else {
+            uint32_t object, triangle;
+            split_id(s, offsets, want.world_triangle, &object, &triangle);
+            assert_int_equal(got.object, object);
+            assert_int_equal(got.distance.world_triangle, triangle);
+            assert_int_equal(got.distance.shape_triangle, want.shape_triangle);
+            assert_true(got.distance.upper == want.upper);
+            int clear;
+            long first;
+            assert_int_equal(object_set_shape_clearance(s, ball_tree, &at, want.lower * 0.5, &clear, &first, NULL),
+                             OCTREE_OK);
+            assert_true(clear && first == -1);
+        }
+        int clear;
+        long first;
+        assert_int_equal(object_set_shape_clearance(s, ball_tree, &at, want.upper * 2 + 1e-9, &clear, &first, NULL),
+                         OCTREE_OK);
+        assert_false(clear);
+        assert_true(first >= 0 && (size_t)first < s->count);
+    }
+    octree_free(ball_tree);
+    mesh_data_free(&ball);
     octree_free(u);
     mesh_data_free(&all);
 }

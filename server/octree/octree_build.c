@@ -1009,6 +1009,11 @@ void octree_free(octree *tree)
     free(tree);
 }
 
+box3 octree_world_box(const octree *tree)
+{
+    return tree->world;
+}
+
 void octree_get_info(const octree *tree, octree_info *info)
 {
     *info = tree->info;

@@ -90,3 +90,119 @@ octree_status object_set_point_distance(const object_set *s, vec3 p, double max_
     d->bound = below > above ? below : above;
     return OCTREE_OK;
 }
+
+/* The objects in order of their boxes' distance from box b (a lower bound of every
+ * distance to them): the candidates, cand (room for s->count), filled and sorted. */
+static void objects_by_box(const object_set *s, box3 b, object_candidate *cand)
+{
+    for (size_t i = 0; i < s->count; i++) {
+        box3 o = s->objects[i].bounds;
+        vec3 lo = {o.lo.x - b.hi.x, o.lo.y - b.hi.y, o.lo.z - b.hi.z};
+        box3 gap_box = {lo, {o.hi.x - b.lo.x, o.hi.y - b.lo.y, o.hi.z - b.lo.z}};
+        /* The distance between the boxes is that of the origin from their difference
+         * box [o.lo - b.hi, o.hi - b.lo]; the subtractions are rounded, so the bound is
+         * taken from bounds widened by a step each way. */
+        gap_box.lo = (vec3){iv_down(gap_box.lo.x), iv_down(gap_box.lo.y), iv_down(gap_box.lo.z)};
+        gap_box.hi = (vec3){iv_up(gap_box.hi.x), iv_up(gap_box.hi.y), iv_up(gap_box.hi.z)};
+        cand[i] = (object_candidate){box_distance2_below((vec3){0, 0, 0}, gap_box), (uint32_t)i};
+    }
+    qsort(cand, s->count, sizeof *cand, by_bound);
+}
+
+/* Merges one object's answer into the set's, as object_set_point_distance does. */
+static void merge_shape(object_shape_distance_output *out, const shape_distance_output *d, uint32_t object)
+{
+    double lower = out->found && out->distance.lower < d->lower ? out->distance.lower : d->lower;
+    if (!out->found || d->upper < out->distance.upper || (d->upper == out->distance.upper && object < out->object)) {
+        out->distance = *d;
+        out->object = object;
+    }
+    out->found = 1;
+    out->distance.lower = lower;
+}
+
+static void finish_bounds(double *distance, double *bound, double lower, double upper)
+{
+    *distance = 0.5 * lower + 0.5 * upper;
+    double below = iv_up(*distance - lower), above = iv_up(upper - *distance);
+    *bound = below > above ? below : above;
+}
+
+octree_status object_set_shape_distance(const object_set *s, const octree *shape, const pose *at,
+                                        double max_distance, object_shape_distance_output *out, query_stats *stats)
+{
+    if (!s || !shape || !at || !out)
+        return OCTREE_ERR_INVALID;
+    *out = (object_shape_distance_output){0};
+    if (!(max_distance >= 0))
+        return OCTREE_ERR_INVALID;
+    octree_status st = octree_pose_check(at);
+    if (st != OCTREE_OK || s->count == 0)
+        return st;
+    object_candidate local[64];
+    object_candidate *cand = s->count <= 64 ? local : malloc(s->count * sizeof *cand);
+    if (!cand)
+        return OCTREE_ERR_NOMEM;
+    /* Every posed shape vertex lies in the posed box of its tree's cube. */
+    objects_by_box(s, octree_pose_box(at, octree_world_box(shape)), cand);
+    double limit = max_distance;
+    for (size_t k = 0; k < s->count; k++) {
+        double limit2 = limit == INFINITY ? INFINITY : iv_up(limit * limit);
+        if (cand[k].lb2 > limit2)
+            break;
+        const world_object *o = &s->objects[cand[k].object];
+        shape_distance_output d;
+        st = octree_shape_distance(o->model->tree, &o->at, shape, at, limit, &d, stats);
+        if (st != OCTREE_OK)
+            break;
+        if (!d.found)
+            continue;
+        merge_shape(out, &d, cand[k].object);
+        limit = out->distance.upper < limit ? out->distance.upper : limit;
+        if (out->distance.upper == 0)
+            break; /* touching: nothing is nearer */
+    }
+    if (cand != local)
+        free(cand);
+    if (st == OCTREE_OK && out->found)
+        finish_bounds(&out->distance.distance, &out->distance.bound, out->distance.lower, out->distance.upper);
+    return st;
+}
+
+octree_status object_set_shape_clearance(const object_set *s, const octree *shape, const pose *at, double radius,
+                                         int *clear, long *object, query_stats *stats)
+{
+    if (!s || !shape || !at || !clear)
+        return OCTREE_ERR_INVALID;
+    *clear = 0;
+    if (object)
+        *object = -1;
+    if (!(radius >= 0))
+        return OCTREE_ERR_INVALID;
+    octree_status st = octree_pose_check(at);
+    if (st != OCTREE_OK)
+        return st;
+    *clear = 1;
+    if (s->count == 0)
+        return OCTREE_OK;
+    object_candidate local[64];
+    object_candidate *cand = s->count <= 64 ? local : malloc(s->count * sizeof *cand);
+    if (!cand)
+        return OCTREE_ERR_NOMEM;
+    objects_by_box(s, octree_pose_box(at, octree_world_box(shape)), cand);
+    double limit2 = radius == INFINITY ? INFINITY : iv_up(radius * radius);
+    for (size_t k = 0; k < s->count && cand[k].lb2 <= limit2; k++) {
+        const world_object *o = &s->objects[cand[k].object];
+        int one;
+        st = octree_shape_clearance(o->model->tree, &o->at, shape, at, radius, &one, stats);
+        if (st != OCTREE_OK || !one) {
+            *clear = 0;
+            if (object && st == OCTREE_OK)
+                *object = cand[k].object;
+            break;
+        }
+    }
+    if (cand != local)
+        free(cand);
+    return st;
+}

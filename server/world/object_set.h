@@ -179,4 +179,22 @@ typedef struct object_distance_output {
 octree_status object_set_point_distance(const object_set *s, vec3 p, double max_distance, object_distance_output *out,
                                         query_stats *stats);
 
+/* A shape tree placed at `at` against every object: octree_shape_distance's contract over
+ * the union of the posed triangles (ties: the smaller object index; touching: the first
+ * touching pair met, objects nearest box first). */
+typedef struct object_shape_distance_output {
+    int found;
+    shape_distance_output distance; /* world_triangle: the index in the object's mesh */
+    uint32_t object;
+} object_shape_distance_output;
+
+octree_status object_set_shape_distance(const object_set *s, const octree *shape, const pose *at,
+                                        double max_distance, object_shape_distance_output *out, query_stats *stats);
+
+/* Clearance over every object: *clear = 1 when every object is proven farther than radius
+ * from the placed shape; else 0, with *object (may be NULL) the first object that could
+ * not be proven so. */
+octree_status object_set_shape_clearance(const object_set *s, const octree *shape, const pose *at, double radius,
+                                         int *clear, long *object, query_stats *stats);
+
 #endif
