@@ -232,11 +232,13 @@ static void assert_mesh_encloses(const mesh_data *m, vec3 p, const distance_outp
     }
 }
 
+/* boxes: 0 none, 1 triangle boxes, 2 triangle boxes and node slabs. */
 static octree *build(const mesh_data *m, int boxes)
 {
     mesh_view view = mesh_data_view(m);
     octree_def def = octree_default_def();
-    def.triangle_boxes = boxes;
+    def.triangle_boxes = boxes >= 1;
+    def.node_slabs = boxes >= 2;
     octree_error err;
     octree *t = octree_build(&view, &def, &err);
     assert_non_null(t);
@@ -245,7 +247,7 @@ static octree *build(const mesh_data *m, int boxes)
 
 static void check_walk(const mesh_data *m, int points, double spread, uint64_t s)
 {
-    for (int boxes = 0; boxes <= 1; boxes++) {
+    for (int boxes = 0; boxes <= 2; boxes++) {
         octree *tree = build(m, boxes);
         rng r = rng_seeded(s);
         box3 b = {{INFINITY, INFINITY, INFINITY}, {-INFINITY, -INFINITY, -INFINITY}};
@@ -333,7 +335,7 @@ static void test_posed_matches_built(void **state)
 {
     (void)state;
     mesh_data torus = meshgen_torus((vec3){0.5, -0.25, 1}, 4, 1, 24, 12);
-    octree *local = build(&torus, 1);
+    octree *local = build(&torus, 2);
     rng r = rng_seeded(seed + 8);
     for (int n = 0; n < 8; n++) {
         vec3 axis = rng_unit_vector(&r);
@@ -624,7 +626,7 @@ static void test_shape_distance(void **state)
     const mesh_data *worlds[] = {&terrain, &blocks};
     for (int wi = 0; wi < 2; wi++) {
         const mesh_data *wm = worlds[wi];
-        octree *world = build(wm, 1);
+        octree *world = build(wm, 1 + wi);
         box3 wb = mesh_data_bounds(wm);
         for (int i = 0; i < 24; i++) {
             vec3 t = rng_point_in_box(&r, (box3){vec3_sub(wb.lo, (vec3){1, 1, 1}), vec3_add(wb.hi, (vec3){1, 1, 1})});

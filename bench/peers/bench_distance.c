@@ -128,8 +128,10 @@ static void bench_world(const char *mesh, const mesh_data *m)
 {
     mesh_view view = mesh_data_view(m);
     octree_def def = octree_default_def();
-    def.triangle_boxes = 1; /* what a world serving distance builds */
-    def.node_bounds = getenv("NODE_BOUNDS") != NULL;
+    /* What a world serving distance builds: triangle boxes, node bounds and node slabs. */
+    def.triangle_boxes = 1;
+    def.node_bounds = 1;
+    def.node_slabs = 1;
     octree_error err;
     octree *tree = octree_build(&view, &def, &err);
     fcl_peer_model *world_fcl = fcl_of(m);
@@ -185,6 +187,7 @@ static void bench_world(const char *mesh, const mesh_data *m)
     mesh_view sview = mesh_data_view(&shape);
     octree_def sdef = octree_default_def();
     sdef.node_bounds = 1;
+    sdef.node_slabs = 1; /* what a registered shape of such a world gets */
     octree *shape_tree = octree_build(&sview, &sdef, &err);
     fcl_peer_model *shape_fcl = fcl_of(&shape);
     pose *poses = malloc(POSES * sizeof *poses);

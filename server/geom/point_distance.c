@@ -10,7 +10,9 @@
  * uncertainty (at the boundary between two cases their formulas agree). */
 #include "point_distance.h"
 
+#include "closest_point.h"
 #include "predicates.h"
+#include "tri_distance.h"
 
 /* The nearest point of the segment from va to vb, a = va - p and b = vb - p, e = vb - va,
  * |a|^2 and |b|^2 given. */
@@ -65,7 +67,7 @@ static interval iv_intersect(interval a, interval b)
     return (interval){iv_max2(a.lo, b.lo), iv_min2(a.hi, b.hi)};
 }
 
-void point_triangle_distance_bounds(vec3 p, const vec3 v[3], point_triangle_distance *out)
+void point_triangle_distance_intervals(vec3 p, const vec3 v[3], point_triangle_distance *out)
 {
     interval3 a[3], e[3];
     interval c[3];
@@ -124,4 +126,33 @@ void point_triangle_distance_bounds(vec3 p, const vec3 v[3], point_triangle_dist
         *out = edges;
         out->lo2 = h.lo;
     }
+}
+
+void point_triangle_distance_bounds(vec3 p, const vec3 v[3], point_triangle_distance *out)
+{
+    /* The nearest point in doubles, searched near the origin (coordinates relative to p,
+     * so that 1e9 offsets do not round the search); then its proof. */
+    const vec3 local[3] = {vec3_sub(v[0], p), vec3_sub(v[1], p), vec3_sub(v[2], p)};
+    double s, t;
+    closest_region region;
+    closest_point_on_triangle((vec3){0, 0, 0}, local, &s, &t, &region);
+    interval3 apart = triangle_point_minus(v, s, t, p);
+    interval hi = iv_sanitize_nonnegative(iv3_norm2(apart));
+    vec3 n = iv3_mid(apart);
+    /* The triangle lies beyond the plane through the point found, normal to the line from
+     * p to it, when that point is the nearest (its region's half-space): the gap along
+     * that line is then the distance itself, and for any other direction still a lower
+     * bound. */
+    double lo2 = convex_gap_lower2(&p, 1, v, 3, n);
+    if (region.feature == DISTANCE_FACE && lo2 < hi.hi * (1 - 0x1p-30)) {
+        double along = convex_gap_lower2(&p, 1, v, 3, vec3_cross(vec3_sub(v[1], v[0]), vec3_sub(v[2], v[0])));
+        lo2 = along > lo2 ? along : lo2;
+    }
+    if (!(lo2 >= hi.hi * (1 - 0x1p-30))) {
+        /* Too near for the line's rounding (on the surface, or a sliver): the intervals
+         * over every case, slower and tight everywhere. */
+        point_triangle_distance_intervals(p, v, out);
+        return;
+    }
+    *out = (point_triangle_distance){lo2, hi.hi, region.feature, region.index, vec3_add(p, n)};
 }

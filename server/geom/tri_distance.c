@@ -8,98 +8,9 @@
  * holds for any pair of points and any direction, and a poor choice only loosens it. */
 #include "tri_distance.h"
 
+#include "closest_point.h"
 #include "interval.h"
 #include "tri_tri.h"
-
-static double clamp01(double x)
-{
-    return x > 0 ? (x < 1 ? x : 1.0) : 0.0; /* a NaN goes to 0 */
-}
-
-/* The point of triangle t nearest p: t0 + v (t1 - t0) + w (t2 - t0); *face is 1 when it
- * lies inside the face rather than on an edge or at a vertex. */
-static vec3 closest_on_triangle(vec3 p, const vec3 t[3], double *v_out, double *w_out, int *face)
-{
-    vec3 ab = vec3_sub(t[1], t[0]), ac = vec3_sub(t[2], t[0]), ap = vec3_sub(p, t[0]);
-    double d1 = vec3_dot(ab, ap), d2 = vec3_dot(ac, ap);
-    double v = 0, w = 0;
-    *face = 0;
-    if (d1 <= 0 && d2 <= 0)
-        goto done; /* vertex 0 */
-    vec3 bp = vec3_sub(p, t[1]);
-    double d3 = vec3_dot(ab, bp), d4 = vec3_dot(ac, bp);
-    if (d3 >= 0 && d4 <= d3) {
-        v = 1;
-        goto done; /* vertex 1 */
-    }
-    double vc = d1 * d4 - d3 * d2;
-    if (vc <= 0 && d1 >= 0 && d3 <= 0) {
-        v = d1 / (d1 - d3);
-        goto done; /* edge 0-1 */
-    }
-    vec3 cp = vec3_sub(p, t[2]);
-    double d5 = vec3_dot(ab, cp), d6 = vec3_dot(ac, cp);
-    if (d6 >= 0 && d5 <= d6) {
-        w = 1;
-        goto done; /* vertex 2 */
-    }
-    double vb = d5 * d2 - d1 * d6;
-    if (vb <= 0 && d2 >= 0 && d6 <= 0) {
-        w = d2 / (d2 - d6);
-        goto done; /* edge 0-2 */
-    }
-    double va = d3 * d6 - d5 * d4;
-    if (va <= 0 && d4 - d3 >= 0 && d5 - d6 >= 0) {
-        w = (d4 - d3) / ((d4 - d3) + (d5 - d6));
-        v = 1 - w;
-        goto done; /* edge 1-2 */
-    }
-    double sum = va + vb + vc;
-    v = vb / sum;
-    w = vc / sum;
-    *face = 1;
-    if (!(v >= 0 && w >= 0 && v + w <= 1)) { /* no area, or rounding: take the vertex */
-        v = w = 0;
-        *face = 0;
-    }
-done:
-    *v_out = clamp01(v);
-    *w_out = clamp01(w);
-    return (vec3){t[0].x + *v_out * ab.x + *w_out * ac.x, t[0].y + *v_out * ab.y + *w_out * ac.y,
-                  t[0].z + *v_out * ab.z + *w_out * ac.z};
-}
-
-/* The nearest points p1 + s d1 and p2 + t d2 of two segments, s and t in [0, 1]. */
-static void closest_on_segments(vec3 p1, vec3 q1, vec3 p2, vec3 q2, double *s_out, double *t_out)
-{
-    vec3 d1 = vec3_sub(q1, p1), d2 = vec3_sub(q2, p2), r = vec3_sub(p1, p2);
-    double a = vec3_dot(d1, d1), e = vec3_dot(d2, d2), f = vec3_dot(d2, r);
-    double s = 0, t = 0;
-    if (a == 0 && e == 0) {
-        /* two points */
-    } else if (a == 0) {
-        t = clamp01(f / e);
-    } else {
-        double c = vec3_dot(d1, r);
-        if (e == 0) {
-            s = clamp01(-c / a);
-        } else {
-            double b = vec3_dot(d1, d2), denom = a * e - b * b;
-            s = denom > 0 ? clamp01((b * f - c * e) / denom) : 0.0;
-            t = (b * s + f) / e;
-            if (t < 0) {
-                t = 0;
-                s = clamp01(-c / a);
-            } else if (t > 1) {
-                t = 1;
-                s = clamp01((b - c) / a);
-            }
-            t = clamp01(t);
-        }
-    }
-    *s_out = s;
-    *t_out = t;
-}
 
 typedef enum pair_kind { PAIR_A_VERTEX, PAIR_B_VERTEX, PAIR_EDGES } pair_kind;
 
@@ -135,8 +46,9 @@ static void search_near_origin(const vec3 a[3], const vec3 b[3], pair_choice *be
         const vec3 *from = side ? b : a, *to = side ? a : b;
         for (int i = 0; i < 3; i++) {
             double v, w;
-            int face;
-            vec3 x = closest_on_triangle(from[i], to, &v, &w, &face);
+            closest_region region;
+            vec3 x = closest_point_on_triangle(from[i], to, &v, &w, &region);
+            int face = region.feature == DISTANCE_FACE;
             double d2 = dist2(from[i], x);
             if (d2 < best->d2)
                 *best = (pair_choice){d2, side ? PAIR_B_VERTEX : PAIR_A_VERTEX, i, 0, v, w, face,
@@ -147,7 +59,7 @@ static void search_near_origin(const vec3 a[3], const vec3 b[3], pair_choice *be
         for (int j = 0; j < 3; j++) {
             double s, t;
             vec3 p1 = a[i], q1 = a[(i + 1) % 3], p2 = b[j], q2 = b[(j + 1) % 3];
-            closest_on_segments(p1, q1, p2, q2, &s, &t);
+            closest_points_on_segments(p1, q1, p2, q2, &s, &t);
             vec3 x = on_segment(p1, q1, s), y = on_segment(p2, q2, t);
             double d2 = dist2(x, y);
             if (d2 < best->d2)
@@ -214,6 +126,11 @@ static interval3 points_difference(triangle_point x, triangle_point y)
     interval3 d = iv3_diff(x.base, y.base);
     return (interval3){iv_sub(iv_add(d.x, x.offset.x), y.offset.x), iv_sub(iv_add(d.y, x.offset.y), y.offset.y),
                        iv_sub(iv_add(d.z, x.offset.z), y.offset.z)};
+}
+
+interval3 triangle_point_minus(const vec3 t[3], double v, double w, vec3 p)
+{
+    return points_difference(point_of_triangle(t, v, w), point_at(p));
 }
 
 static interval3 iv3_of(vec3 p)

@@ -11,6 +11,7 @@
 #define TRIOCT_GEOM_TRI_DISTANCE_H
 
 #include "../engine.h"
+#include "interval.h"
 
 typedef struct triangle_pair_distance {
     /* Bounds on the squared distance: lo2 <= |x - y|^2 <= hi2 for the real nearest x in a,
@@ -26,6 +27,11 @@ void triangle_pair_distance_bounds(const vec3 a[3], const vec3 b[3], triangle_pa
  * n is no direction. Cheap (one dot product a point): what prunes pairs before the full
  * bounds are worth their cost, with n a face normal. */
 double convex_gap_lower2(const vec3 *a, int na, const vec3 *b, int nb, vec3 n);
+
+/* Bounds on x - p for the real point x = t0 + v (t1 - t0) + w (t2 - t0) of the closed
+ * triangle (v, w first clamped into it), computed as offsets so that coordinates far from
+ * the origin do not round into the bounds. */
+interval3 triangle_point_minus(const vec3 t[3], double v, double w, vec3 p);
 
 /* The plain double search alone: the squared distance of the points found, and the points.
  * What the bound above starts from; exposed for tests. */

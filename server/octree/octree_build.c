@@ -63,6 +63,7 @@ octree_def octree_default_def(void)
         .seed_epsilon = OCTREE_DEFAULT_SEED_EPSILON,
         .triangle_boxes = 0,
         .node_bounds = 0,
+        .node_slabs = 0,
         .budget_bytes = 0,
         .account = NULL,
         .plain_walk = 0,
@@ -766,6 +767,8 @@ octree *octree_build(const mesh_view *mesh, const octree_def *def_in, octree_err
         return fail(err, OCTREE_ERR_INVALID, SIZE_MAX, "plain_walk %d is neither 0 nor 1", def.plain_walk);
     if (def.node_bounds != 0 && def.node_bounds != 1)
         return fail(err, OCTREE_ERR_INVALID, SIZE_MAX, "node_bounds %d is neither 0 nor 1", def.node_bounds);
+    if (def.node_slabs != 0 && def.node_slabs != 1)
+        return fail(err, OCTREE_ERR_INVALID, SIZE_MAX, "node_slabs %d is neither 0 nor 1", def.node_slabs);
 
     /* The budget, and what the build holds before its first node: at its peak (the Morton
      * renumbering holds two copies of the triangles and two key arrays beside the bounds),
@@ -899,6 +902,9 @@ octree *octree_build(const mesh_view *mesh, const octree_def *def_in, octree_err
                  : compute_node_bounds(tree, ctx.bounds);
     if (st == OCTREE_OK)
         st = index_triangles(&ctx, mesh);
+    if (st == OCTREE_OK && def.node_slabs)
+        st = budget_take(&ctx, tree->node_count * sizeof *tree->node_slabs) != 0 ? OCTREE_ERR_BUDGET
+                                                                               : octree_slabs_build(tree);
     /* The final array, 64-byte aligned (realloc keeps no alignment, so the build grows a
      * plain array and copies it once). aligned_alloc wants a multiple of the alignment. */
     size_t node_bytes = (tree->node_count * sizeof(octree_node) + 63) & ~(size_t)63;
@@ -977,11 +983,13 @@ octree *octree_build(const mesh_view *mesh, const octree_def *def_in, octree_err
                             tree->used_vertex_count * sizeof *tree->vertices;
     info->bytes_triangle_boxes = tree->triangle_boxes ? tree->triangle_count * sizeof *tree->triangle_boxes : 0;
     info->bytes_traversal = tree->traversal.bytes;
+    info->bytes_node_slabs = tree->node_slabs ? tree->node_count * sizeof *tree->node_slabs : 0;
     info->bytes_node_bounds = tree->node_bounds ? tree->node_count * sizeof *tree->node_bounds +
                                                       child_lane_blocks(tree->node_count) * sizeof *tree->child_lanes
                                                 : 0;
     info->bytes_total = info->bytes_nodes + info->bytes_leaf_lists + info->bytes_triangles +
-                        info->bytes_triangle_boxes + info->bytes_node_bounds + info->bytes_traversal +
+                        info->bytes_triangle_boxes + info->bytes_node_bounds + info->bytes_node_slabs +
+                        info->bytes_traversal +
                         sizeof *tree;
     info->mode = def.mode;
     settle_account(tree, info->bytes_total);
@@ -1002,6 +1010,7 @@ void octree_free(octree *tree)
     free(tree->original_id);
     free(tree->triangle_boxes);
     free(tree->node_bounds);
+    free(tree->node_slabs);
     free(tree->child_lanes);
     free(tree->nodes);
     free(tree->leaf_items);

@@ -57,6 +57,13 @@ typedef struct triangle_box {
 } triangle_box;
 _Static_assert(sizeof(triangle_box) == 24, "engine.h documents 24 bytes a triangle");
 
+/* A node's slab (octree_slabs.c): every point of its triangles has lo <= n . x <= hi, n a
+ * unit direction; n = 0 bounds nothing. */
+typedef struct node_slab {
+    double n[3];
+    double lo, hi;
+} node_slab;
+
 struct octree {
     /* The account the build took from (octree_def.account) and what this tree holds of it:
      * given back by octree_free. */
@@ -89,6 +96,8 @@ struct octree {
      * their bounds' centres and half sides side by side, as a shape expansion's lanes read
      * them, and which of them hold anything. */
     struct child_lanes *child_lanes;
+    /* Per node when the tree was built with node_slabs, else NULL. */
+    node_slab *node_slabs;
 
     octree_node *nodes;
     size_t node_count;
@@ -438,6 +447,20 @@ octree_status octree_posed_point_setup(const octree *tree, const pose *at, vec3 
  * posed vertices) may be from octree_pose_box of a box holding its preimage point: what a
  * posed node's world box grows by. The pose must have passed octree_pose_check. */
 double octree_pose_reach(const octree *tree, const pose *at);
+
+/* octree_def.node_slabs: the slabs of a finished tree (its vertices and lists in place). */
+octree_status octree_slabs_build(octree *tree);
+/* Lower bounds of the squared distance from a slab to a point (the slab's points moved by
+ * up to grow in the max norm first) and to a closed box: 0 when the slab bounds nothing
+ * there. */
+double octree_slab_point_distance2_below(const node_slab *slab, vec3 p, double grow);
+double octree_slab_box_distance2_below(const node_slab *slab, box3 b);
+
+/* tau, a bound on the spectral norm of R^T R - I of a pose (INFINITY for one
+ * octree_pose_check refuses), and e, how far (max norm) a posed vertex of the tree may be
+ * from its real image R v + t. */
+double octree_pose_defect(const pose *at);
+double octree_pose_vertex_error(const octree *tree, const pose *at);
 
 /* octree_mesh's argument checks: OCTREE_OK, or the status octree_mesh returns for them. */
 octree_status octree_mesh_check(const mesh_view *shape, const pose *at, accuracy_mode mode);

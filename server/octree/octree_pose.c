@@ -328,3 +328,14 @@ double octree_pose_reach(const octree *tree, const pose *at)
      * the point (octree_pose_box poses the corners alike): 2e covers both. */
     return 2 * pose_point_error(at, tree->world) * (1 + 16 * U) + DBL_MIN;
 }
+
+double octree_pose_defect(const pose *at)
+{
+    double tau;
+    return rotation_check(at, &tau) == OCTREE_OK ? tau : INFINITY;
+}
+
+double octree_pose_vertex_error(const octree *tree, const pose *at)
+{
+    return pose_point_error(at, tree->world);
+}

@@ -2,7 +2,7 @@
  * tree (itself placed, or as built), and whether anything comes within a radius; bounds
  * proven per triangle pair (server/geom/tri_distance.h).
  *
- * The two trees are descended together, depth first, nearest pair first: a pair of a
+ * The two trees are descended together, nearest pair first: a pair of a
  * world node and a shape node has the distance between their boxes in the world frame as
  * a lower bound of every pair of triangle points they hold, and is entered only while that
  * is within the search radius, the best upper bound so far (or the caller's limit). The
@@ -12,6 +12,7 @@
  * a point (octree_pose_reach). Clearance is the same walk with the radius fixed: it stops
  * at the first pair that cannot be proven beyond it. */
 #include <math.h>
+#include <stdlib.h>
 #include <string.h>
 
 #include "../geom/interval.h"
@@ -36,6 +37,12 @@ typedef struct shape_walk {
     uint32_t best_world, best_shape; /* caller's ids */
     uint64_t recent[64];
     query_stats stats;
+    /* Per shape node, its world-frame box and slab, made on first use: a node is in many
+     * pairs. shape_slab.n = 0 when the node has none. */
+    box3 *shape_boxes;
+    node_slab *shape_slabs;
+    unsigned char *shape_ready;
+    double shape_tau, shape_error, shape_reach; /* the pose's defect, vertex error, largest |x| + |t| */
 } shape_walk;
 
 static box3 grown(box3 b, double g)
@@ -52,10 +59,45 @@ static box3 world_box_of(box3 local, double grow, const pose *at)
     return at ? grown(octree_pose_box(at, local), grow) : local;
 }
 
-static box3 shape_node_world_box(const shape_walk *w, uint32_t node, box3 cell)
+/* A shape slab taken into the world frame: m = R n, and the range of m . y over the posed
+ * points y, which is n . x + n^T (R^T R - I) x + m . t for the real image of x, within
+ * tau sqrt(3) P of [lo, hi] + m . t (P the largest |x|, n of unit length), then within
+ * |m|_1 e of that for the posed vertices' rounding; m's own rounding (3u an entry, |m|_1
+ * at most 1.8) and the products with t and y add 16u (P + |t|). The whole is doubled. */
+static node_slab posed_slab(const shape_walk *w, const node_slab *local)
 {
+    const double *r = w->shape_at->r, *n = local->n;
+    double m[3] = {r[0] * n[0] + r[1] * n[1] + r[2] * n[2], r[3] * n[0] + r[4] * n[1] + r[5] * n[2],
+                   r[6] * n[0] + r[7] * n[1] + r[8] * n[2]};
+    vec3 t = w->shape_at->t;
+    double mt = m[0] * t.x + m[1] * t.y + m[2] * t.z;
+    double m1 = fabs(m[0]) + fabs(m[1]) + fabs(m[2]);
+    double delta = 2 * (w->shape_tau * 1.75 * w->shape_reach + m1 * w->shape_error + 16 * 0x1p-53 * w->shape_reach);
+    /* The query's slab tests take n as a unit vector; |m| is within tau of 1, which the
+     * caller's lower bound divides out (shape_slab_scale). */
+    return (node_slab){{m[0], m[1], m[2]}, local->lo + mt - delta, local->hi + mt + delta};
+}
+
+static void shape_node_ready(shape_walk *w, uint32_t node, box3 cell)
+{
+    if (w->shape_ready[node])
+        return;
     box3 b = w->shape->node_bounds ? w->shape->node_bounds[node] : cell;
-    return world_box_of(b, w->shape_grow, w->shape_at);
+    w->shape_boxes[node] = world_box_of(b, w->shape_grow, w->shape_at);
+    const node_slab none = {{0, 0, 0}, 0, 0};
+    w->shape_slabs[node] = none;
+    if (w->shape->node_slabs) {
+        const node_slab *ls = &w->shape->node_slabs[node];
+        if (ls->n[0] != 0 || ls->n[1] != 0 || ls->n[2] != 0)
+            w->shape_slabs[node] = w->shape_at ? posed_slab(w, ls) : *ls;
+    }
+    w->shape_ready[node] = 1;
+}
+
+static box3 shape_node_world_box(shape_walk *w, uint32_t node, box3 cell)
+{
+    shape_node_ready(w, node, cell);
+    return w->shape_boxes[node];
 }
 
 /* A lower bound of the squared distance between two closed boxes: each gap rounded down,
@@ -80,12 +122,28 @@ static double boxes_distance2_below(box3 a, box3 b)
     return s > 0 ? s : 0.0;
 }
 
-static double pair_bound(const shape_walk *w, uint32_t world_node, box3 world_cell, uint32_t shape_node,
+static double pair_bound(shape_walk *w, uint32_t world_node, box3 world_cell, uint32_t shape_node,
                          box3 shape_cell)
 {
-    box3 wb = w->world->node_bounds ? w->world->node_bounds[world_node] : world_cell;
-    return boxes_distance2_below(world_box_of(wb, w->world_grow, w->world_at),
-                                 shape_node_world_box(w, shape_node, shape_cell));
+    box3 wb = world_box_of(w->world->node_bounds ? w->world->node_bounds[world_node] : world_cell, w->world_grow,
+                           w->world_at);
+    box3 sb = shape_node_world_box(w, shape_node, shape_cell);
+    double lb2 = boxes_distance2_below(wb, sb);
+    /* Each side's slab against the other's box: a surface's piece is far thinner along its
+     * normal than its box. The world's slab is in the world frame only when it is not
+     * placed. */
+    if (w->world->node_slabs && !w->world_at) {
+        double g = octree_slab_box_distance2_below(&w->world->node_slabs[world_node], sb);
+        lb2 = g > lb2 ? g : lb2;
+    }
+    const node_slab *ss = &w->shape_slabs[shape_node];
+    if (ss->n[0] != 0 || ss->n[1] != 0 || ss->n[2] != 0) {
+        /* |m|^2 <= (1 + tau)(1 + 8u): the slab test's gap, along a vector that long, is
+         * that much more than the distance. */
+        double g = octree_slab_box_distance2_below(ss, wb) / ((1 + w->shape_tau) * (1 + 0x1p-48));
+        lb2 = g > lb2 ? g : lb2;
+    }
+    return lb2;
 }
 
 static void triangle_in_world(const octree *tree, const pose *at, uint32_t id, vec3 out[3])
@@ -187,28 +245,71 @@ static double cell_size(box3 b)
     return fmax(b.hi.x - b.lo.x, fmax(b.hi.y - b.lo.y, b.hi.z - b.lo.z));
 }
 
-#define PAIR_STACK_MAX (8 * (2 * OCTREE_MAX_DEPTH_CAP + 2) + 2)
 
-static void walk_pairs(shape_walk *w)
+/* The pairs waiting, a binary min-heap by lower bound: the walk always takes the pair
+ * that may be nearest, so the first leaf pairs it reaches hold the answer or nearly, the
+ * radius falls at once, and every pair whose bound is past it is never taken. Depth first,
+ * with each node's children in order, measured 1.5-90x the pairs on a sphere over a
+ * terrain (the nearest child's subtree is not where the nearest pair is). */
+typedef struct pair_heap {
+    pair_entry *items;
+    size_t count, capacity;
+} pair_heap;
+
+static int heap_push(pair_heap *h, pair_entry e)
+{
+    if (array_reserve((void **)&h->items, &h->capacity, h->count + 1, sizeof *h->items, 64) != 0)
+        return -1;
+    size_t i = h->count++;
+    while (i > 0 && h->items[(i - 1) / 2].lb2 > e.lb2) {
+        h->items[i] = h->items[(i - 1) / 2];
+        i = (i - 1) / 2;
+    }
+    h->items[i] = e;
+    return 0;
+}
+
+static pair_entry heap_pop(pair_heap *h)
+{
+    pair_entry top = h->items[0], last = h->items[--h->count];
+    size_t i = 0;
+    for (;;) {
+        size_t c = 2 * i + 1;
+        if (c >= h->count)
+            break;
+        if (c + 1 < h->count && h->items[c + 1].lb2 < h->items[c].lb2)
+            c++;
+        if (!(h->items[c].lb2 < last.lb2))
+            break;
+        h->items[i] = h->items[c];
+        i = c;
+    }
+    if (h->count > 0)
+        h->items[i] = last;
+    return top;
+}
+
+/* OCTREE_ERR_NOMEM when the heap cannot grow. */
+static octree_status walk_pairs(shape_walk *w)
 {
     const octree *world = w->world, *shape = w->shape;
-    pair_entry stack[PAIR_STACK_MAX];
-    size_t top = 0;
+    pair_heap heap = {0};
+    octree_status st = OCTREE_OK;
     if (world->nodes[0].count == 0 || shape->nodes[0].count == 0)
-        return;
+        return OCTREE_OK;
     double root = pair_bound(w, 0, world->world, 0, shape->world);
-    if (root <= w->limit2)
-        stack[top++] = (pair_entry){0, 0, root, world->world, shape->world};
-    while (top > 0) {
-        pair_entry e = stack[--top];
+    if (root <= w->limit2 && heap_push(&heap, (pair_entry){0, 0, root, world->world, shape->world}) != 0)
+        st = OCTREE_ERR_NOMEM;
+    while (st == OCTREE_OK && heap.count > 0) {
+        pair_entry e = heap_pop(&heap);
         if (e.lb2 > w->limit2)
-            continue;
+            break; /* every pair left is as far */
         w->stats.nodes_visited++;
         octree_node wn = world->nodes[e.world_node], sn = shape->nodes[e.shape_node];
         int world_leaf = wn.count != NODE_INTERIOR, shape_leaf = sn.count != NODE_INTERIOR;
         if (world_leaf && shape_leaf) {
             if (leaf_pair(w, wn, sn, shape_node_world_box(w, e.shape_node, e.shape_cell)))
-                return;
+                break;
             continue;
         }
         /* Split the world node unless it is a leaf or the shape's cell is the larger. */
@@ -217,9 +318,7 @@ static void walk_pairs(shape_walk *w)
         const octree *tree = split_world ? world : shape;
         octree_node node = split_world ? wn : sn;
         vec3 c = octree_split_point(tree, cell);
-        pair_entry near[8];
-        int n = 0;
-        for (int k = 0; k < 8; k++) {
+        for (int k = 0; k < 8 && st == OCTREE_OK; k++) {
             uint32_t child = node.first + (uint32_t)k;
             if (tree->nodes[child].count == 0)
                 continue;
@@ -227,18 +326,22 @@ static void walk_pairs(shape_walk *w)
             pair_entry p = split_world ? (pair_entry){child, e.shape_node, 0, cb, e.shape_cell}
                                        : (pair_entry){e.world_node, child, 0, e.world_cell, cb};
             p.lb2 = pair_bound(w, p.world_node, p.world_cell, p.shape_node, p.shape_cell);
-            if (p.lb2 > w->limit2)
-                continue;
-            int j = n++;
-            while (j > 0 && near[j - 1].lb2 < p.lb2) {
-                near[j] = near[j - 1];
-                j--;
-            }
-            near[j] = p;
+            if (p.lb2 <= w->limit2 && heap_push(&heap, p) != 0)
+                st = OCTREE_ERR_NOMEM;
         }
-        for (int j = 0; j < n; j++)
-            stack[top++] = near[j];
     }
+    free(heap.items);
+    return st;
+}
+
+static void walk_release(shape_walk *w)
+{
+    free(w->shape_boxes);
+    free(w->shape_slabs);
+    free(w->shape_ready);
+    w->shape_boxes = NULL;
+    w->shape_slabs = NULL;
+    w->shape_ready = NULL;
 }
 
 static octree_status walk_setup(shape_walk *w, const octree *world, const pose *world_at, const octree *shape,
@@ -260,6 +363,21 @@ static octree_status walk_setup(shape_walk *w, const octree *world, const pose *
     w->shape_grow = shape_at ? octree_pose_reach(shape, shape_at) : 0.0;
     if (!(w->world_grow < INFINITY) || !(w->shape_grow < INFINITY))
         return OCTREE_ERR_NONFINITE;
+    w->shape_boxes = malloc(shape->node_count * sizeof *w->shape_boxes);
+    w->shape_slabs = malloc(shape->node_count * sizeof *w->shape_slabs);
+    w->shape_ready = calloc(shape->node_count, 1);
+    if (!w->shape_boxes || !w->shape_slabs || !w->shape_ready) {
+        walk_release(w);
+        return OCTREE_ERR_NOMEM;
+    }
+    if (shape_at) {
+        box3 c = shape->world;
+        double p = fmax(fmax(fabs(c.lo.x), fabs(c.hi.x)), fmax(fmax(fabs(c.lo.y), fabs(c.hi.y)), fmax(fabs(c.lo.z), fabs(c.hi.z))));
+        vec3 t = shape_at->t;
+        w->shape_tau = octree_pose_defect(shape_at);
+        w->shape_error = octree_pose_vertex_error(shape, shape_at);
+        w->shape_reach = p + fmax(fabs(t.x), fmax(fabs(t.y), fabs(t.z)));
+    }
     w->limit2 = limit == INFINITY ? INFINITY : iv_up(limit * limit);
     w->lower2 = INFINITY;
     w->best = (triangle_pair_distance){INFINITY, INFINITY, {0, 0, 0}, {0, 0, 0}};
@@ -277,10 +395,11 @@ octree_status octree_shape_distance(const octree *world, const pose *world_at, c
     octree_status st = walk_setup(&w, world, world_at, shape, shape_at, max_distance);
     if (st != OCTREE_OK)
         return st;
-    walk_pairs(&w);
+    st = walk_pairs(&w);
+    walk_release(&w);
     query_stats_finish(stats, &w.stats, 0, 0);
-    if (!w.found)
-        return OCTREE_OK;
+    if (st != OCTREE_OK || !w.found)
+        return st;
     out->found = 1;
     out->lower = iv_sqrt_nonnegative((interval){w.lower2, w.lower2}).lo;
     out->upper = iv_sqrt_nonnegative((interval){w.best.hi2, w.best.hi2}).hi;
@@ -303,7 +422,10 @@ octree_status octree_shape_clearance(const octree *world, const pose *world_at, 
     if (st != OCTREE_OK)
         return st;
     w.clearance = 1;
-    walk_pairs(&w);
+    st = walk_pairs(&w);
+    walk_release(&w);
+    if (st != OCTREE_OK)
+        return st;
     query_stats_finish(stats, &w.stats, 0, 0);
     *clear = !w.found;
     return OCTREE_OK;
