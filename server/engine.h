@@ -388,6 +388,26 @@ octree_status octree_mesh_tree_posed_with(octree_shape_scratch *scratch, const o
                                           const pose *shape_at, int all_pairs, mesh_output *out,
                                           query_stats *stats);
 
+/* ---------- solids: inside, outside or on the surface ---------- */
+/* For a tree whose mesh is closed (every edge of its triangles used by exactly two of them
+ * in opposite directions, as server/world/solid_check.h checks), where a point lies,
+ * exactly on the posed vertices (docs/engine.md, "Solid objects"). */
+typedef enum point_side {
+    POINT_OUTSIDE = 0,
+    POINT_INSIDE = 1,     /* an odd number of watertight crossings on a ray from the point */
+    POINT_ON_SURFACE = 2, /* the point is on a closed triangle (its face, an edge, a vertex) */
+} point_side;
+
+/* Where p lies against the tree placed at `at`: on the surface when it touches a triangle
+ * (the exact closed test of a triangle query with p as a point), else inside when a ray
+ * from p crosses the surface an odd number of times under RAY_CROSSING, whose symbolic
+ * perturbation makes the parity that of a ray missing every edge and vertex. The answer
+ * means inside only for a closed mesh; on an open one it is the parity of one ray.
+ * OCTREE_ERR_NONFINITE for a non-finite p, OCTREE_ERR_INVALID for a pose
+ * octree_pose_check refuses. */
+octree_status octree_point_side_posed(const octree *tree, const pose *at, vec3 p, point_side *side,
+                                      query_stats *stats);
+
 /* ---------- batches ---------- */
 /* Each item gets its own status in statuses[i] and its own output; the batch returns
  * OCTREE_OK when every item was answered (an item's own error is not a batch error) and

@@ -1468,6 +1468,61 @@ static octree *posed_box_tree(const pose *at, mesh_data *posed)
     return t;
 }
 
+/* ADD_SOLID checks the mesh closed and makes the object's inside count: a triangle wholly
+ * inside it is reported as a contact with the object through triangle -1; an open inline
+ * mesh is refused naming its open edge. */
+static void test_solid_objects_over_the_wire(void **state)
+{
+    (void)state;
+    install_from_scene("edited");
+    trioct_pose_t at = {{1, 0, 0, 0, 1, 0, 0, 0, 1}, {5, 0, 0}};
+    trioct_object_edit_t add = wire_edit(TRIOCT_OBJECT_EDIT_T_ADD_SOLID, "solid_box", "box.obj", at);
+    answer a = ask_objects("edited", 0, 1, &add);
+    assert_int_equal(a.status, TRIOCT_OK);
+    answer_free(&a);
+
+    /* Inside the solid box, and inside the section's box, which is a surface only. */
+    trioct_triangle_t tris[2] = {{{5.2, 0.2, 0.2}, {5.8, 0.3, 0.4}, {5.5, 0.7, 0.6}},
+                                 {{0.2, 0.2, 0.2}, {0.8, 0.3, 0.4}, {0.5, 0.7, 0.6}}};
+    for (int8_t detail = TRIOCT_TRIANGLE_REQUEST_T_YESNO; detail <= TRIOCT_TRIANGLE_REQUEST_T_SEGMENTS; detail++) {
+        trioct_triangle_request_t q = {header("edited"), detail, -1, 2, tris};
+        a = ask_triangle("edited", &q);
+        assert_int_equal(a.status, TRIOCT_OK);
+        assert_int_equal(a.found[0], 1);
+        assert_int_equal(a.found[1], 0);
+        if (detail != TRIOCT_TRIANGLE_REQUEST_T_YESNO) {
+            assert_int_equal(a.records, 1);
+            assert_int_equal(a.contacts[0].query, 0);
+            assert_int_equal(a.contacts[0].triangle, -1);
+            assert_string_equal(a.names[a.contacts[0].object], "solid_box");
+        }
+        answer_free(&a);
+    }
+
+    trioct_triangle_t open_box[11];
+    mesh_data box = meshgen_box((box3){{0, 0, 0}, {1, 1, 1}});
+    for (int t = 0; t < 11; t++) {
+        vec3 c[3] = {mesh_data_corner(&box, (size_t)t, 0), mesh_data_corner(&box, (size_t)t, 1),
+                     mesh_data_corner(&box, (size_t)t, 2)};
+        open_box[t] = (trioct_triangle_t){{c[0].x, c[0].y, c[0].z}, {c[1].x, c[1].y, c[1].z}, {c[2].x, c[2].y, c[2].z}};
+    }
+    mesh_data_free(&box);
+    trioct_object_edit_t edits[2] = {wire_edit(TRIOCT_OBJECT_EDIT_T_REMOVE, "solid_box", NULL, at),
+                                     wire_edit(TRIOCT_OBJECT_EDIT_T_ADD_SOLID, "leaky", NULL, at)};
+    edits[1].num_triangles = 11;
+    edits[1].triangles = open_box;
+    a = ask_objects("edited", 0, 2, edits);
+    assert_int_equal(a.status, TRIOCT_ERR_LOAD_FAILED);
+    assert_int_equal(a.failed_edit, 1);
+    if (!strstr(a.message, "inline: declared solid but not a closed surface: edge (") ||
+        !strstr(a.message, "is open: only inline triangle"))
+        fail_msg("%s", a.message);
+    answer_free(&a);
+    a = ask_objects("edited", 0, 1, edits); /* all or none: solid_box was still there */
+    assert_int_equal(a.status, TRIOCT_OK);
+    answer_free(&a);
+}
+
 /* Edits make versions; answers about a moved object equal those of a tree built from its
  * posed vertices, and name it; a world back to one object at the identity is one tree. */
 static void test_object_edits_answer_as_posed_trees(void **state)
@@ -2600,6 +2655,7 @@ int main(void)
         cmocka_unit_test(test_result_caps_are_errors_not_cuts),
         cmocka_unit_test(test_every_status_code),
         cmocka_unit_test(test_object_edits_answer_as_posed_trees),
+        cmocka_unit_test(test_solid_objects_over_the_wire),
         cmocka_unit_test(test_states_answer_as_the_object_set),
         cmocka_unit_test(test_list_and_info_describe_the_worlds),
         cmocka_unit_test(test_load_and_unload),

@@ -278,12 +278,12 @@ static void test_rays_answer_as_the_union_tree(void **state)
     object_model *torus = model_of("torus.obj", meshgen_torus((vec3){0, 0, 0}, 2.0, 0.5, 24, 12));
     object_set *empty = object_set_create();
     object_edit edits[] = {
-        {OBJECT_EDIT_ADD, "ball-a", sphere, at(0, 0, 0, 1, 0, 0, 0)},
-        {OBJECT_EDIT_ADD, "ball-b", sphere, at(2.5, 0.5, 0, 0.9, 0.1, 0.3, 0.3)},
-        {OBJECT_EDIT_ADD, "crate", cube, at(-1, 2, 0.5, 0.8, 0.0, 0.6, 0.0)},
-        {OBJECT_EDIT_ADD, "cube-left", cube, at(0, -3, 0, 1, 0, 0, 0)},
-        {OBJECT_EDIT_ADD, "cube-right", cube, at(1, -3, 0, 1, 0, 0, 0)},
-        {OBJECT_EDIT_ADD, "ring", torus, at(1e6 + 0.25, 2e6, -30, 0.7, 0.7, 0.1, 0.1)},
+        {OBJECT_EDIT_ADD, "ball-a", sphere, at(0, 0, 0, 1, 0, 0, 0), 0},
+        {OBJECT_EDIT_ADD, "ball-b", sphere, at(2.5, 0.5, 0, 0.9, 0.1, 0.3, 0.3), 0},
+        {OBJECT_EDIT_ADD, "crate", cube, at(-1, 2, 0.5, 0.8, 0.0, 0.6, 0.0), 0},
+        {OBJECT_EDIT_ADD, "cube-left", cube, at(0, -3, 0, 1, 0, 0, 0), 0},
+        {OBJECT_EDIT_ADD, "cube-right", cube, at(1, -3, 0, 1, 0, 0, 0), 0},
+        {OBJECT_EDIT_ADD, "ring", torus, at(1e6 + 0.25, 2e6, -30, 0.7, 0.7, 0.1, 0.1), 0},
     };
     object_set *s = apply_ok(empty, edits, 6);
     assert_int_equal(s->count, 6);
@@ -293,7 +293,7 @@ static void test_rays_answer_as_the_union_tree(void **state)
     assert_string_equal(s->objects[5].name, "ring");
 
     /* Without the far torus the others share one tree's resolution range. */
-    object_edit drop = {OBJECT_EDIT_REMOVE, "ring", NULL, {{0}, {0, 0, 0}}};
+    object_edit drop = {OBJECT_EDIT_REMOVE, "ring", NULL, {{0}, {0, 0, 0}}, 0};
     object_set *near = apply_ok(s, &drop, 1);
     check_against_union(near, 400, 11);
 
@@ -314,9 +314,9 @@ static void test_rays_answer_as_the_union_tree(void **state)
 
     /* The torus alone, at its offset. */
     object_edit keep_ring[] = {
-        {OBJECT_EDIT_REMOVE, "ball-a", NULL, {{0}, {0, 0, 0}}}, {OBJECT_EDIT_REMOVE, "ball-b", NULL, {{0}, {0, 0, 0}}},
-        {OBJECT_EDIT_REMOVE, "crate", NULL, {{0}, {0, 0, 0}}}, {OBJECT_EDIT_REMOVE, "cube-left", NULL, {{0}, {0, 0, 0}}},
-        {OBJECT_EDIT_REMOVE, "cube-right", NULL, {{0}, {0, 0, 0}}},
+        {OBJECT_EDIT_REMOVE, "ball-a", NULL, {{0}, {0, 0, 0}}, 0}, {OBJECT_EDIT_REMOVE, "ball-b", NULL, {{0}, {0, 0, 0}}, 0},
+        {OBJECT_EDIT_REMOVE, "crate", NULL, {{0}, {0, 0, 0}}, 0}, {OBJECT_EDIT_REMOVE, "cube-left", NULL, {{0}, {0, 0, 0}}, 0},
+        {OBJECT_EDIT_REMOVE, "cube-right", NULL, {{0}, {0, 0, 0}}, 0},
     };
     object_set *far = apply_ok(s, keep_ring, 5);
     assert_int_equal(far->count, 1);
@@ -349,8 +349,8 @@ static void test_versions_and_edits(void **state)
     object_set *v0 = object_set_create();
     assert_int_equal(v0->version, 0);
     object_edit add[] = {
-        {OBJECT_EDIT_ADD, "near", cube, at(2, 0, 0, 1, 0, 0, 0)},
-        {OBJECT_EDIT_ADD, "far", cube, at(6, 0, 0, 1, 0, 0, 0)},
+        {OBJECT_EDIT_ADD, "near", cube, at(2, 0, 0, 1, 0, 0, 0), 0},
+        {OBJECT_EDIT_ADD, "far", cube, at(6, 0, 0, 1, 0, 0, 0), 0},
     };
     object_set *v1 = apply_ok(v0, add, 2);
     assert_int_equal(v1->version, 1);
@@ -375,7 +375,7 @@ static void test_versions_and_edits(void **state)
 
     /* Move the near cube out of the ray's way: the new version sees the far one, the old
      * version still the near one. No model is rebuilt. */
-    object_edit move = {OBJECT_EDIT_MOVE, "near", NULL, at(2, 5, 0, 1, 0, 0, 0)};
+    object_edit move = {OBJECT_EDIT_MOVE, "near", NULL, at(2, 5, 0, 1, 0, 0, 0), 0};
     object_set *v2 = apply_ok(v1, &move, 1);
     assert_int_equal(v2->version, 2);
     assert_true(closest_t(v2, &ray, &name) == 6.0);
@@ -386,8 +386,8 @@ static void test_versions_and_edits(void **state)
 
     /* All or nothing: the second edit names no object, so the first does not apply. */
     object_edit bad[] = {
-        {OBJECT_EDIT_REMOVE, "far", NULL, {{0}, {0, 0, 0}}},
-        {OBJECT_EDIT_MOVE, "missing", NULL, at(0, 0, 0, 1, 0, 0, 0)},
+        {OBJECT_EDIT_REMOVE, "far", NULL, {{0}, {0, 0, 0}}, 0},
+        {OBJECT_EDIT_MOVE, "missing", NULL, at(0, 0, 0, 1, 0, 0, 0), 0},
     };
     object_set *none = (object_set *)1;
     size_t failed = 99;
@@ -399,27 +399,27 @@ static void test_versions_and_edits(void **state)
     assert_int_equal(v2->count, 2);
     assert_true(closest_t(v2, &ray, &name) == 6.0);
 
-    object_edit dup = {OBJECT_EDIT_ADD, "far", cube, at(0, 0, 0, 1, 0, 0, 0)};
+    object_edit dup = {OBJECT_EDIT_ADD, "far", cube, at(0, 0, 0, 1, 0, 0, 0), 0};
     assert_int_equal(object_set_apply(v2, &dup, 1, &none, &failed, err, sizeof err), OBJECT_EDIT_EXISTS);
-    object_edit scaled = {OBJECT_EDIT_MOVE, "far", NULL, {{2, 0, 0, 0, 2, 0, 0, 0, 2}, {0, 0, 0}}};
+    object_edit scaled = {OBJECT_EDIT_MOVE, "far", NULL, {{2, 0, 0, 0, 2, 0, 0, 0, 2}, {0, 0, 0}}, 0};
     assert_int_equal(object_set_apply(v2, &scaled, 1, &none, &failed, err, sizeof err), OBJECT_EDIT_BAD_POSE);
     assert_non_null(strstr(err, "not a rotation"));
-    object_edit nan_pose = {OBJECT_EDIT_MOVE, "far", NULL, {{1, 0, 0, 0, 1, 0, 0, 0, 1}, {NAN, 0, 0}}};
+    object_edit nan_pose = {OBJECT_EDIT_MOVE, "far", NULL, {{1, 0, 0, 0, 1, 0, 0, 0, 1}, {NAN, 0, 0}}, 0};
     assert_int_equal(object_set_apply(v2, &nan_pose, 1, &none, &failed, err, sizeof err), OBJECT_EDIT_BAD_POSE);
-    object_edit bad_name = {OBJECT_EDIT_ADD, "a b", cube, at(0, 0, 0, 1, 0, 0, 0)};
+    object_edit bad_name = {OBJECT_EDIT_ADD, "a b", cube, at(0, 0, 0, 1, 0, 0, 0), 0};
     assert_int_equal(object_set_apply(v2, &bad_name, 1, &none, &failed, err, sizeof err), OBJECT_EDIT_BAD_NAME);
-    object_edit no_model = {OBJECT_EDIT_ADD, "ghost", NULL, at(0, 0, 0, 1, 0, 0, 0)};
+    object_edit no_model = {OBJECT_EDIT_ADD, "ghost", NULL, at(0, 0, 0, 1, 0, 0, 0), 0};
     assert_int_equal(object_set_apply(v2, &no_model, 1, &none, &failed, err, sizeof err), OBJECT_EDIT_BAD_EDIT);
     assert_null(none);
 
     /* Remove, then add again under the same name in one list. */
     object_edit swap[] = {
-        {OBJECT_EDIT_REMOVE, "far", NULL, {{0}, {0, 0, 0}}},
-        {OBJECT_EDIT_ADD, "far", cube, at(4, 0, 0, 1, 0, 0, 0)},
+        {OBJECT_EDIT_REMOVE, "far", NULL, {{0}, {0, 0, 0}}, 0},
+        {OBJECT_EDIT_ADD, "far", cube, at(4, 0, 0, 1, 0, 0, 0), 0},
     };
     object_set *v3 = apply_ok(v2, swap, 2);
     assert_true(closest_t(v3, &ray, &name) == 4.0);
-    object_edit gone = {OBJECT_EDIT_REMOVE, "far", NULL, {{0}, {0, 0, 0}}};
+    object_edit gone = {OBJECT_EDIT_REMOVE, "far", NULL, {{0}, {0, 0, 0}}, 0};
     object_set *v4 = apply_ok(v3, &gone, 1);
     assert_true(closest_t(v4, &ray, &name) == INFINITY);
     assert_int_equal(object_set_find(v4, "far"), -1);
@@ -437,13 +437,13 @@ static void test_instances_share_one_model(void **state)
     object_model *cube = model_of("cube.obj", meshgen_box((box3){{0, 0, 0}, {1, 1, 1}}));
     object_set *v0 = object_set_create();
     object_edit add[] = {
-        {OBJECT_EDIT_ADD, "one", cube, at(0, 0, 0, 1, 0, 0, 0)},
-        {OBJECT_EDIT_ADD, "two", cube, at(3, 0, 0, 1, 0, 0, 0)},
-        {OBJECT_EDIT_ADD, "three", cube, at(6, 0, 0, 1, 0, 0, 0)},
+        {OBJECT_EDIT_ADD, "one", cube, at(0, 0, 0, 1, 0, 0, 0), 0},
+        {OBJECT_EDIT_ADD, "two", cube, at(3, 0, 0, 1, 0, 0, 0), 0},
+        {OBJECT_EDIT_ADD, "three", cube, at(6, 0, 0, 1, 0, 0, 0), 0},
     };
     object_set *v1 = apply_ok(v0, add, 3);
     assert_int_equal(atomic_load(&cube->refs), 4);
-    object_edit move = {OBJECT_EDIT_MOVE, "two", NULL, at(3, 1, 0, 1, 0, 0, 0)};
+    object_edit move = {OBJECT_EDIT_MOVE, "two", NULL, at(3, 1, 0, 1, 0, 0, 0), 0};
     object_set *v2 = apply_ok(v1, &move, 1);
     assert_int_equal(atomic_load(&cube->refs), 7);
     assert_int_equal(v2->triangles, 36);

@@ -176,11 +176,11 @@ static void test_states_equal_the_posed_meshes(void **state)
     object_model *ring = model_of("ring.obj", meshgen_torus((vec3){0, 0, 0}, 0.25, 0.06, 16, 8));
     object_set *empty = object_set_create();
     object_edit edits[] = {
-        {OBJECT_EDIT_ADD, "table", slab, quat(0, 0, 0, 1, 0, 0, 0)},
-        {OBJECT_EDIT_ADD, "ball-1", ball, quat(0.4, 0.3, 0.25, 1, 0, 0, 0)},
-        {OBJECT_EDIT_ADD, "ball-2", ball, quat(-0.5, 0.2, 0.25, 0.8, 0.6, 0, 0)},
-        {OBJECT_EDIT_ADD, "ring", ring, quat(0.1, -0.5, 0.12, 0.8, 0, 0.6, 0)},
-        {OBJECT_EDIT_ADD, "shelf", slab, quat(0, 0.9, 0.6, 0.7071067811865476, 0.7071067811865476, 0, 0)},
+        {OBJECT_EDIT_ADD, "table", slab, quat(0, 0, 0, 1, 0, 0, 0), 0},
+        {OBJECT_EDIT_ADD, "ball-1", ball, quat(0.4, 0.3, 0.25, 1, 0, 0, 0), 0},
+        {OBJECT_EDIT_ADD, "ball-2", ball, quat(-0.5, 0.2, 0.25, 0.8, 0.6, 0, 0), 0},
+        {OBJECT_EDIT_ADD, "ring", ring, quat(0.1, -0.5, 0.12, 0.8, 0, 0.6, 0), 0},
+        {OBJECT_EDIT_ADD, "shelf", slab, quat(0, 0.9, 0.6, 0.7071067811865476, 0.7071067811865476, 0, 0), 0},
     };
     char err[256];
     size_t failed;

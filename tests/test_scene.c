@@ -600,6 +600,51 @@ static void test_object_errors(void **state)
     expect_error_at(text, SCENE_MAX_OBJECTS + 2, "more than 64 objects in world 'w'");
 }
 
+/* solid = yes|no for a section, solid.NAME for one object, which overrides it. */
+static void test_solid_keys(void **state)
+{
+    (void)state;
+    loaded l;
+    const world_spec *w = load_one_world(&l, "[cell]\nmesh = box.obj\nsolid = yes\n");
+    assert_int_equal(w->solid, 1);
+    scene_free(&l.sc);
+    w = load_one_world(&l, "[cell]\nmesh = box.obj\n");
+    assert_int_equal(w->solid, 0);
+    scene_free(&l.sc);
+    w = load_one_world(&l, "[cell]\n"
+                           "solid = yes\n"
+                           "object.crate = crate.obj\n"
+                           "solid.tray = no\n"
+                           "object.tray = tray.obj\n"
+                           "object.bin = crate.obj\n"
+                           "solid.bin = yes\n");
+    assert_int_equal(w->solid, 1);
+    assert_int_equal(w->object_count, 3); /* bin, crate, tray */
+    assert_string_equal(w->objects[0].name, "bin");
+    assert_int_equal(w->objects[0].solid, 1);
+    assert_string_equal(w->objects[1].name, "crate");
+    assert_int_equal(w->objects[1].solid, -1); /* the section's */
+    assert_string_equal(w->objects[2].name, "tray");
+    assert_int_equal(w->objects[2].solid, 0);
+    /* A change of solidity is a different world (a reload rebuilds it). */
+    world_spec flipped = *w;
+    flipped.objects[2].solid = 1;
+    assert_false(world_spec_equal(w, &flipped));
+    flipped = *w;
+    flipped.solid = 0;
+    assert_false(world_spec_equal(w, &flipped));
+    assert_true(world_spec_equal(w, w));
+    scene_free(&l.sc);
+
+    expect_error_at("[w]\nmesh = a.obj\nsolid = true\n", 3, "solid must be yes or no, not 'true'");
+    expect_error_at("[w]\nmesh = a.obj\nsolid = yes\nsolid = no\n", 4, "solid given twice");
+    expect_error_at("[w]\nobject.a = a.obj\nsolid.a = 1\n", 3, "solid.a must be yes or no, not '1'");
+    expect_error_at("[w]\nobject.a = a.obj\nsolid.a = yes\nsolid.a = no\n", 4, "solid of object 'a' given twice");
+    expect_error_at("[w]\nobject.a = a.obj\nsolid.b = yes\n", 1, "solid.b names no object (no object.b line)");
+    expect_error_at("[w]\nmesh = m.obj\nsolid.b = yes\n", 1, "solid.b names no object");
+    expect_error_at("[w]\nobject.a = a.obj\nsolid.a/b = yes\n", 3, "invalid object name 'a/b'");
+}
+
 static void test_more_than_max_worlds(void **state)
 {
     (void)state;
@@ -728,6 +773,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_objects_and_poses),
         cmocka_unit_test(test_object_errors),
+        cmocka_unit_test(test_solid_keys),
         cmocka_unit_test(test_good_scene_every_key),
         cmocka_unit_test(test_scene_without_daemon_section_and_with_bom_and_crlf),
         cmocka_unit_test(test_rotations_at_quarter_turns_are_exact),

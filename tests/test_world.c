@@ -421,8 +421,8 @@ static void test_build_places_objects(void **state)
     /* "b" at the identity; "a" half a turn about z about the origin and 10 up: its cube
      * spans [-1, 0] x [-1, 0] x [10, 11]. */
     spec.object_count = 2;
-    spec.objects[0] = (world_object_spec){"a", 0, {{-1, 0, 0, 0, -1, 0, 0, 0, 1}, {0, 0, 10}}};
-    spec.objects[1] = (world_object_spec){"b", 0, {{1, 0, 0, 0, 1, 0, 0, 0, 1}, {0, 0, 0}}};
+    spec.objects[0] = (world_object_spec){"a", 0, {{-1, 0, 0, 0, -1, 0, 0, 0, 1}, {0, 0, 10}}, -1};
+    spec.objects[1] = (world_object_spec){"b", 0, {{1, 0, 0, 0, 1, 0, 0, 0, 1}, {0, 0, 0}}, -1};
     world *w = build_ok(&spec, s.dir);
     assert_int_equal(w->report.triangles, 24);
     assert_vec_equal(w->report.bbox_lo, -1, -1, 0);
@@ -456,7 +456,7 @@ static void test_build_places_objects(void **state)
     assert_true(closest_t(w->tree, vec3_make(0.5, 0.5, 20), vec3_make(0, 0, -1)) == 19.0);
     world_release(w);
     spec.object_count = 2;
-    spec.objects[0] = (world_object_spec){"a", 0, {{-1, 0, 0, 0, -1, 0, 0, 0, 1}, {0, 0, 10}}};
+    spec.objects[0] = (world_object_spec){"a", 0, {{-1, 0, 0, 0, -1, 0, 0, 0, 1}, {0, 0, 10}}, -1};
 
     /* An object naming no mesh, or a pose that is not a rotation, is refused. */
     char err[512];

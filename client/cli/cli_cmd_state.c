@@ -225,6 +225,8 @@ const cli_command cli_command_state = {
     "object, or of two links, either way round (an allowed-collision matrix entry). The\n"
     "answer is valid or in collision with the first contact found; --contacts lists every\n"
     "colliding (link, object or link, triangle pair). The world must serve meshes.\n"
+    "Contact is surface contact: a link wholly inside an object is not yet reported,\n"
+    "solid object or not (docs/engine.md, \"Solid objects\").\n"
     "\n"
     "Options:\n"
     "  --link SHAPE x y z qw qx qy qz   a link at its pose (repeat, up to 64)\n"

@@ -36,6 +36,10 @@ static int check_edits(job *j, const trioct_object_edit_request_t *m, object_edi
         case TRIOCT_OBJECT_EDIT_T_ADD:
             out->kind = OBJECT_EDIT_ADD;
             break;
+        case TRIOCT_OBJECT_EDIT_T_ADD_SOLID:
+            out->kind = OBJECT_EDIT_ADD;
+            out->solid = 1;
+            break;
         case TRIOCT_OBJECT_EDIT_T_MOVE:
             out->kind = OBJECT_EDIT_MOVE;
             break;
@@ -44,7 +48,7 @@ static int check_edits(job *j, const trioct_object_edit_request_t *m, object_edi
             break;
         default:
             j->failed_edit = i;
-            return job_fail(j, TRIOCT_ERR_BAD_REQUEST, "edits[%d].op %d is not ADD (0), MOVE (1) or REMOVE (2)", i,
+            return job_fail(j, TRIOCT_ERR_BAD_REQUEST, "edits[%d].op %d is not ADD (0), MOVE (1), REMOVE (2) or ADD_SOLID (3)", i,
                             e->op);
         }
         if (e->rotation != TRIOCT_OBJECT_EDIT_T_MATRIX && e->rotation != TRIOCT_OBJECT_EDIT_T_QUATERNION) {
@@ -126,6 +130,15 @@ static int load_models(job *j, const trioct_object_edit_request_t *m, object_edi
         }
         if (!edits[i].model)
             return edit_fail(j, i, status, "edits[%d] (%s): %s", e->name, why);
+    }
+    /* A solid's mesh must be closed; a model shared by several adds is checked once. */
+    for (int i = 0; i < m->num_edits; i++) {
+        int status = TRIOCT_OK;
+        char why[TRIOCT_MAX_MESSAGE_LEN];
+        const char *label = m->edits[i].mesh[0] != '\0' ? m->edits[i].mesh : "inline";
+        if (edits[i].solid && world_model_check_solid(j->w, &j->ctx->env, edits[i].model, label, &status, why,
+                                                      sizeof why) != 0)
+            return edit_fail(j, i, status, "edits[%d] (%s): %s", m->edits[i].name, why);
     }
     return TRIOCT_OK;
 }

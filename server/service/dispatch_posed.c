@@ -114,7 +114,9 @@ int posed_triangles(job *j, const vec3 (*tris)[3], size_t n, tri_detail detail, 
         }
         for (size_t k = 0; k < out.count; k++, total++) {
             const object_contact *c = &scratch[k];
-            res->contacts[total] = (trioct_contact_t){(int32_t)i, (int32_t)c->object, (int32_t)c->contact.triangle};
+            /* Inside a solid, through no triangle of it: -1 on the wire (docs/protocol.md). */
+            int32_t triangle = c->contact.triangle == OBJECT_INTERIOR ? -1 : (int32_t)c->contact.triangle;
+            res->contacts[total] = (trioct_contact_t){(int32_t)i, (int32_t)c->object, triangle};
             if (detail == TRI_SEGMENTS)
                 res->segments[total] = (trioct_segment_t){posed_vec_out(c->contact.p), posed_vec_out(c->contact.q)};
         }

@@ -385,9 +385,12 @@ int dispatch_triangle(job *j, const trioct_triangle_request_t *m)
     octree_status *st = dispatch_malloc(n * sizeof *st);
     query_result res = {0};
     int status;
+    /* A world with solid objects answers exact triangle queries through its objects, where
+     * a solid's inside counts; seed and fast ones see surfaces only. */
+    int solids = j->w->objects->solids > 0 && mode == ACCURACY_EXACT;
     if (!tris || !outs || !st) {
         status = out_of_memory(j, "the triangles");
-    } else if (j->w->tree) {
+    } else if (j->w->tree && !solids) {
         status = triangle_work(j, m, mode, tris, outs, st, &res);
     } else {
         for (size_t i = 0; i < n; i++) {

@@ -56,6 +56,7 @@ object_model *object_model_adopt(const char *key, mesh_data *mesh, octree *tree)
     octree_info info;
     octree_get_info(m->tree, &info);
     m->bytes = info.bytes_total + m->mesh.vertex_count * sizeof(vec3) + 3 * m->mesh.triangle_count * sizeof(uint32_t);
+    atomic_init(&m->closed, 0);
     atomic_init(&m->refs, 1);
     return m;
 }
@@ -200,6 +201,10 @@ static object_edit_status apply_one(table *t, const object_edit *e, char *err, s
             error_text(err, err_len, "edits[%zu] (add %s): no model", index, e->name);
             return OBJECT_EDIT_BAD_EDIT;
         }
+        if (e->solid && !atomic_load(&e->model->closed)) {
+            error_text(err, err_len, "edits[%zu] (add %s): a solid object needs a mesh checked closed", index, e->name);
+            return OBJECT_EDIT_BAD_EDIT;
+        }
         if (found) {
             error_text(err, err_len, "edits[%zu] (add %s): the world already has an object of that name", index, e->name);
             return OBJECT_EDIT_EXISTS;
@@ -221,6 +226,7 @@ static object_edit_status apply_one(table *t, const object_edit *e, char *err, s
         o->model = e->model;
         o->at = e->at;
         o->bounds = octree_pose_box(&e->at, e->model->bounds);
+        o->solid = e->solid != 0;
         return OBJECT_EDIT_OK;
     case OBJECT_EDIT_MOVE:
         if (!found) {
@@ -444,6 +450,7 @@ object_edit_status object_set_apply(const object_set *from, const object_edit *e
     for (size_t i = 0; i < s->count; i++) {
         object_model_retain(s->objects[i].model);
         s->triangles += s->objects[i].model->mesh.triangle_count;
+        s->solids += s->objects[i].solid != 0;
     }
     atomic_init(&s->refs, 1);
     *out = s;
@@ -698,6 +705,19 @@ octree_status object_set_triangle(const object_set *s, const vec3 tri[3], tri_de
         st = octree_triangle_posed(o->model->tree, &o->at, tri, detail, ACCURACY_EXACT, &part, stats);
         if (st != OCTREE_OK)
             break;
+        if (!part.hit && o->solid) {
+            /* Off the surface the triangle is wholly on one side of it. */
+            point_side side;
+            st = octree_point_side_posed(o->model->tree, &o->at, tri[0], &side, stats);
+            if (st != OCTREE_OK)
+                break;
+            if (side == POINT_INSIDE) {
+                part.hit = 1;
+                part.count = 1;
+                if (room > 0)
+                    buf[0] = (tri_contact){OBJECT_INTERIOR, tri[0], tri[0]};
+            }
+        }
         if (!part.hit)
             continue;
         out->hit = 1;

@@ -38,6 +38,9 @@ typedef struct object_model {
     memory_account *account;
     size_t mesh_accounted;
     mesh_load_report report;       /* what loading its file found (zero for inline meshes) */
+    /* 1 once its mesh passed solid_check (closed, consistently oriented): objects of it
+     * may then be solid. Set once, before any solid object uses it. */
+    atomic_int closed;
     atomic_int refs;
 } object_model;
 
@@ -57,6 +60,9 @@ typedef struct world_object {
     object_model *model; /* one reference */
     pose at;
     box3 bounds; /* every posed vertex inside (octree_pose_box of the model's bounds) */
+    /* 1: a solid (its model is closed): its inside counts as contact for triangle, shape
+     * and state queries, and object_set_point says whether a point is inside it. */
+    int solid;
 } world_object;
 
 /* A node of the hierarchy over the objects' boxes: a leaf holds objects
@@ -73,6 +79,7 @@ typedef struct object_set {
     world_object *objects;   /* sorted by name, so answers do not depend on edit order */
     size_t count;
     size_t triangles;
+    size_t solids;           /* objects with solid set */
     object_top_node *top;    /* the hierarchy, root first; NULL without objects */
     uint32_t *top_order;     /* object indexes, leaf by leaf */
     atomic_int refs;
@@ -105,6 +112,7 @@ typedef struct object_edit {
     const char *name;
     object_model *model; /* ADD: the set takes its own reference */
     pose at;
+    int solid; /* ADD: 1 for a solid object, whose model must be closed (object_model.closed) */
 } object_edit;
 
 typedef enum object_edit_status {
@@ -115,7 +123,8 @@ typedef enum object_edit_status {
     OBJECT_EDIT_BAD_POSE,  /* not a rotation (octree_pose_check), not finite, or placing
                               a vertex at a coordinate that is not */
     OBJECT_EDIT_TOO_MANY,  /* past OBJECT_SET_MAX_OBJECTS */
-    OBJECT_EDIT_BAD_EDIT,  /* an unknown kind, or ADD without a model */
+    OBJECT_EDIT_BAD_EDIT,  /* an unknown kind, ADD without a model, or a solid ADD of a
+                              model not checked closed */
     OBJECT_EDIT_NOMEM,
 } object_edit_status;
 
@@ -161,8 +170,15 @@ typedef struct object_tri_output {
     size_t capacity;
 } object_tri_output;
 
+/* The triangle a contact names when the query lies inside a solid object without touching
+ * its surface: the object is hit, through no triangle of it. */
+#define OBJECT_INTERIOR UINT32_MAX
+
 /* One triangle against every object whose posed box it reaches: octree_triangle's
- * contract over the union of the posed triangles. Exact mode only. */
+ * contract over the union of the posed triangles, and for a solid object, its inside too:
+ * a triangle touching no triangle of a solid lies wholly inside or wholly outside it, so
+ * its first vertex decides, and one inside gives a single contact with the object, its
+ * triangle OBJECT_INTERIOR and its segment that vertex (p == q). Exact mode only. */
 octree_status object_set_triangle(const object_set *s, const vec3 tri[3], tri_detail detail,
                                   object_tri_output *out, query_stats *stats);
 
@@ -196,5 +212,19 @@ octree_status object_set_shape_distance(const object_set *s, const octree *shape
  * not be proven so. */
 octree_status object_set_shape_clearance(const object_set *s, const octree *shape, const pose *at, double radius,
                                          int *clear, long *object, query_stats *stats);
+
+/* ---------- solid objects: where a point lies ---------- */
+
+typedef struct object_point_output {
+    point_side side; /* POINT_OUTSIDE when no solid object holds the point */
+    uint32_t object; /* the object that holds it, or UINT32_MAX */
+} object_point_output;
+
+/* Whether p is inside a solid object, on its surface, or outside every one: the first
+ * solid object in object (name) order whose closed volume (inside and surface) holds p,
+ * and which of the two, by octree_point_side_posed on its posed triangles. Objects that
+ * are not solid have no inside and are not asked. Exact; OCTREE_ERR_NONFINITE for a
+ * non-finite p. */
+octree_status object_set_point(const object_set *s, vec3 p, object_point_output *out, query_stats *stats);
 
 #endif

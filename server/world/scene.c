@@ -27,6 +27,7 @@
 #define SHAPE_KEY_PREFIX "shape."
 #define OBJECT_KEY_PREFIX "object."
 #define POSE_KEY_PREFIX "pose."
+#define SOLID_KEY_PREFIX "solid."
 
 typedef enum section_kind {
     SECTION_NONE,   /* before the first header */
@@ -40,6 +41,7 @@ typedef struct world_lines {
     int header_line;
     unsigned keys_seen;
     uint64_t poses_seen; /* bit i: objects[i] had its pose.NAME line (SCENE_MAX_OBJECTS <= 64) */
+    uint64_t solids_seen; /* bit i: objects[i] had its solid.NAME line */
 } world_lines;
 _Static_assert(SCENE_MAX_OBJECTS <= 64, "one bit an object in poses_seen");
 
@@ -209,7 +211,7 @@ static int def_equal(const octree_def *a, const octree_def *b)
 
 int world_spec_equal(const world_spec *a, const world_spec *b)
 {
-    if (strcmp(a->name, b->name) != 0 || a->mesh_count != b->mesh_count || a->up_y != b->up_y ||
+    if (strcmp(a->name, b->name) != 0 || a->mesh_count != b->mesh_count || a->up_y != b->up_y || a->solid != b->solid ||
         a->shape_count != b->shape_count || a->effects != b->effects || a->memory_budget != b->memory_budget)
         return 0;
     for (size_t i = 0; i < a->mesh_count; i++)
@@ -223,7 +225,7 @@ int world_spec_equal(const world_spec *a, const world_spec *b)
         return 0;
     for (size_t i = 0; i < a->object_count; i++) {
         const world_object_spec *x = &a->objects[i], *y = &b->objects[i];
-        if (strcmp(x->name, y->name) != 0 || x->mesh != y->mesh || x->at.t.x != y->at.t.x ||
+        if (strcmp(x->name, y->name) != 0 || x->mesh != y->mesh || x->solid != y->solid || x->at.t.x != y->at.t.x ||
             x->at.t.y != y->at.t.y || x->at.t.z != y->at.t.z)
             return 0;
         for (int k = 0; k < 9; k++)
@@ -503,6 +505,7 @@ static world_object_spec *object_entry(scene_parser *p, world_spec *spec, const 
     memset(o, 0, sizeof *o);
     memcpy(o->name, name, strlen(name) + 1);
     o->mesh = -1;
+    o->solid = -1;
     memcpy(o->at.r, identity3, sizeof identity3);
     o->at.t = (vec3){0, 0, 0};
     return o;
@@ -564,6 +567,45 @@ static int key_pose(scene_parser *p, world_spec *spec, const char *key, const ch
     return 0;
 }
 
+/* "yes" or "no", the words a scene writes for a switch; 1, 0, or -1 for anything else. */
+static int parse_yes_no(const char *value)
+{
+    if (strcmp(value, "yes") == 0)
+        return 1;
+    if (strcmp(value, "no") == 0)
+        return 0;
+    return -1;
+}
+
+static int key_solid(scene_parser *p, world_spec *spec, const char *key, const char *value)
+{
+    int solid = parse_yes_no(value);
+    if (solid < 0)
+        return parser_fail(p, p->line, "%s must be yes or no, not '%s'", key, value);
+    spec->solid = solid;
+    return 0;
+}
+
+static int key_solid_object(scene_parser *p, world_spec *spec, const char *key, const char *value)
+{
+    const char *name = key + strlen(SOLID_KEY_PREFIX);
+    if (!object_name_valid(name))
+        return parser_fail(p, p->line, "invalid object name '%s': 1 to %d characters of A-Z a-z 0-9 _ . -", name,
+                           TRIOCT_MAX_NAME_LEN);
+    int solid = parse_yes_no(value);
+    if (solid < 0)
+        return parser_fail(p, p->line, "%s must be yes or no, not '%s'", key, value);
+    world_object_spec *o = object_entry(p, spec, name);
+    if (!o)
+        return -1;
+    size_t index = (size_t)(o - spec->objects), world = p->world_count - 1;
+    if ((p->lines[world].solids_seen >> index) & 1)
+        return parser_fail(p, p->line, "solid of object '%s' given twice", name);
+    p->lines[world].solids_seen |= (uint64_t)1 << index;
+    o->solid = solid;
+    return 0;
+}
+
 /* repeatable: the key may appear many times (meshes); the others take one value each. */
 static const struct world_key {
     const char *name;
@@ -581,6 +623,7 @@ static const struct world_key {
     {"seed_epsilon", key_seed_epsilon, 0},
     {"effects", key_effects, 0},
     {"memory_budget", key_memory_budget, 0},
+    {"solid", key_solid, 0},
 };
 #define WORLD_KEY_COUNT (sizeof world_keys / sizeof world_keys[0])
 
@@ -593,6 +636,8 @@ static int world_key(scene_parser *p, const char *key, const char *value)
         return key_object(p, spec, key, value);
     if (strncmp(key, POSE_KEY_PREFIX, strlen(POSE_KEY_PREFIX)) == 0)
         return key_pose(p, spec, key, value);
+    if (strncmp(key, SOLID_KEY_PREFIX, strlen(SOLID_KEY_PREFIX)) == 0)
+        return key_solid_object(p, spec, key, value);
     for (size_t i = 0; i < WORLD_KEY_COUNT; i++) {
         if (strcmp(key, world_keys[i].name) != 0)
             continue;
@@ -605,7 +650,8 @@ static int world_key(scene_parser *p, const char *key, const char *value)
     }
     return parser_fail(p, p->line,
                        "unknown key '%s' in world '%s' (mesh, scale, rotate, translate, up, resolution, "
-                       "max_depth, accuracy, seed_epsilon, effects, memory_budget, shape.<name>, object.<name>, pose.<name>)",
+                       "max_depth, accuracy, seed_epsilon, effects, memory_budget, solid, shape.<name>, object.<name>, pose.<name>, "
+                       "solid.<name>)",
                        key, spec->name);
 }
 
@@ -655,7 +701,7 @@ static int add_world(scene_parser *p, const char *name)
     int n = snprintf(spec->source, sizeof spec->source, "%s [%s]", p->path, name);
     if (n < 0 || (size_t)n >= sizeof spec->source)
         return parser_fail(p, p->line, "the scene path is too long");
-    p->lines[p->world_count] = (world_lines){p->line, 0, 0};
+    p->lines[p->world_count] = (world_lines){p->line, 0, 0, 0};
     p->world_count++;
     return 0;
 }
@@ -792,8 +838,9 @@ static int check_objects(scene_parser *p, size_t i)
         return 0;
     for (size_t k = 0; k < spec->object_count; k++)
         if (spec->objects[k].mesh < 0)
-            return parser_fail(p, p->lines[i].header_line, "world '%s': pose.%s names no object (no object.%s line)",
-                               spec->name, spec->objects[k].name, spec->objects[k].name);
+            return parser_fail(p, p->lines[i].header_line, "world '%s': %s.%s names no object (no object.%s line)",
+                               spec->name, object_pose_seen(p, i, k) ? "pose" : "solid", spec->objects[k].name,
+                               spec->objects[k].name);
     /* world_keys order: mesh, scale, rotate, translate. */
     if (p->lines[i].keys_seen & 0xfu)
         return parser_fail(p, p->lines[i].header_line,

@@ -17,6 +17,9 @@
  *   seed_epsilon = 1e-9      ; seed only
  *   effects = rays triangles meshes  ; what the world serves, any of the three
  *   shape.gripper = gripper.stl      ; query shapes for mesh queries (meshes effect)
+ *   solid = yes              ; yes | no (default): the mesh (or every object) is a closed
+ *                            ; solid whose inside counts as contact; solid.NAME overrides
+ *                            ; it for object NAME
  *
  * Keys may be indented; a value never continues on the next line, and a line holds at
  * most 197 characters (inih's fixed line buffer). mesh and shape.<name> repeat (at most
@@ -71,6 +74,7 @@ typedef struct world_object_spec {
     char name[TRIOCT_MAX_NAME_LEN + 1];
     int mesh; /* index into world_spec.meshes */
     pose at;
+    int solid; /* solid.NAME: 1 yes, 0 no, -1 not given (the section's solid applies) */
 } world_object_spec;
 
 /* One world, as a scene section or an admin LOAD request describes it. Plain data: copy by
@@ -91,6 +95,10 @@ typedef struct world_spec {
      * is turned to trioct's z-up as it is read, (x, y, z) -> (x, -z, y): a quarter turn
      * about x, exact. Then the transform or the object's pose applies. 0: z-up as given. */
     int up_y;
+    /* solid = yes: the section's mesh, or each of its objects without a solid.NAME of its
+     * own, is a solid: checked closed and oriented at load (solid_check.h), and its inside
+     * counts as contact (docs/engine.md, "Solid objects"). 0: surfaces only. */
+    int solid;
     octree_def def;      /* resolution (<= 0: heuristic), max_depth, mode, seed_epsilon */
     unsigned effects;    /* EFFECT_* bits, never 0 */
     /* The most its meshes and trees may hold, in bytes (memory_budget); 0: only the

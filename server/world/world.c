@@ -18,6 +18,7 @@
 #include "../../common/trioct_status.h"
 #include "../geom/vec3.h"
 #include "error_text.h"
+#include "solid_check.h"
 
 
 /* ---------- paths ---------- */
@@ -461,6 +462,54 @@ static object_model *make_model(world_builder *b, const char *key, mesh_data *me
     return m;
 }
 
+/* A triangle of the mesh named for a person: in its own file for a section's merged meshes. */
+static void triangle_label(const world_builder *b, const char *rel, size_t triangle, char *buf, size_t len)
+{
+    if (triangle == SIZE_MAX) {
+        snprintf(buf, len, "no other triangle");
+    } else if (b->merging) {
+        size_t file = mesh_of_triangle(b, triangle);
+        snprintf(buf, len, "%s triangle %zu", b->spec->meshes[file], triangle - b->triangle_start[file]);
+    } else {
+        snprintf(buf, len, "%s triangle %zu", rel, triangle);
+    }
+}
+
+/* A solid's model must be closed and consistently oriented (solid_check.h); checked once
+ * a model, however many solid objects share it. The check's scratch counts against the
+ * budgets like the rest of a load. */
+static int check_solid(world_builder *b, object_model *m, const char *rel)
+{
+    if (atomic_load(&m->closed))
+        return 0;
+    solid_defect defect;
+    solid_check_status st = solid_check(&m->mesh, builder_room(b), builder_account(b), &defect);
+    if (st == SOLID_CLOSED) {
+        atomic_store(&m->closed, 1);
+        return 0;
+    }
+    char why[TRIOCT_MAX_MESSAGE_LEN], label[TRIOCT_MAX_PATH_LEN + 32], other[TRIOCT_MAX_PATH_LEN + 32];
+    triangle_label(b, rel, defect.triangle, label, sizeof label);
+    triangle_label(b, rel, defect.other, other, sizeof other);
+    solid_defect_text(st, &defect, label, other, why, sizeof why);
+    if (st == SOLID_OVER_BUDGET) {
+        char need[TRIOCT_MAX_MESSAGE_LEN + TRIOCT_MAX_PATH_LEN + 32];
+        snprintf(need, sizeof need, "%s: %s (%zu bytes)", rel, why,
+                 solid_check_bytes(m->mesh.vertex_count, m->mesh.triangle_count));
+        return budget_fail(b, need);
+    }
+    if (st == SOLID_NO_MEMORY)
+        return build_fail(b, TRIOCT_ERR_NOMEM, "world '%s': %s: %s", b->spec->name, rel, why);
+    return build_fail(b, TRIOCT_ERR_LOAD_FAILED, "world '%s': %s: declared solid but not a closed surface: %s",
+                      b->spec->name, rel, why);
+}
+
+/* An object's solid = its own solid.NAME, or the section's. */
+static int object_is_solid(const world_spec *spec, const world_object_spec *o)
+{
+    return o->solid >= 0 ? o->solid : spec->solid;
+}
+
 /* The trioct status of an edit list that did not apply. */
 static int edit_status(object_edit_status st)
 {
@@ -524,10 +573,13 @@ static int load_objects(world_builder *b)
         mesh_data_free(&mesh);
         if (!models[i])
             status = -1;
+        for (size_t k = 0; k < spec->object_count && status == 0; k++)
+            if ((size_t)spec->objects[k].mesh == i && object_is_solid(spec, &spec->objects[k]))
+                status = check_solid(b, models[i], spec->meshes[i]);
     }
     for (size_t k = 0; k < spec->object_count && status == 0; k++)
         edits[k] = (object_edit){OBJECT_EDIT_ADD, spec->objects[k].name, models[spec->objects[k].mesh],
-                                 spec->objects[k].at};
+                                 spec->objects[k].at, object_is_solid(spec, &spec->objects[k])};
     if (status == 0) {
         char why[TRIOCT_MAX_MESSAGE_LEN];
         size_t failed = 0;
@@ -567,7 +619,11 @@ static int load_merged(world_builder *b)
     if (!model)
         return -1;
     snprintf(model->source, sizeof model->source, "%s", key);
-    object_edit add = {OBJECT_EDIT_ADD, b->spec->name, model, octree_pose_identity()};
+    if (b->spec->solid && check_solid(b, model, "the section's meshes") != 0) {
+        object_model_release(model);
+        return -1;
+    }
+    object_edit add = {OBJECT_EDIT_ADD, b->spec->name, model, octree_pose_identity(), b->spec->solid};
     char why[TRIOCT_MAX_MESSAGE_LEN];
     object_edit_status st = first_set(&add, 1, &b->w->objects, NULL, why, sizeof why);
     object_model_release(model);
@@ -883,6 +939,16 @@ object_model *world_model_from_triangles(const world *w, const world_env *env, c
     builder_give_back(&b);
     *status = m ? TRIOCT_OK : b.status;
     return m;
+}
+
+int world_model_check_solid(const world *w, const world_env *env, object_model *m, const char *label, int *status,
+                            char *err, size_t err_len)
+{
+    world_builder b = {.spec = &w->spec, .status = TRIOCT_OK, .err = err, .err_len = err_len, .env = env,
+                       .budget = spec_budget(&w->spec), .world_bytes = world_memory_bytes(w)};
+    int rc = check_solid(&b, m, label);
+    *status = b.status;
+    return rc;
 }
 
 void world_retain(world *w)

@@ -120,6 +120,14 @@ object_model *world_model_from_triangles(const world *w, const world_env *env, c
                                          const vec3 (*tris)[3], size_t count, int *status, char *err,
                                          size_t err_len);
 
+/* Makes m fit for a solid object added to w: its mesh checked closed and consistently
+ * oriented (solid_check.h), once a model, within what w's budget and env's account leave.
+ * 0, or -1 with *status TRIOCT_ERR_LOAD_FAILED and err naming the defective edge by its
+ * two vertices and a triangle (label names the mesh: its file, "inline"), or
+ * TRIOCT_ERR_BUDGET / _NOMEM. */
+int world_model_check_solid(const world *w, const world_env *env, object_model *m, const char *label, int *status,
+                            char *err, size_t err_len);
+
 void world_retain(world *w);
 /* Drops one reference; the last frees the world. */
 void world_release(world *w);
