@@ -461,6 +461,46 @@ static void test_point_in_a_set_of_objects(void **state)
     object_model_release(ball);
 }
 
+/* Inside a solid, the point distance is signed: minus the distance to the surface (the
+ * penetration depth); inside the hollow copy of the same mesh, plus it. Exact answers on a
+ * crate placed at a quarter turn. */
+static void test_signed_distance_inside_a_solid(void **state)
+{
+    (void)state;
+    object_model *cube = closed_model("cube", meshgen_box((box3){{-1, -1, -1}, {1, 1, 1}}));
+    object_edit adds[] = {
+        {OBJECT_EDIT_ADD, "crate", cube, {{0, -1, 0, 1, 0, 0, 0, 0, 1}, {10, 0, 0}}, 1},
+        {OBJECT_EDIT_ADD, "hollow", cube, placed(-10, 0, 0, 1, 0, 0, 0), 0},
+    };
+    object_set *empty = object_set_create(), *s = NULL;
+    char err[256];
+    size_t failed;
+    assert_int_equal(object_set_apply(empty, adds, 2, &s, &failed, err, sizeof err), OBJECT_EDIT_OK);
+    long crate = object_set_find(s, "crate");
+    object_distance_output out;
+    /* 0.25 inside the crate's x = 11 face. */
+    assert_int_equal(object_set_point_distance(s, (vec3){10.75, 0.25, 0.5}, INFINITY, &out, NULL), OCTREE_OK);
+    assert_true(out.found && out.inside);
+    assert_int_equal(out.inside_object, crate);
+    assert_int_equal(out.object, crate);
+    assert_true(out.distance.lower <= -0.25 && -0.25 <= out.distance.upper);
+    if (!(out.distance.upper < 0 && out.distance.bound < 1e-14))
+        fail_msg("distance %.17g bound %.3g [%.17g, %.17g]", out.distance.distance, out.distance.bound, out.distance.lower, out.distance.upper);
+    assert_true(out.distance.point.x == 11);
+    /* 0.25 inside the hollow copy: positive. */
+    assert_int_equal(object_set_point_distance(s, (vec3){-9.25, 0.25, 0.5}, INFINITY, &out, NULL), OCTREE_OK);
+    assert_true(out.found && !out.inside && out.inside_object == UINT32_MAX);
+    assert_true(out.distance.lower <= 0.25 && 0.25 <= out.distance.upper && out.distance.lower > 0);
+    /* Outside, and on the crate's surface: 2 and 0. */
+    assert_int_equal(object_set_point_distance(s, (vec3){13, 0, 0}, INFINITY, &out, NULL), OCTREE_OK);
+    assert_true(!out.inside && out.distance.lower <= 2 && 2 <= out.distance.upper);
+    assert_int_equal(object_set_point_distance(s, (vec3){11, 0.5, 0.5}, INFINITY, &out, NULL), OCTREE_OK);
+    assert_true(!out.inside && out.distance.lower == 0 && out.distance.upper < 1e-15);
+    object_set_release(s);
+    object_set_release(empty);
+    object_model_release(cube);
+}
+
 static void test_triangles_inside_a_solid_collide(void **state)
 {
     (void)state;
@@ -694,6 +734,7 @@ int main(void)
         cmocka_unit_test(test_point_side_of_a_box),
         cmocka_unit_test(test_point_side_of_posed_solids_against_brute_force),
         cmocka_unit_test(test_point_in_a_set_of_objects),
+        cmocka_unit_test(test_signed_distance_inside_a_solid),
         cmocka_unit_test(test_triangles_inside_a_solid_collide),
         cmocka_unit_test(test_world_load_checks_solids),
         cmocka_unit_test(test_added_solid_is_checked),

@@ -40,6 +40,7 @@ octree_status object_set_point_distance(const object_set *s, vec3 p, double max_
     if (!s || !out)
         return OCTREE_ERR_INVALID;
     *out = (object_distance_output){0};
+    out->inside_object = UINT32_MAX;
     if (!vec3_is_finite(p))
         return OCTREE_ERR_NONFINITE;
     if (!(max_distance >= 0))
@@ -88,7 +89,19 @@ octree_status object_set_point_distance(const object_set *s, vec3 p, double max_
     d->distance = 0.5 * d->lower + 0.5 * d->upper;
     double below = iv_up(d->distance - d->lower), above = iv_up(d->upper - d->distance);
     d->bound = below > above ? below : above;
-    return OCTREE_OK;
+    if (s->solids > 0) {
+        object_point_output side;
+        st = object_set_point(s, p, &side, stats);
+        if (st == OCTREE_OK && side.side == POINT_INSIDE) {
+            double lower = d->lower;
+            d->lower = -d->upper;
+            d->upper = -lower;
+            d->distance = -d->distance;
+            out->inside = 1;
+            out->inside_object = side.object;
+        }
+    }
+    return st;
 }
 
 /* The objects in order of their boxes' distance from box b (a lower bound of every

@@ -190,6 +190,12 @@ typedef struct object_distance_output {
     int found;
     distance_output distance; /* triangle: the index in the object's mesh */
     uint32_t object;
+    /* 1 when p lies inside a solid object (object_set_point): the distance is then signed,
+     * negative, its magnitude the distance to the nearest surface (distance, lower and
+     * upper negated, lower and upper swapped), the penetration depth. inside_object names
+     * the solid; UINT32_MAX otherwise. A point on a solid's surface is at distance 0. */
+    int inside;
+    uint32_t inside_object;
 } object_distance_output;
 
 octree_status object_set_point_distance(const object_set *s, vec3 p, double max_distance, object_distance_output *out,
