@@ -58,11 +58,35 @@ typedef struct triangle_box {
 _Static_assert(sizeof(triangle_box) == 24, "engine.h documents 24 bytes a triangle");
 
 /* A node's slab (octree_slabs.c): every point of its triangles has lo <= n . x <= hi, n a
- * unit direction; n = 0 bounds nothing. */
+ * unit direction, and likewise along the two directions u, v that make an orthonormal
+ * frame with n (octree_slab_frame, computed from n alone): an oriented box, as thin along
+ * n as the node's surface is flat. n = 0 bounds nothing. */
 typedef struct node_slab {
     double n[3];
     double lo, hi;
+    double range[2][2]; /* [u, v][lo, hi] */
 } node_slab;
+
+/* An oriented box: lo[a] <= axes[a] . x <= hi[a] for the three axes (each of length 1 to
+ * within `stretch`: |axes[a]| <= 1 + stretch). A node slab in its own frame, or taken
+ * into another (a posed shape's). */
+typedef struct oriented_box {
+    double axes[3][3];
+    double lo[3], hi[3];
+    double stretch;
+} oriented_box;
+
+/* A node slab as an oriented box (its frame from octree_slab_frame). */
+oriented_box octree_slab_box(const node_slab *slab);
+/* A lower bound of the squared distance between an oriented box and a closed box: in the
+ * oriented box's frame, the gaps between its ranges and the box's projections, squared
+ * and summed (the distance from 0 to a box holding every difference of their points); 0
+ * when they overlap along every axis. */
+double octree_oriented_box_distance2_below(const oriented_box *o, box3 b);
+
+/* The frame's other two directions, u = normalised (a x n) for the axis a least along n,
+ * and v = n x u: the same doubles at build and query. */
+void octree_slab_frame(const double n[3], double u[3], double v[3]);
 
 struct octree {
     /* The account the build took from (octree_def.account) and what this tree holds of it:
@@ -454,7 +478,13 @@ octree_status octree_slabs_build(octree *tree);
  * up to grow in the max norm first) and to a closed box: 0 when the slab bounds nothing
  * there. */
 double octree_slab_point_distance2_below(const node_slab *slab, vec3 p, double grow);
-double octree_slab_box_distance2_below(const node_slab *slab, box3 b);
+static inline double octree_slab_box_distance2_below(const node_slab *slab, box3 b)
+{
+    if (slab->n[0] == 0 && slab->n[1] == 0 && slab->n[2] == 0)
+        return 0.0;
+    oriented_box o = octree_slab_box(slab);
+    return octree_oriented_box_distance2_below(&o, b);
+}
 
 /* tau, a bound on the spectral norm of R^T R - I of a pose (INFINITY for one
  * octree_pose_check refuses), and e, how far (max norm) a posed vertex of the tree may be

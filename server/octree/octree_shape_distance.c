@@ -40,7 +40,7 @@ typedef struct shape_walk {
     /* Per shape node, its world-frame box and slab, made on first use: a node is in many
      * pairs. shape_slab.n = 0 when the node has none. */
     box3 *shape_boxes;
-    node_slab *shape_slabs;
+    oriented_box *shape_slabs; /* stretch < 0: none */
     unsigned char *shape_ready;
     double shape_tau, shape_error, shape_reach; /* the pose's defect, vertex error, largest |x| + |t| */
 } shape_walk;
@@ -59,23 +59,31 @@ static box3 world_box_of(box3 local, double grow, const pose *at)
     return at ? grown(octree_pose_box(at, local), grow) : local;
 }
 
-/* A shape slab taken into the world frame: m = R n, and the range of m . y over the posed
- * points y, which is n . x + n^T (R^T R - I) x + m . t for the real image of x, within
- * tau sqrt(3) P of [lo, hi] + m . t (P the largest |x|, n of unit length), then within
- * |m|_1 e of that for the posed vertices' rounding; m's own rounding (3u an entry, |m|_1
- * at most 1.8) and the products with t and y add 16u (P + |t|). The whole is doubled. */
-static node_slab posed_slab(const shape_walk *w, const node_slab *local)
+/* A shape slab taken into the world frame: each axis a becomes m = R a, and the range of
+ * m . y over the posed points y is that of a . x + a^T (R^T R - I) x + m . t for the real
+ * image of x: within tau sqrt(3) P of [lo, hi] + m . t (P the largest |x|, a of unit
+ * length), then within |m|_1 e of that for the posed vertices' rounding; m's own rounding
+ * (3u an entry, |m|_1 at most 1.8) and the products with t and y add 16u (P + |t|). The
+ * whole is doubled. |m| is within tau (and 2^-40) of 1: the stretch. */
+static oriented_box posed_slab(const shape_walk *w, const node_slab *local)
 {
-    const double *r = w->shape_at->r, *n = local->n;
-    double m[3] = {r[0] * n[0] + r[1] * n[1] + r[2] * n[2], r[3] * n[0] + r[4] * n[1] + r[5] * n[2],
-                   r[6] * n[0] + r[7] * n[1] + r[8] * n[2]};
+    oriented_box in = octree_slab_box(local), out;
+    const double *r = w->shape_at->r;
     vec3 t = w->shape_at->t;
-    double mt = m[0] * t.x + m[1] * t.y + m[2] * t.z;
-    double m1 = fabs(m[0]) + fabs(m[1]) + fabs(m[2]);
-    double delta = 2 * (w->shape_tau * 1.75 * w->shape_reach + m1 * w->shape_error + 16 * 0x1p-53 * w->shape_reach);
-    /* The query's slab tests take n as a unit vector; |m| is within tau of 1, which the
-     * caller's lower bound divides out (shape_slab_scale). */
-    return (node_slab){{m[0], m[1], m[2]}, local->lo + mt - delta, local->hi + mt + delta};
+    for (int a = 0; a < 3; a++) {
+        const double *n = in.axes[a];
+        double *m = out.axes[a];
+        m[0] = r[0] * n[0] + r[1] * n[1] + r[2] * n[2];
+        m[1] = r[3] * n[0] + r[4] * n[1] + r[5] * n[2];
+        m[2] = r[6] * n[0] + r[7] * n[1] + r[8] * n[2];
+        double mt = m[0] * t.x + m[1] * t.y + m[2] * t.z;
+        double m1 = fabs(m[0]) + fabs(m[1]) + fabs(m[2]);
+        double delta = 2 * (w->shape_tau * 1.75 * w->shape_reach + m1 * w->shape_error + 16 * 0x1p-53 * w->shape_reach);
+        out.lo[a] = in.lo[a] + mt - delta;
+        out.hi[a] = in.hi[a] + mt + delta;
+    }
+    out.stretch = w->shape_tau + 0x1p-40;
+    return out;
 }
 
 static void shape_node_ready(shape_walk *w, uint32_t node, box3 cell)
@@ -84,12 +92,11 @@ static void shape_node_ready(shape_walk *w, uint32_t node, box3 cell)
         return;
     box3 b = w->shape->node_bounds ? w->shape->node_bounds[node] : cell;
     w->shape_boxes[node] = world_box_of(b, w->shape_grow, w->shape_at);
-    const node_slab none = {{0, 0, 0}, 0, 0};
-    w->shape_slabs[node] = none;
+    w->shape_slabs[node].stretch = -1;
     if (w->shape->node_slabs) {
         const node_slab *ls = &w->shape->node_slabs[node];
         if (ls->n[0] != 0 || ls->n[1] != 0 || ls->n[2] != 0)
-            w->shape_slabs[node] = w->shape_at ? posed_slab(w, ls) : *ls;
+            w->shape_slabs[node] = w->shape_at ? posed_slab(w, ls) : octree_slab_box(ls);
     }
     w->shape_ready[node] = 1;
 }
@@ -136,11 +143,9 @@ static double pair_bound(shape_walk *w, uint32_t world_node, box3 world_cell, ui
         double g = octree_slab_box_distance2_below(&w->world->node_slabs[world_node], sb);
         lb2 = g > lb2 ? g : lb2;
     }
-    const node_slab *ss = &w->shape_slabs[shape_node];
-    if (ss->n[0] != 0 || ss->n[1] != 0 || ss->n[2] != 0) {
-        /* |m|^2 <= (1 + tau)(1 + 8u): the slab test's gap, along a vector that long, is
-         * that much more than the distance. */
-        double g = octree_slab_box_distance2_below(ss, wb) / ((1 + w->shape_tau) * (1 + 0x1p-48));
+    const oriented_box *ss = &w->shape_slabs[shape_node];
+    if (ss->stretch >= 0) {
+        double g = octree_oriented_box_distance2_below(ss, wb);
         lb2 = g > lb2 ? g : lb2;
     }
     return lb2;

@@ -12,6 +12,7 @@
  * none) gets n = 0, which bounds nothing. */
 #include <math.h>
 #include <stdlib.h>
+#include <string.h>
 
 #include "octree_internal.h"
 
@@ -46,26 +47,52 @@ static vec3 normals_of(const octree *tree, uint32_t node, vec3 *sums)
     return s;
 }
 
+void octree_slab_frame(const double n[3], double u[3], double v[3])
+{
+    double ax = fabs(n[0]), ay = fabs(n[1]), az = fabs(n[2]);
+    /* a x n for a the axis least along n: never near parallel to n. */
+    double c[3];
+    if (ax <= ay && ax <= az)
+        c[0] = 0, c[1] = -n[2], c[2] = n[1]; /* (1, 0, 0) x n */
+    else if (ay <= az)
+        c[0] = n[2], c[1] = 0, c[2] = -n[0]; /* (0, 1, 0) x n */
+    else
+        c[0] = -n[1], c[1] = n[0], c[2] = 0; /* (0, 0, 1) x n */
+    double len = sqrt(c[0] * c[0] + c[1] * c[1] + c[2] * c[2]);
+    for (int k = 0; k < 3; k++)
+        u[k] = c[k] / len;
+    v[0] = n[1] * u[2] - n[2] * u[1];
+    v[1] = n[2] * u[0] - n[0] * u[2];
+    v[2] = n[0] * u[1] - n[1] * u[0];
+}
+
 typedef struct slab_range {
-    double lo, hi, magnitude;
+    double lo[3], hi[3], magnitude;
 } slab_range;
 
-/* The range of n . x over the vertices of the triangles under node. */
-static void range_under(const octree *tree, uint32_t node, vec3 n, slab_range *r)
+static inline double dot3(const double a[3], vec3 x)
+{
+    return a[0] * x.x + a[1] * x.y + a[2] * x.z;
+}
+
+/* The ranges of n . x, u . x and v . x over the vertices of the triangles under node. */
+static void range_under(const octree *tree, uint32_t node, const double axes[3][3], slab_range *r)
 {
     octree_node nd = tree->nodes[node];
     if (nd.count == NODE_INTERIOR) {
         for (int k = 0; k < 8; k++)
-            range_under(tree, nd.first + (uint32_t)k, n, r);
+            range_under(tree, nd.first + (uint32_t)k, axes, r);
         return;
     }
     for (uint32_t i = 0; i < nd.count; i++) {
         vec3 v[3];
         octree_triangle_vertices(tree, tree->leaf_items[nd.first + i], v);
         for (int k = 0; k < 3; k++) {
-            double d = n.x * v[k].x + n.y * v[k].y + n.z * v[k].z;
-            r->lo = d < r->lo ? d : r->lo;
-            r->hi = d > r->hi ? d : r->hi;
+            for (int a = 0; a < 3; a++) {
+                double d = dot3(axes[a], v[k]);
+                r->lo[a] = d < r->lo[a] ? d : r->lo[a];
+                r->hi[a] = d > r->hi[a] ? d : r->hi[a];
+            }
             double m = max_abs(v[k]);
             r->magnitude = m > r->magnitude ? m : r->magnitude;
         }
@@ -83,62 +110,101 @@ octree_status octree_slabs_build(octree *tree)
     for (size_t i = 0; i < tree->node_count; i++)
         sums[i] = (vec3){0, 0, 0};
     normals_of(tree, 0, sums);
+    const node_slab none = {{0, 0, 0}, 0, 0, {{0, 0}, {0, 0}}};
     for (size_t i = 0; i < tree->node_count; i++) {
         node_slab *slab = &tree->node_slabs[i];
-        *slab = (node_slab){{0, 0, 0}, 0, 0};
+        *slab = none;
         vec3 n = sums[i];
         double len = vec3_length(n);
         if (tree->nodes[i].count == 0 || !(len > 0) || !(len < INFINITY))
             continue;
-        /* Unit length, so that a query need not divide; its rounding is any direction's. */
-        n = vec3_scale(n, 1.0 / len);
-        slab_range r = {INFINITY, -INFINITY, 0};
-        range_under(tree, (uint32_t)i, n, &r);
-        double norm1 = fabs(n.x) + fabs(n.y) + fabs(n.z);
-        double out = 4 * 0x1p-53 * norm1 * r.magnitude * (1 + 0x1p-40) + 0x1p-1060;
-        /* A slab as thick as the node's cube bounds nothing the box does not: kept all
-         * the same, the walk's test is cheaper than the check. */
-        *slab = (node_slab){{n.x, n.y, n.z}, r.lo - out, r.hi + out};
+        double axes[3][3] = {{n.x / len, n.y / len, n.z / len}};
+        octree_slab_frame(axes[0], axes[1], axes[2]);
+        slab_range r = {{INFINITY, INFINITY, INFINITY}, {-INFINITY, -INFINITY, -INFINITY}, 0};
+        range_under(tree, (uint32_t)i, axes, &r);
+        double out[3];
+        for (int a = 0; a < 3; a++) {
+            double norm1 = fabs(axes[a][0]) + fabs(axes[a][1]) + fabs(axes[a][2]);
+            out[a] = 4 * 0x1p-53 * norm1 * r.magnitude * (1 + 0x1p-40) + 0x1p-1060;
+        }
+        *slab = (node_slab){{axes[0][0], axes[0][1], axes[0][2]},
+                            r.lo[0] - out[0],
+                            r.hi[0] + out[0],
+                            {{r.lo[1] - out[1], r.hi[1] + out[1]}, {r.lo[2] - out[2], r.hi[2] + out[2]}}};
         if (!(slab->lo <= slab->hi) || !(slab->hi - slab->lo < INFINITY))
-            *slab = (node_slab){{0, 0, 0}, 0, 0};
+            *slab = none;
     }
     free(sums);
     return OCTREE_OK;
 }
 
-double octree_slab_point_distance2_below(const node_slab *slab, vec3 p, double grow)
+/* The gap of d from [lo, hi], less err, or 0. */
+static inline double range_gap(double d, double lo, double hi, double err)
 {
-    /* n . p within 3.01u |n|_1 |p|_max of the real one; the gap's subtraction and the
-     * square within 3u more of themselves. */
-    double d = slab->n[0] * p.x + slab->n[1] * p.y + slab->n[2] * p.z;
-    double gap = slab->lo - d > d - slab->hi ? slab->lo - d : d - slab->hi;
-    if (!(gap > 0))
-        return 0.0;
-    double norm1 = fabs(slab->n[0]) + fabs(slab->n[1]) + fabs(slab->n[2]);
-    double m = max_abs(p);
-    /* grow: points within it of the triangles' (max norm) move n . x by |n|_1 grow. */
-    gap -= 4 * 0x1p-53 * norm1 * m + 0x1p-52 * gap + norm1 * grow * (1 + 0x1p-50);
-    if (!(gap > 0))
-        return 0.0;
-    /* |n| is 1 to within 3u: 2^-48 of the square covers it and the roundings. */
-    return gap * gap * (1 - 0x1p-48);
+    double gap = lo - d > d - hi ? lo - d : d - hi;
+    gap -= err + 0x1p-52 * (gap > 0 ? gap : 0);
+    return gap > 0 ? gap : 0.0;
 }
 
-double octree_slab_box_distance2_below(const node_slab *slab, box3 b)
+double octree_slab_point_distance2_below(const node_slab *slab, vec3 p, double grow)
+{
+    if (slab->n[0] == 0 && slab->n[1] == 0 && slab->n[2] == 0)
+        return 0.0;
+    double u[3], v[3];
+    octree_slab_frame(slab->n, u, v);
+    const double *axes[3] = {slab->n, u, v};
+    const double lo[3] = {slab->lo, slab->range[0][0], slab->range[1][0]};
+    const double hi[3] = {slab->hi, slab->range[0][1], slab->range[1][1]};
+    double m = max_abs(p), sum = 0;
+    for (int a = 0; a < 3; a++) {
+        /* axis . p within 3.01u |axis|_1 |p|_max of the real one; grow: points within it
+         * of the triangles' (max norm) move axis . x by |axis|_1 grow. */
+        double norm1 = fabs(axes[a][0]) + fabs(axes[a][1]) + fabs(axes[a][2]);
+        double g = range_gap(dot3(axes[a], p), lo[a], hi[a], 4 * 0x1p-53 * norm1 * m + norm1 * grow * (1 + 0x1p-50));
+        sum += g * g;
+    }
+    /* The frame is orthonormal to within some u, so |B y|^2 <= (1 + 2^-40) |y|^2 for the
+     * matrix B of its rows: the gaps' squares sum to at most that much more than the
+     * distance's square; 2^-40 more covers the sum's own roundings. */
+    return sum * (1 - 0x1p-39);
+}
+
+oriented_box octree_slab_box(const node_slab *slab)
+{
+    oriented_box o = {{{slab->n[0], slab->n[1], slab->n[2]}},
+                      {slab->lo, slab->range[0][0], slab->range[1][0]},
+                      {slab->hi, slab->range[0][1], slab->range[1][1]},
+                      0x1p-40};
+    octree_slab_frame(slab->n, o.axes[1], o.axes[2]);
+    return o;
+}
+
+double octree_oriented_box_distance2_below(const oriented_box *o, box3 b)
 {
     double c[3] = {0.5 * b.lo.x + 0.5 * b.hi.x, 0.5 * b.lo.y + 0.5 * b.hi.y, 0.5 * b.lo.z + 0.5 * b.hi.z};
     double h[3] = {0.5 * b.hi.x - 0.5 * b.lo.x, 0.5 * b.hi.y - 0.5 * b.lo.y, 0.5 * b.hi.z - 0.5 * b.lo.z};
-    double d = slab->n[0] * c[0] + slab->n[1] * c[1] + slab->n[2] * c[2];
-    double r = fabs(slab->n[0]) * h[0] + fabs(slab->n[1]) * h[1] + fabs(slab->n[2]) * h[2];
-    double gap = slab->lo - (d + r) > (d - r) - slab->hi ? slab->lo - (d + r) : (d - r) - slab->hi;
-    if (!(gap > 0) || !(gap < INFINITY))
-        return 0.0;
-    /* The box's projection [d - r, d + r] holds the real one's to within the roundings of
-     * c, h and the two sums of products: 8u of |n|_1 (|c| + |h|) covers them. */
-    double norm1 = fabs(slab->n[0]) + fabs(slab->n[1]) + fabs(slab->n[2]);
-    double m = larger(max_abs(b.lo), max_abs(b.hi));
-    gap -= 8 * 0x1p-53 * norm1 * 2 * m + 0x1p-52 * gap + 0x1p-1060;
-    if (!(gap > 0))
-        return 0.0;
-    return gap * gap * (1 - 0x1p-48);
+    double m = larger(max_abs(b.lo), max_abs(b.hi)), sum = 0;
+    /* In the oriented box's frame, every difference x - y of its points and the box's lies
+     * in the box of the ranges less the box's projections [d - r, d + r] along each axis:
+     * the distance from 0 to that box, the root of the gaps' squares summed, bounds the
+     * distance between the two. The projection holds the real one's to within the
+     * roundings of c, h and the sums of products: 8u of |axis|_1 (|c| + |h|) covers
+     * them. */
+    for (int a = 0; a < 3; a++) {
+        const double *x = o->axes[a];
+        double d = x[0] * c[0] + x[1] * c[1] + x[2] * c[2];
+        double r = fabs(x[0]) * h[0] + fabs(x[1]) * h[1] + fabs(x[2]) * h[2];
+        double norm1 = fabs(x[0]) + fabs(x[1]) + fabs(x[2]);
+        double err = 8 * 0x1p-53 * norm1 * 2 * m + 0x1p-1060;
+        double gap = o->lo[a] - (d + r) > (d - r) - o->hi[a] ? o->lo[a] - (d + r) : (d - r) - o->hi[a];
+        if (!(gap < INFINITY))
+            continue;
+        gap -= err + 0x1p-52 * (gap > 0 ? gap : 0);
+        if (gap > 0)
+            sum += gap * gap;
+    }
+    /* The frame is orthonormal to within `stretch` (|B y| <= (1 + stretch) |y| for the
+     * matrix B of its rows, stretch at least 2^-40 for the frame's own rounding); 2^-48
+     * covers the sum's roundings. */
+    return sum * (1 - 0x1p-48) / ((1 + o->stretch) * (1 + o->stretch));
 }
