@@ -16,6 +16,7 @@
 #include "engine.h"
 #include "support/meshgen.h"
 #include "world/object_set.h"
+#include "world/object_state.h"
 
 static object_model *model_of(const char *key, mesh_data m)
 {
@@ -253,6 +254,28 @@ static void check_against_union(const object_set *s, int rays, uint64_t seed)
             assert_int_equal(object_set_shape_clearance(s, ball_tree, &at, want.lower * 0.5, &clear, &first, NULL),
                              OCTREE_OK);
             assert_true(clear && first == -1);
+        }
+        /* A state of two links: the ball here and at the scene's centre; its distance is
+         * the smaller of the two links' (the first on a tie), and an allowed pair naming
+         * the nearest object leaves that object out for that link. */
+        pose centre = {{1, 0, 0, 0, 1, 0, 0, 0, 1}, vec3_scale(vec3_add(b.lo, b.hi), 0.5)};
+        state_link links[2] = {{"near", ball_tree, mesh_data_bounds(&ball), at},
+                               {"centre", ball_tree, mesh_data_bounds(&ball), centre}};
+        shape_distance_output other;
+        assert_int_equal(octree_shape_distance(u, NULL, ball_tree, &centre, INFINITY, &other, NULL), OCTREE_OK);
+        state_distance_output sd;
+        assert_int_equal(object_set_state_distance(s, links, 2, NULL, 0, INFINITY, &sd, NULL), OCTREE_OK);
+        assert_true(sd.found);
+        double smaller = want.upper <= other.upper ? want.upper : other.upper;
+        assert_true(sd.distance.upper == smaller);
+        if (smaller > 0)
+            assert_int_equal(sd.link, want.upper <= other.upper ? 0 : 1);
+        if (sd.distance.upper > 0) {
+            state_allowed skip = {links[sd.link].name, s->objects[sd.object].name};
+            state_distance_output without;
+            assert_int_equal(object_set_state_distance(s, links, 2, &skip, 1, INFINITY, &without, NULL), OCTREE_OK);
+            assert_true(!without.found || without.link != sd.link || without.object != sd.object);
+            assert_true(!without.found || without.distance.upper >= sd.distance.upper);
         }
         int clear;
         long first;

@@ -6,6 +6,7 @@
 
 #include "../geom/interval.h"
 #include "object_set.h"
+#include "object_state.h"
 
 typedef struct object_candidate {
     double lb2; /* a lower bound of the squared distance to the object's posed box */
@@ -217,5 +218,69 @@ octree_status object_set_shape_clearance(const object_set *s, const octree *shap
     }
     if (cand != local)
         free(cand);
+    return st;
+}
+
+octree_status object_set_state_distance(const object_set *s, const state_link *links, size_t link_count,
+                                        const state_allowed *allowed, size_t allowed_count, double max_distance,
+                                        state_distance_output *out, query_stats *stats)
+{
+    if (!s || !out || (link_count && !links) || (allowed_count && !allowed) || link_count > STATE_MAX_LINKS ||
+        allowed_count > STATE_MAX_ALLOWED || !(max_distance >= 0))
+        return OCTREE_ERR_INVALID;
+    *out = (state_distance_output){0};
+    for (size_t i = 0; i < link_count; i++) {
+        if (!links[i].tree || !links[i].name)
+            return OCTREE_ERR_INVALID;
+        octree_status ps = octree_pose_check(&links[i].at);
+        if (ps != OCTREE_OK)
+            return ps;
+    }
+    for (size_t i = 0; i < allowed_count; i++)
+        if (!allowed[i].a || !allowed[i].b)
+            return OCTREE_ERR_INVALID;
+    if (s->count == 0)
+        return OCTREE_OK;
+    object_candidate *cand = malloc(s->count * sizeof *cand);
+    if (!cand)
+        return OCTREE_ERR_NOMEM;
+    double limit = max_distance;
+    octree_status st = OCTREE_OK;
+    for (size_t l = 0; l < link_count && st == OCTREE_OK; l++) {
+        const state_link *link = &links[l];
+        objects_by_box(s, octree_pose_box(&link->at, link->bounds), cand);
+        for (size_t k = 0; k < s->count; k++) {
+            double limit2 = limit == INFINITY ? INFINITY : iv_up(limit * limit);
+            if (cand[k].lb2 > limit2)
+                break;
+            const world_object *o = &s->objects[cand[k].object];
+            if (state_pair_allowed(allowed, allowed_count, link->name, o->name))
+                continue;
+            shape_distance_output d;
+            st = octree_shape_distance(o->model->tree, &o->at, link->tree, &link->at, limit, &d, stats);
+            if (st != OCTREE_OK)
+                break;
+            if (!d.found)
+                continue;
+            double lower = out->found && out->distance.lower < d.lower ? out->distance.lower : d.lower;
+            /* Links come in order, so a tie keeps the earlier link; within a link, the
+             * smaller object index. */
+            if (!out->found || d.upper < out->distance.upper ||
+                (d.upper == out->distance.upper && out->link == l && cand[k].object < out->object)) {
+                out->distance = d;
+                out->link = (uint32_t)l;
+                out->object = cand[k].object;
+            }
+            out->found = 1;
+            out->distance.lower = lower;
+            limit = out->distance.upper < limit ? out->distance.upper : limit;
+            if (out->distance.upper == 0)
+                goto done; /* touching: nothing is nearer */
+        }
+    }
+done:
+    free(cand);
+    if (st == OCTREE_OK && out->found)
+        finish_bounds(&out->distance.distance, &out->distance.bound, out->distance.lower, out->distance.upper);
     return st;
 }

@@ -52,7 +52,7 @@ static int names_pair(const state_allowed *p, const char *x, const char *y)
     return (strcmp(p->a, x) == 0 && strcmp(p->b, y) == 0) || (strcmp(p->a, y) == 0 && strcmp(p->b, x) == 0);
 }
 
-static int allowed_pair(const state_allowed *allowed, size_t count, const char *x, const char *y)
+int state_pair_allowed(const state_allowed *allowed, size_t count, const char *x, const char *y)
 {
     for (size_t i = 0; i < count; i++)
         if (names_pair(&allowed[i], x, y))
@@ -167,12 +167,12 @@ octree_status object_set_state(const object_set *s, const state_link *links, siz
         for (size_t nj = 0; nj < near_count && !over; nj++) {
             size_t j = near[nj];
             const world_object *o = &s->objects[j];
-            if (allowed_pair(allowed, allowed_count, l->name, o->name))
+            if (state_pair_allowed(allowed, allowed_count, l->name, o->name))
                 continue;
             over = test_pair(&run, o->model->tree, &o->at, l, (uint32_t)i, 0, (uint32_t)j);
         }
         for (size_t j = i + 1; self_collision && j < link_count && !over; j++) {
-            if (boxes_apart(link_boxes[i], link_boxes[j]) || allowed_pair(allowed, allowed_count, l->name, links[j].name))
+            if (boxes_apart(link_boxes[i], link_boxes[j]) || state_pair_allowed(allowed, allowed_count, l->name, links[j].name))
                 continue;
             over = test_pair(&run, links[j].tree, &links[j].at, l, (uint32_t)i, 1, (uint32_t)j);
         }

@@ -62,4 +62,23 @@ octree_status object_set_state(const object_set *s, const state_link *links, siz
                                const state_allowed *allowed, size_t allowed_count, int self_collision,
                                int all_contacts, state_output *out, state_scratch *scratch, query_stats *stats);
 
+/* 1 when the pair (x, y) is named in allowed (either way round). */
+int state_pair_allowed(const state_allowed *allowed, size_t count, const char *x, const char *y);
+
+/* The minimum distance between a state's links and the world's objects (not between links),
+ * pairs named in allowed left out: octree_shape_distance's contract over every link and
+ * object pair, with the link and object named. Ties: the smaller link, then object index;
+ * touching: the first touching pair met (links in order, objects nearest box first).
+ * found = 0 when every pair is proven farther than max_distance. The argument checks are
+ * object_set_state's. */
+typedef struct state_distance_output {
+    int found;
+    shape_distance_output distance; /* world_triangle: in the object's mesh; shape_triangle: the link's */
+    uint32_t link, object;
+} state_distance_output;
+
+octree_status object_set_state_distance(const object_set *s, const state_link *links, size_t link_count,
+                                        const state_allowed *allowed, size_t allowed_count, double max_distance,
+                                        state_distance_output *out, query_stats *stats);
+
 #endif
