@@ -88,7 +88,8 @@ enum {
 enum {
     TRIOCT_EFFECT_RAYS = 1,
     TRIOCT_EFFECT_TRIANGLES = 2,
-    TRIOCT_EFFECT_MESHES = 4
+    TRIOCT_EFFECT_MESHES = 4,
+    TRIOCT_EFFECT_DISTANCE = 8
 };
 
 /* ---- Connection ---------------------------------------------------------------------- */

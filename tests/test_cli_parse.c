@@ -240,7 +240,7 @@ static void test_accuracy_effects_names(void **state)
     assert_int_equal(cli_parse_effects("all", &e, err, sizeof err), 0);
     assert_int_equal(e, 7);
     assert_int_equal(cli_parse_effects("rays,lasers", &e, err, sizeof err), -1);
-    assert_string_equal(err, "unknown effect 'lasers' (rays, triangles, meshes or all)");
+    assert_string_equal(err, "unknown effect 'lasers' (rays, triangles, meshes, distance or all)");
     assert_int_equal(cli_parse_effects(" , ", &e, err, sizeof err), -1);
 
     assert_true(cli_name_valid("yard_2", 32));

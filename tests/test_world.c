@@ -738,6 +738,8 @@ static void test_triangle_boxes_follow_effects(void **state)
         {EFFECT_TRIANGLES, 1},
         {EFFECT_MESHES, 1},
         {EFFECT_RAYS | EFFECT_MESHES, 1},
+        {EFFECT_DISTANCE, 1}, /* the nearest-first walk prunes triangles by their boxes */
+        {EFFECT_RAYS | EFFECT_DISTANCE, 1},
         {EFFECT_ALL, 1},
     };
     for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
