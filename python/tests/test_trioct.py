@@ -118,9 +118,9 @@ def cube_touches(t):
 
 class TestPackage(unittest.TestCase):
     def test_library_from_build_tree(self):
-        """Imported from the build tree, the package loads the build's libtrioct.so.3."""
+        """Imported from the build tree, the package loads the build's libtrioct.so.4."""
         self.assertNotIn("TRIOCT_LIBRARY", os.environ)
-        self.assertTrue(os.path.samefile(trioct.library_path, os.path.join(BUILD, "libtrioct.so.3")),
+        self.assertTrue(os.path.samefile(trioct.library_path, os.path.join(BUILD, "libtrioct.so.4")),
                         trioct.library_path)
         self.assertTrue(os.path.samefile(os.path.dirname(trioct.__file__), os.path.join(BUILD, "python", "trioct")))
 
@@ -466,7 +466,7 @@ class TestDaemon(unittest.TestCase):
     def test_info_worlds_status(self):
         w = self.c.info("box")
         self.assertEqual((w.name, w.daemon, w.triangles, w.vertices, w.objects), ("box", DAEMON, 12, 8, 1))
-        self.assertEqual(w.effects, {"rays", "triangles", "meshes"})
+        self.assertEqual(w.effects, {"rays", "triangles", "meshes", "distance"})
         self.assertEqual(w.shapes, ["cube"])
         self.assertEqual((w.bbox_min, w.bbox_max), ((0.0, 0.0, 0.0), (4.0, 4.0, 2.0)))
         self.assertEqual(w.accuracy, "exact")

@@ -16,8 +16,8 @@ from . import _constants
 
 # The soname this package was written against: a library of another major version has
 # another ABI, so no other name is ever tried (ctypes.util.find_library would happily
-# return a libtrioct.so.3).
-SONAME = "libtrioct.so.3"
+# return a libtrioct.so.4).
+SONAME = "libtrioct.so.4"
 
 
 def _candidates():
@@ -92,7 +92,7 @@ MAX_INLINE_SHAPE_TRIANGLES = _constants.LIMITS["TRIOCT_MAX_INLINE_SHAPE_TRIANGLE
 # ---- enums ---------------------------------------------------------------------------------------
 
 ACCURACY_WORLD, ACCURACY_EXACT, ACCURACY_SEED, ACCURACY_FAST = -1, 0, 1, 2
-EFFECT_RAYS, EFFECT_TRIANGLES, EFFECT_MESHES = 1, 2, 4
+EFFECT_RAYS, EFFECT_TRIANGLES, EFFECT_MESHES, EFFECT_DISTANCE = 1, 2, 4, 8
 RAY_ANY, RAY_CLOSEST, RAY_ALL = 0, 1, 2
 CONTACT_CROSSING, CONTACT_TOUCH = 0, 1
 MESH_YESNO, MESH_PAIRS = 0, 1
@@ -227,7 +227,7 @@ class DaemonStatus(ctypes.Structure):
     _fields_ = [
         ("reply", Reply), ("utime", c_int64), ("version", ctypes.c_char * 64), ("uptime_us", c_int64),
         ("state", c_int), ("threads", c_int), ("queue_depth", c_int), ("queue_capacity", c_int),
-        ("memory_used", c_int64), ("memory_budget", c_int64), ("served", c_int64 * 6), ("malformed", c_int64),
+        ("memory_used", c_int64), ("memory_budget", c_int64), ("served", c_int64 * 7), ("malformed", c_int64),
         ("duplicates_answered", c_int64), ("duplicates_joined", c_int64),
         ("num_status_codes", c_size_t), ("replies_by_status", ctypes.POINTER(c_int64)),
         ("latency_p50_us", c_int64), ("latency_p99_us", c_int64), ("latency_count", c_int64),

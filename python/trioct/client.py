@@ -20,9 +20,10 @@ from .errors import Status, TransportError, error_for
 
 _ACCURACY = {None: _lib.ACCURACY_WORLD, "world": _lib.ACCURACY_WORLD, "exact": _lib.ACCURACY_EXACT,
              "seed": _lib.ACCURACY_SEED, "fast": _lib.ACCURACY_FAST}
-_EFFECTS = {"rays": _lib.EFFECT_RAYS, "triangles": _lib.EFFECT_TRIANGLES, "meshes": _lib.EFFECT_MESHES}
+_EFFECTS = {"rays": _lib.EFFECT_RAYS, "triangles": _lib.EFFECT_TRIANGLES, "meshes": _lib.EFFECT_MESHES,
+            "distance": _lib.EFFECT_DISTANCE}
 _DAEMON_STATES = ("starting", "ready", "reloading", "stopping")
-_SERVED = ("ray", "triangle", "mesh", "admin", "objects", "state")
+_SERVED = ("ray", "triangle", "mesh", "admin", "objects", "state", "distance")
 
 
 # ---- arguments -----------------------------------------------------------------------------------

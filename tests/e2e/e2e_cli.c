@@ -705,7 +705,7 @@ static void test_worlds(void **state)
     check_box_info(v, at);
     char p[64];
     snprintf(p, sizeof p, "worlds.%d.effects", box);
-    assert_int_equal(jlen(v, p), 3);
+    assert_int_equal(jlen(v, p), 4); /* all: rays, triangles, meshes, distance */
     snprintf(p, sizeof p, "worlds.%d.shapes.0", box);
     assert_string_equal(jstr(v, p), "cube");
     snprintf(p, sizeof p, "worlds.%d.effects", rays);
@@ -724,7 +724,7 @@ static void test_worlds(void **state)
     expect_text(r.out, "3 worlds on 1 daemon (" BUS_URL "), 1 not loaded");
     expect_text(r.out, "WORLD");
     expect_text(r.out, "box_rays");
-    expect_text(r.out, "rays triangles meshes");
+    expect_text(r.out, "rays triangles meshes distance");
     expect_text(r.out, "not loaded: world 'broken': missing.obj: No such file or directory");
     run_free(&r);
 
