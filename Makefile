@@ -115,7 +115,7 @@ CLI_SRC      := $(wildcard client/cli/*.c)
 CLI_OBJ      := $(CLI_SRC:%.c=$(BUILD)/%.o)
 CLI_MESH_LOAD_OBJ := $(addprefix $(BUILD)/server/world/,mesh_load.o mesh_data.o error_text.o)
 CLI_PURE_OBJ := $(addprefix $(BUILD)/client/cli/,cli_args.o cli_csv.o cli_pose.o cli_json.o cli_text.o cli_progress.o \
-                  cli_camera.o cli_render.o cli_png.o)
+                  cli_camera.o cli_render.o cli_png.o cli_distance_args.o)
 CLI_BIN      := $(BUILD)/trioct
 E2E_CLI_BIN  := $(BUILD)/tests/e2e_cli
 all: $(CLI_BIN)
