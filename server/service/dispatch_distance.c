@@ -7,7 +7,6 @@
 #include <math.h>
 #include <string.h>
 
-#include "../../common/trioct_version.h"
 #include "../world/object_set.h"
 #include "dispatch_internal.h"
 
@@ -148,9 +147,8 @@ int dispatch_distance(job *j, const trioct_distance_request_t *m)
     /* SHAPE and CLEAR plug in here, as answer_shapes beside answer_points, once the engine walks shapes. */
     if (m->kind != TRIOCT_DISTANCE_REQUEST_T_POINTS)
         return job_fail(j, TRIOCT_ERR_BAD_REQUEST,
-                        "distance kind %s is not served by this version of trioctd (%s), which answers POINTS (0) "
-                        "only",
-                        kind_name(m->kind), TRIOCT_VERSION);
+                        "distance kind %s is not served by this version of trioctd, which answers POINTS (0) only",
+                        kind_name(m->kind));
     if (check_points(j, m) != TRIOCT_OK)
         return j->status;
     return answer_points(j, m);
