@@ -74,7 +74,7 @@ v -0.5 0.5 0.5
 """ + BOX_OBJ[BOX_OBJ.index("f "):]
 SCENE = """[box]
 mesh = box.obj
-effects = rays triangles meshes
+effects = rays triangles meshes distance
 shape.cube = cube.obj
 
 [box_tri]
@@ -460,6 +460,48 @@ class TestDaemon(unittest.TestCase):
             self.c.rays("box", o, d)
         self.assertEqual(cm.exception.status, trioct.Status.ERR_ZERO_DIRECTION)
         self.assertTrue(cm.exception.message.startswith("rays 1280..1999 of 2000: "), cm.exception.message)
+
+    # -- distance --
+
+    def test_distance_face_edge_vertex(self):
+        """The box [0,4] x [0,4] x [0,2]: distances known exactly, and their features."""
+        r = self.c.distance("box", [[6, 1, 1.5], [7, -2, 1], [7, 7, 5], [2, 1, 1.5]])
+        self.assertEqual(len(r), 4)
+        self.assertTrue(r.found.all())
+        want = [2.0, 13 ** 0.5, 27 ** 0.5, 0.5]
+        for i, w in enumerate(want):
+            self.assertLessEqual(abs(r.distance[i] - w), r.bound[i] + 1e-15)
+            self.assertTrue(r.lower[i] <= r.distance[i] <= r.upper[i])
+        self.assertEqual(r.feature[:3], ["face", "edge", "vertex"])
+        self.assertEqual(tuple(r.point[0]), (4.0, 1.0, 1.5))
+        self.assertEqual(tuple(r.point[2]), (4.0, 4.0, 2.0))
+        self.assertEqual(r.object_names(), ["box"] * 4)
+        self.assertIn(int(r.triangle[0]), (6, 7))  # the side x = 4
+        self.assertEqual(r.requests, 1)
+
+    def test_distance_within_and_one_point(self):
+        r = self.c.distance("box", [6, 1, 1.5], within=1.5)
+        self.assertFalse(r.found[0])
+        self.assertTrue(np.isnan(r.distance[0]))
+        self.assertEqual(r.object_names(), [None])
+        self.assertIsNone(r.feature[0])
+        r = self.c.distance("box", [6, 1, 1.5], within=2.5)
+        self.assertTrue(r.found[0])
+        with self.assertRaises(ValueError):
+            self.c.distance("box", [6, 1, 1.5], within=-1)
+
+    def test_distance_batch_over_the_cap(self):
+        n = trioct.MAX_POINTS + 100
+        pts = np.column_stack([np.linspace(5, 9, n), np.full(n, 1.0), np.full(n, 1.5)])
+        r = self.c.distance("box", pts)
+        self.assertEqual(r.requests, 2)
+        self.assertTrue(np.all(np.abs(r.distance - (pts[:, 0] - 4)) <= r.bound + 1e-12))
+
+    def test_distance_needs_the_effect(self):
+        with self.assertRaises(trioct.DaemonError) as cm:
+            self.c.distance("box_tri", [6, 1, 1.5])
+        self.assertEqual(cm.exception.status, trioct.Status.ERR_EFFECT)
+        self.assertIn("distance queries need effects = distance", cm.exception.message)
 
     # -- worlds, status, admin --
 

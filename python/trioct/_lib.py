@@ -87,6 +87,7 @@ MAX_PATH_LEN = _constants.LIMITS["TRIOCT_MAX_PATH_LEN"]
 MAX_SHAPES = _constants.LIMITS["TRIOCT_MAX_SHAPES"]
 MAX_RAYS = _constants.LIMITS["TRIOCT_MAX_RAYS"]
 MAX_POSES = _constants.LIMITS["TRIOCT_MAX_POSES"]
+MAX_POINTS = _constants.LIMITS["TRIOCT_MAX_POINTS"]
 MAX_INLINE_SHAPE_TRIANGLES = _constants.LIMITS["TRIOCT_MAX_INLINE_SHAPE_TRIANGLES"]
 
 # ---- enums ---------------------------------------------------------------------------------------
@@ -175,6 +176,25 @@ class MeshResult(ctypes.Structure):
                 ("num_pairs", c_size_t), ("pairs", ctypes.POINTER(MeshPair)), ("objects", ObjectNames)]
 
 
+class PointDistanceQuery(ctypes.Structure):
+    _c_name_ = "trioct_point_distance_query"
+    _fields_ = [("world", c_char_p), ("within", c_double), ("count", c_size_t), ("points", c_void_p)]
+
+
+class Distance(ctypes.Structure):
+    _c_name_ = "trioct_distance"
+    _fields_ = [("item", c_int32), ("found", c_int), ("clear", c_int), ("distance", c_double),
+                ("bound", c_double), ("lower", c_double), ("upper", c_double), ("point", Vec3),
+                ("shape_point", Vec3), ("object", c_int32), ("triangle", c_int32), ("shape_triangle", c_int32),
+                ("feature", c_int), ("feature_index", c_int), ("inside", c_int)]
+
+
+class DistanceResult(ctypes.Structure):
+    _c_name_ = "trioct_distance_result"
+    _fields_ = [("reply", Reply), ("num_results", c_size_t), ("results", ctypes.POINTER(Distance)),
+                ("objects", ObjectNames)]
+
+
 class WorldInfo(ctypes.Structure):
     _c_name_ = "trioct_world_info"
     _fields_ = [
@@ -237,7 +257,7 @@ class DaemonStatus(ctypes.Structure):
 
 
 STRUCTS = (Vec3, Triangle, Pose, ConnectOptions, Reply, ObjectNames, RayQuery, RayHit, RayResult, MeshQuery,
-           MeshPair, MeshResult, WorldInfo, AdminResult, LoadOptions, ListOptions, ListResult, LoadProgress,
+           MeshPair, MeshResult, PointDistanceQuery, Distance, DistanceResult, WorldInfo, AdminResult, LoadOptions, ListOptions, ListResult, LoadProgress,
            DaemonStatus)
 
 # ---- functions -----------------------------------------------------------------------------------
@@ -262,6 +282,9 @@ trioct_rays_contact = _declare("trioct_rays_contact", c_int, c_void_p, P(RayQuer
 trioct_ray_result_free = _declare("trioct_ray_result_free", None, P(RayResult))
 trioct_mesh = _declare("trioct_mesh", c_int, c_void_p, P(MeshQuery), c_int, P(MeshResult))
 trioct_mesh_result_free = _declare("trioct_mesh_result_free", None, P(MeshResult))
+trioct_point_distance = _declare("trioct_point_distance", c_int, c_void_p, P(PointDistanceQuery), c_int,
+                                 P(DistanceResult))
+trioct_distance_result_free = _declare("trioct_distance_result_free", None, P(DistanceResult))
 trioct_pose_from_quaternion = _declare("trioct_pose_from_quaternion", c_int, c_double, c_double, c_double,
                                        c_double, c_double, c_double, c_double, P(Pose))
 trioct_info = _declare("trioct_info", c_int, c_void_p, c_char_p, c_int, P(AdminResult))
