@@ -1678,7 +1678,8 @@ static distance_answer ask_distance(const char *world, const trioct_distance_req
         }
         a.results = realloc(a.results, (a.count + (size_t)r.num_results + 1) * sizeof *a.results);
         assert_non_null(a.results);
-        memcpy(a.results + a.count, r.results, (size_t)r.num_results * sizeof *r.results);
+        if (r.num_results > 0)
+            memcpy(a.results + a.count, r.results, (size_t)r.num_results * sizeof *r.results);
         a.count += (size_t)r.num_results;
         trioct_distance_reply_t_decode_cleanup(&r);
     }
