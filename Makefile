@@ -115,7 +115,7 @@ CLI_SRC      := $(wildcard client/cli/*.c)
 CLI_OBJ      := $(CLI_SRC:%.c=$(BUILD)/%.o)
 CLI_MESH_LOAD_OBJ := $(addprefix $(BUILD)/server/world/,mesh_load.o mesh_data.o error_text.o)
 CLI_PURE_OBJ := $(addprefix $(BUILD)/client/cli/,cli_args.o cli_csv.o cli_pose.o cli_json.o cli_text.o cli_progress.o \
-                  cli_camera.o cli_render.o cli_png.o)
+                  cli_camera.o cli_render.o cli_png.o cli_distance_args.o)
 CLI_BIN      := $(BUILD)/trioct
 E2E_CLI_BIN  := $(BUILD)/tests/e2e_cli
 all: $(CLI_BIN)
@@ -257,7 +257,7 @@ demo-picture: all $(DEMO_DIR)/.stamp
 PIC_DIR        := $(BUILD)/pic
 CLIENT_PIC_OBJ := $(CLIENT_SRC:%.c=$(PIC_DIR)/%.o) $(COMMON_SRC:%.c=$(PIC_DIR)/%.o) \
                   $(GEN_SRC:$(GEN_DIR)/%.c=$(PIC_DIR)/gen/%.o)
-CLIENT_SO      := $(BUILD)/libtrioct.so.3
+CLIENT_SO      := $(BUILD)/libtrioct.so.4
 PIC_CFLAGS      = $(ALL_CFLAGS) -fPIC -fvisibility=hidden
 $(PIC_DIR)/%.o: %.c | $(DEPS_STAMP) $(GEN_STAMP)
 	@mkdir -p $(dir $@)
@@ -266,7 +266,7 @@ $(PIC_DIR)/gen/%.o: $(GEN_DIR)/%.c
 	@mkdir -p $(dir $@)
 	$(CC) $(PIC_CFLAGS) -Wno-unused-parameter -c $< -o $@
 $(CLIENT_SO): $(CLIENT_PIC_OBJ)
-	$(CC) $(ALL_CFLAGS) -shared -Wl,-soname,libtrioct.so.3 -Wl,-z,defs $^ -llcm -lsodium -lm -o $@
+	$(CC) $(ALL_CFLAGS) -shared -Wl,-soname,libtrioct.so.4 -Wl,-z,defs $^ -llcm -lsodium -lm -o $@
 # The example docs/client.md walks through, built so that it cannot rot.
 EXAMPLE_BIN := $(BUILD)/examples/ray_example
 $(EXAMPLE_BIN): $(BUILD)/client/examples/ray_example.o $(CLIENT_LIB)
@@ -275,7 +275,7 @@ $(EXAMPLE_BIN): $(BUILD)/client/examples/ray_example.o $(CLIENT_LIB)
 all: $(CLIENT_SO) $(EXAMPLE_BIN)
 test: $(CLIENT_SO) $(EXAMPLE_BIN)
 
-# The Python package trioct (docs/python.md): python/trioct/, ctypes over libtrioct.so.3 with
+# The Python package trioct (docs/python.md): python/trioct/, ctypes over libtrioct.so.4 with
 # numpy arrays, built into $(BUILD)/python/trioct/ so that PYTHONPATH=$(BUILD)/python imports
 # it: the sources copied, _constants.py generated from the C headers (the status table, the
 # caps and the version, typed once) and _paths.py naming the library. _paths.py gives the
@@ -299,7 +299,7 @@ $(PY_BUILD)/_constants.py: python/gen_constants.sh $(PY_HEADERS)
 	sh python/gen_constants.sh $(PY_HEADERS) > $@.tmp && mv $@.tmp $@
 $(PY_BUILD)/_paths.py: Makefile
 	@mkdir -p $(dir $@)
-	$(call py_paths,../../libtrioct.so.3,$(abspath $(BUILD))/libtrioct.so.3,$@)
+	$(call py_paths,../../libtrioct.so.4,$(abspath $(BUILD))/libtrioct.so.4,$@)
 all: $(PY_OUT)
 test: $(PY_OUT)
 
@@ -367,7 +367,7 @@ test: $(JAVA_FIXTURE_BIN)
 # the final place, not the DESTDIR staging one:
 #   PREFIX            /usr/local
 #   BINDIR            $(PREFIX)/bin: trioctd, trioct, trioct-replay
-#   LIBDIR            $(PREFIX)/lib: libtrioct.a, libtrioct.so.3 and its .so link, and
+#   LIBDIR            $(PREFIX)/lib: libtrioct.a, libtrioct.so.4 and its .so link, and
 #                     pkgconfig/trioct.pc; a multiarch directory works the same
 #   INCLUDEDIR        $(PREFIX)/include: trioct/trioct.h and the two headers it includes
 #   MAN_DIR           $(PREFIX)/share/man: trioct(1), trioct-replay(1), trioctd(8)
@@ -406,8 +406,8 @@ install-lib: $(DAEMON_BIN) $(LOADER_BIN) $(REPLAY_BIN) $(CLIENT_LIB) $(CLIENT_SO
 	if [ -f $(BUILD)/trioct ]; then install -m 0755 $(BUILD)/trioct $(DESTDIR)$(BINDIR)/trioct; fi
 	install -m 0755 $(REPLAY_BIN) $(DESTDIR)$(BINDIR)/trioct-replay
 	install -m 0644 $(CLIENT_LIB) $(DESTDIR)$(LIBDIR)/libtrioct.a
-	install -m 0644 $(CLIENT_SO) $(DESTDIR)$(LIBDIR)/libtrioct.so.3
-	ln -sf libtrioct.so.3 $(DESTDIR)$(LIBDIR)/libtrioct.so
+	install -m 0644 $(CLIENT_SO) $(DESTDIR)$(LIBDIR)/libtrioct.so.4
+	ln -sf libtrioct.so.4 $(DESTDIR)$(LIBDIR)/libtrioct.so
 	install -m 0644 $(PUBLIC_HEADERS) $(DESTDIR)$(INCLUDEDIR)/trioct/
 	sed -e 's|@PREFIX@|$(PREFIX)|g' -e 's|@LIBDIR@|$(LIBDIR)|g' -e 's|@INCLUDEDIR@|$(INCLUDEDIR)|g' \
 	    -e 's|@VERSION@|$(PC_VERSION)|g' client/trioct.pc.in > $(DESTDIR)$(LIBDIR)/pkgconfig/trioct.pc
@@ -418,7 +418,7 @@ install-lib: $(DAEMON_BIN) $(LOADER_BIN) $(REPLAY_BIN) $(CLIENT_LIB) $(CLIENT_SO
 install-python: $(PY_OUT)
 	install -d $(DESTDIR)$(PYTHONDIR)/trioct
 	install -m 0644 $(filter-out %/_paths.py,$(PY_OUT)) $(DESTDIR)$(PYTHONDIR)/trioct/
-	$(call py_paths,$(shell realpath -m -s --relative-to=$(PYTHONDIR)/trioct $(LIBDIR))/libtrioct.so.3,$(LIBDIR)/libtrioct.so.3,$(DESTDIR)$(PYTHONDIR)/trioct/_paths.py)
+	$(call py_paths,$(shell realpath -m -s --relative-to=$(PYTHONDIR)/trioct $(LIBDIR))/libtrioct.so.4,$(LIBDIR)/libtrioct.so.4,$(DESTDIR)$(PYTHONDIR)/trioct/_paths.py)
 	chmod 0644 $(DESTDIR)$(PYTHONDIR)/trioct/_paths.py
 
 # Issue 7: the systemd unit, the example scene and the man pages. The unit's ExecStart
@@ -453,7 +453,7 @@ uninstall:
 	    echo "rm -f $$scene"; rm -f $$scene; \
 	elif [ -e $$scene ]; then echo "uninstall: kept $$scene: it was edited"; fi
 	rm -f $(addprefix $(DESTDIR)$(BINDIR)/,trioctd trioct trioct-replay) $(DESTDIR)$(LOADER_DIR)/trioct-load \
-	    $(addprefix $(DESTDIR)$(LIBDIR)/,libtrioct.a libtrioct.so.3 libtrioct.so pkgconfig/trioct.pc) \
+	    $(addprefix $(DESTDIR)$(LIBDIR)/,libtrioct.a libtrioct.so.4 libtrioct.so pkgconfig/trioct.pc) \
 	    $(addprefix $(DESTDIR)$(INCLUDEDIR)/trioct/,$(notdir $(PUBLIC_HEADERS))) \
 	    $(addprefix $(DESTDIR)$(MAN_DIR)/,$(MAN_PAGES)) \
 	    $(DESTDIR)$(SYSTEMD_UNIT_DIR)/trioctd.service $(DESTDIR)$(PREFIX)/share/trioct/scene.ini.example \

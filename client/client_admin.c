@@ -15,7 +15,8 @@
 
 _Static_assert(TRIOCT_EFFECT_RAYS == TRIOCT_WORLD_INFO_T_EFFECT_RAYS &&
                    TRIOCT_EFFECT_TRIANGLES == TRIOCT_WORLD_INFO_T_EFFECT_TRIANGLES &&
-                   TRIOCT_EFFECT_MESHES == TRIOCT_WORLD_INFO_T_EFFECT_MESHES,
+                   TRIOCT_EFFECT_MESHES == TRIOCT_WORLD_INFO_T_EFFECT_MESHES &&
+                   TRIOCT_EFFECT_DISTANCE == TRIOCT_WORLD_INFO_T_EFFECT_DISTANCE,
                "trioct.h's effect bits are the wire's");
 
 static int reply_decode(const void *buf, size_t size, void *msg)

@@ -1,8 +1,8 @@
 /* libtrioct: the client of trioctd, the collision-query daemon. The one public header.
  *
  * A connection (trioct_client) joins an LCM bus, picks a random client id and its own reply
- * channel, and sends ray, triangle, mesh and world-admin requests to whichever daemon holds
- * the world. Every request comes in two forms: a synchronous call with a timeout in
+ * channel, and sends ray, triangle, mesh, distance and world-admin requests to whichever
+ * daemon holds the world. Every request comes in two forms: a synchronous call with a timeout in
  * milliseconds (< 0: no limit; 0: only what is already queued) that returns a status code,
  * and an asynchronous one (trioct_rays_async, ...) that returns at once and hands the result
  * to a callback later, from trioct_pump or trioct_poll (see "Asynchronous calls" below;
@@ -88,7 +88,8 @@ enum {
 enum {
     TRIOCT_EFFECT_RAYS = 1,
     TRIOCT_EFFECT_TRIANGLES = 2,
-    TRIOCT_EFFECT_MESHES = 4
+    TRIOCT_EFFECT_MESHES = 4,
+    TRIOCT_EFFECT_DISTANCE = 8
 };
 
 /* ---- Connection ---------------------------------------------------------------------- */
@@ -322,6 +323,68 @@ TRIOCT_API int trioct_mesh(trioct_client *c, const trioct_mesh_query *q, int tim
                            trioct_mesh_result *out);
 TRIOCT_API void trioct_mesh_result_free(trioct_mesh_result *r);
 
+/* ---- Distance ------------------------------------------------------------------------ */
+
+/* Distances to a world that serves the distance effect (docs/client.md, "Distance"). Each
+ * answer comes with a proven bound: the real distance of the double inputs lies in
+ * [lower, upper], distance is their midpoint and |distance - real| <= bound. Point
+ * distance is answered; shape distance and clearance have their calls already, and a
+ * daemon of this version answers them TRIOCT_ERR_BAD_REQUEST naming the kind. Contact is
+ * surface contact: no object is solid yet, so inside is 0 and distances are >= 0. */
+enum { TRIOCT_FEATURE_FACE = 0, TRIOCT_FEATURE_EDGE = 1, TRIOCT_FEATURE_VERTEX = 2 };
+
+typedef struct trioct_point_distance_query {
+    const char *world;
+    double within;  /* the largest distance looked for (a point with nothing nearer is
+                       found = 0); < 0: no limit */
+    size_t count;   /* points, at most TRIOCT_MAX_POINTS */
+    const trioct_vec3 *points;
+} trioct_point_distance_query;
+
+/* No limit (within -1); no points. */
+TRIOCT_API trioct_point_distance_query trioct_point_distance_query_default(const char *world);
+
+/* A shape at poses: SHAPE (nearest pair, both witnesses) and CLEAR (anything within r?). */
+typedef struct trioct_shape_distance_query {
+    const char *world;
+    double within;     /* shape distance: as for points; clearance: the radius r >= 0 */
+    const char *shape; /* a query shape the world's scene names; NULL or "": the triangles */
+    size_t num_shape_triangles; /* at most TRIOCT_MAX_INLINE_SHAPE_TRIANGLES */
+    const trioct_triangle *shape_triangles;
+    size_t num_poses;  /* at most TRIOCT_MAX_POSES */
+    const trioct_pose *poses;
+} trioct_shape_distance_query;
+
+typedef struct trioct_distance {
+    int32_t item;      /* the point's (or pose's) index in the query */
+    int found;         /* 1: something within the query's `within` */
+    int clear;         /* clearance: 1 when nothing lies within the radius */
+    double distance, bound, lower, upper; /* 0 when not found */
+    trioct_vec3 point;          /* the nearest point on the world */
+    trioct_vec3 shape_point;    /* shapes: the shape's witness, posed; points: the point */
+    int32_t object;             /* index into the result's objects.names; -1: not found */
+    int32_t triangle;           /* the world triangle in that object's mesh; -1: not found */
+    int32_t shape_triangle;     /* shapes: the shape's triangle; -1 for points */
+    int feature;                /* TRIOCT_FEATURE_*: where on the triangle point lies */
+    int feature_index;          /* the edge (vertex k to k + 1 mod 3) or vertex; 0: face */
+    int inside;                 /* 1: inside a solid object, distance < 0 (none yet) */
+} trioct_distance;
+
+typedef struct trioct_distance_result {
+    trioct_reply reply;
+    size_t num_results;
+    trioct_distance *results; /* one per point or pose, in query order */
+    trioct_object_names objects;
+} trioct_distance_result;
+
+TRIOCT_API int trioct_point_distance(trioct_client *c, const trioct_point_distance_query *q, int timeout_ms,
+                                     trioct_distance_result *out);
+TRIOCT_API int trioct_shape_distance(trioct_client *c, const trioct_shape_distance_query *q, int timeout_ms,
+                                     trioct_distance_result *out);
+TRIOCT_API int trioct_clearance(trioct_client *c, const trioct_shape_distance_query *q, int timeout_ms,
+                                trioct_distance_result *out);
+TRIOCT_API void trioct_distance_result_free(trioct_distance_result *r);
+
 /* ---- Poses --------------------------------------------------------------------------- */
 
 /* The pose of translation (x, y, z) and the rotation of quaternion (qw, qx, qy, qz),
@@ -546,7 +609,7 @@ typedef struct trioct_daemon_status {
     int state; /* TRIOCT_DAEMON_* */
     int threads, queue_depth, queue_capacity;
     int64_t memory_used, memory_budget; /* bytes all worlds hold, and what they may */
-    int64_t served[6]; /* answered requests: ray, triangle, mesh, admin, objects, state */
+    int64_t served[7]; /* answered requests: ray, triangle, mesh, admin, objects, state, distance */
     int64_t malformed; /* messages the daemon dropped before decoding */
     /* Retries (same client, request id and bytes) answered from the daemon's reply cache,
      * and those that came while the original was in work, answered by its one reply. */
@@ -603,6 +666,7 @@ typedef void (*trioct_admin_done)(trioct_client *c, trioct_admin_result *res, vo
 typedef void (*trioct_list_done)(trioct_client *c, trioct_list_result *res, void *user);
 typedef void (*trioct_object_done)(trioct_client *c, trioct_object_result *res, void *user);
 typedef void (*trioct_state_done)(trioct_client *c, trioct_state_result *res, void *user);
+typedef void (*trioct_distance_done)(trioct_client *c, trioct_distance_result *res, void *user);
 
 TRIOCT_API int trioct_rays_async(trioct_client *c, const trioct_ray_query *q, int timeout_ms,
                                  trioct_ray_done cb, void *user, int64_t *request_id);
@@ -626,6 +690,12 @@ TRIOCT_API int trioct_objects_edit_async(trioct_client *c, const char *world, co
                                          int64_t *request_id);
 TRIOCT_API int trioct_states_async(trioct_client *c, const trioct_state_query *q, int timeout_ms,
                                    trioct_state_done cb, void *user, int64_t *request_id);
+TRIOCT_API int trioct_point_distance_async(trioct_client *c, const trioct_point_distance_query *q, int timeout_ms,
+                                           trioct_distance_done cb, void *user, int64_t *request_id);
+TRIOCT_API int trioct_shape_distance_async(trioct_client *c, const trioct_shape_distance_query *q, int timeout_ms,
+                                           trioct_distance_done cb, void *user, int64_t *request_id);
+TRIOCT_API int trioct_clearance_async(trioct_client *c, const trioct_shape_distance_query *q, int timeout_ms,
+                                      trioct_distance_done cb, void *user, int64_t *request_id);
 /* Gathers until the timeout, the gather window or the expected count, as trioct_list. */
 TRIOCT_API int trioct_list_async(trioct_client *c, const trioct_list_options *opt,
                                  int timeout_ms, trioct_list_done cb, void *user,

@@ -8,7 +8,7 @@ static const char *const kind_tag[TRIOCT_CHANNEL_KIND_COUNT] = {
     [TRIOCT_CHANNEL_MESH] = "MESH",   [TRIOCT_CHANNEL_ADMIN] = "ADMIN",
     [TRIOCT_CHANNEL_LOAD] = "LOAD",   [TRIOCT_CHANNEL_LIST] = "LIST",
     [TRIOCT_CHANNEL_STATUS] = "STATUS", [TRIOCT_CHANNEL_OBJECTS] = "OBJECTS",
-    [TRIOCT_CHANNEL_STATE] = "STATE",
+    [TRIOCT_CHANNEL_STATE] = "STATE", [TRIOCT_CHANNEL_DISTANCE] = "DISTANCE",
 };
 
 static int kind_has_name(trioct_channel_kind kind)

@@ -4,6 +4,7 @@
  *   <prefix>_ADMIN_<world>: INFO and UNLOAD, heard by the holder;
  *   <prefix>_OBJECTS_<world>: object edits and listings, heard by the holder;
  *   <prefix>_STATE_<world>: robot state checks, heard by the holder;
+ *   <prefix>_DISTANCE_<world>: distances and clearance, heard by the holder;
  *   <prefix>_LOAD_<daemon>: LOAD, heard by the named daemon;
  *   <prefix>_LIST: every daemon answers with the worlds it holds;
  *   <prefix>_STATUS: every daemon's heartbeat. */
@@ -27,6 +28,7 @@ typedef enum trioct_channel_kind {
     TRIOCT_CHANNEL_STATUS,
     TRIOCT_CHANNEL_OBJECTS,
     TRIOCT_CHANNEL_STATE,
+    TRIOCT_CHANNEL_DISTANCE,
     TRIOCT_CHANNEL_KIND_COUNT
 } trioct_channel_kind;
 

@@ -21,6 +21,8 @@
 #define TRIOCT_MAX_RAYS 1280
 #define TRIOCT_MAX_TRIANGLES 800
 #define TRIOCT_MAX_POSES 512
+/* Query points of one distance request: 2,048 of 24 bytes fit one datagram. */
+#define TRIOCT_MAX_POINTS 2048
 #define TRIOCT_MAX_INLINE_SHAPE_TRIANGLES 512
 /* Stored hits per ray (ALL), contacts per query triangle, and result records (hits,
  * contacts or pairs) in one whole reply, over all its chunks. */

@@ -3,6 +3,6 @@
 #ifndef TRIOCT_VERSION_H
 #define TRIOCT_VERSION_H
 
-#define TRIOCT_VERSION "0.8.0"
+#define TRIOCT_VERSION "0.9.0"
 
 #endif

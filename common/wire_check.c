@@ -9,6 +9,8 @@
 
 #include "trioct_admin_reply_t.h"
 #include "trioct_admin_request_t.h"
+#include "trioct_distance_reply_t.h"
+#include "trioct_distance_request_t.h"
 #include "trioct_mesh_reply_t.h"
 #include "trioct_object_edit_request_t.h"
 #include "trioct_object_reply_t.h"
@@ -460,6 +462,35 @@ static void walk_state_reply(wire_cursor *c)
     cursor_fixed_array(c, num_contacts, STATE_CONTACT_BYTES, "contacts");
 }
 
+static void walk_distance_request(wire_cursor *c)
+{
+    walk_request_header(c);
+    cursor_int8(c, "kind");
+    cursor_double(c, "within");
+    int32_t num_points = cursor_count(c, "num_points", VEC3_BYTES);
+    cursor_fixed_array(c, num_points, VEC3_BYTES, "points");
+    cursor_string(c, "shape");
+    int32_t num_shape_triangles = cursor_count(c, "num_shape_triangles", TRIANGLE_BYTES);
+    cursor_fixed_array(c, num_shape_triangles, TRIANGLE_BYTES, "shape_triangles");
+    int32_t num_poses = cursor_count(c, "num_poses", POSE_BYTES);
+    cursor_fixed_array(c, num_poses, POSE_BYTES, "poses");
+    cursor_int8(c, "rotation");
+    int32_t num_quaternions = cursor_count(c, "num_quaternions", 8);
+    cursor_fixed_array(c, num_quaternions, 8, "quaternions");
+}
+
+/* distance_result_t: item, found, clear, four doubles, two vec3, three int32, three int8. */
+enum { DISTANCE_RESULT_BYTES = 4 + 1 + 1 + 4 * 8 + 2 * VEC3_BYTES + 3 * 4 + 3 };
+
+static void walk_distance_reply(wire_cursor *c)
+{
+    walk_reply_header(c);
+    cursor_int8(c, "kind");
+    walk_object_names(c);
+    int32_t num_results = cursor_count(c, "num_results", DISTANCE_RESULT_BYTES);
+    cursor_fixed_array(c, num_results, DISTANCE_RESULT_BYTES, "results");
+}
+
 static void walk_ray_reply(wire_cursor *c)
 {
     walk_reply_header(c);
@@ -514,7 +545,7 @@ static void walk_status(wire_cursor *c)
     cursor_int32(c, "queue_capacity");
     cursor_int64(c, "memory_used");
     cursor_int64(c, "memory_budget");
-    cursor_skip(c, 6 * 8, "served");
+    cursor_skip(c, 7 * 8, "served");
     cursor_int64(c, "malformed");
     cursor_int64(c, "duplicates_answered");
     cursor_int64(c, "duplicates_joined");
@@ -563,6 +594,8 @@ static const wire_type_info type_table[WIRE_TYPE_COUNT] = {
     [WIRE_OBJECT_REPLY] = {"object_reply_t", __trioct_object_reply_t_get_hash, walk_object_reply},
     [WIRE_STATE_REQUEST] = {"state_request_t", __trioct_state_request_t_get_hash, walk_state_request},
     [WIRE_STATE_REPLY] = {"state_reply_t", __trioct_state_reply_t_get_hash, walk_state_reply},
+    [WIRE_DISTANCE_REQUEST] = {"distance_request_t", __trioct_distance_request_t_get_hash, walk_distance_request},
+    [WIRE_DISTANCE_REPLY] = {"distance_reply_t", __trioct_distance_reply_t_get_hash, walk_distance_reply},
 };
 
 static int wire_type_valid(wire_type type)

@@ -28,6 +28,8 @@ typedef enum wire_type {
     WIRE_OBJECT_REPLY,
     WIRE_STATE_REQUEST,
     WIRE_STATE_REPLY,
+    WIRE_DISTANCE_REQUEST,
+    WIRE_DISTANCE_REPLY,
     WIRE_TYPE_COUNT
 } wire_type;
 

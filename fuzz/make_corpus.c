@@ -20,6 +20,7 @@ static const char *type_dir(trioct_channel_kind kind)
     case TRIOCT_CHANNEL_ADMIN: return "admin";
     case TRIOCT_CHANNEL_OBJECTS: return "objects";
     case TRIOCT_CHANNEL_STATE: return "state";
+    case TRIOCT_CHANNEL_DISTANCE: return "distance";
     default: return NULL;
     }
 }

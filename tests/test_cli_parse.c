@@ -18,6 +18,7 @@
 #include "cli/cli_png.h"
 #include "cli/cli_render.h"
 #include "cli/cli_csv.h"
+#include "cli/cli_distance_args.h"
 #include "cli/cli_json.h"
 #include "cli/cli_pose.h"
 #include "cli/cli_progress.h"
@@ -137,6 +138,105 @@ static void test_scan_values_aliases_and_terminator(void **state)
     assert_string_equal(pos[2], "-f");
 }
 
+/* Scans argv as `trioct distance` or `clear` would (their options only); 0, or -1 with err. */
+static int scan_distance(char **argv, int argc, cli_distance_args *a, char **pos, int *n, char *err, size_t len)
+{
+    memset(a, 0, sizeof *a);
+    cli_option_set set = {cli_distance_options, cli_distance_option, a};
+    return cli_scan(argc, argv, &set, 1, 0, pos, 8, n, NULL, err, len);
+}
+
+static void test_distance_points_and_within(void **state)
+{
+    (void)state;
+    char *argv[] = {"w", "--point", "3", "-0.5", "-1e-3", "--point=1,2,3", "--within", "2.5"};
+    cli_distance_args a;
+    char *pos[8], err[256];
+    int n;
+    assert_int_equal(scan_distance(argv, 8, &a, pos, &n, err, sizeof err), 0);
+    assert_int_equal(n, 1);
+    assert_string_equal(pos[0], "w");
+    assert_int_equal(a.num_points, 2);
+    /* Negative numbers after --point are its values, not options. */
+    assert_true(a.points[0].x == 3 && a.points[0].y == -0.5 && a.points[0].z == -1e-3);
+    assert_true(a.points[1].x == 1 && a.points[1].y == 2 && a.points[1].z == 3);
+    assert_int_equal(a.has_within, 1);
+    assert_true(a.within == 2.5);
+    assert_int_equal(cli_distance_check(&a, 0, err, sizeof err), 0);
+    /* clear needs a shape. */
+    assert_int_equal(cli_distance_check(&a, 1, err, sizeof err), -1);
+    assert_string_equal(err, "clear needs a shape: --shape NAME or --shape-file FILE, at --pose POSE");
+    cli_distance_args_free(&a);
+
+    char *no_points[] = {"w"};
+    assert_int_equal(scan_distance(no_points, 1, &a, pos, &n, err, sizeof err), 0);
+    assert_int_equal(cli_distance_check(&a, 0, err, sizeof err), -1);
+    assert_non_null(strstr(err, "nothing to ask: give --point x y z"));
+    cli_distance_args_free(&a);
+
+    assert_string_equal(cli_feature_name(TRIOCT_FEATURE_FACE), "face");
+    assert_string_equal(cli_feature_name(TRIOCT_FEATURE_EDGE), "edge");
+    assert_string_equal(cli_feature_name(TRIOCT_FEATURE_VERTEX), "vertex");
+    assert_string_equal(cli_feature_name(7), "unknown");
+}
+
+static void test_distance_shapes_and_clear(void **state)
+{
+    (void)state;
+    char *argv[] = {"w", "--shape", "gripper", "--pose", "1 2 0.5 1 0 0 0", "--pose", "0 0 1 0 0 90", "--within", "0.05"};
+    cli_distance_args a;
+    char *pos[8], err[256];
+    int n;
+    assert_int_equal(scan_distance(argv, 9, &a, pos, &n, err, sizeof err), 0);
+    assert_string_equal(a.shape, "gripper");
+    assert_int_equal(a.poses.count, 2);
+    /* The seven-number pose: a translation and the identity quaternion. */
+    assert_true(a.poses.poses[0].t.x == 1 && a.poses.poses[0].t.y == 2 && a.poses.poses[0].t.z == 0.5);
+    assert_true(a.poses.poses[0].r[0] == 1 && a.poses.poses[0].r[4] == 1 && a.poses.poses[0].r[8] == 1);
+    /* Degrees about z: a quarter turn, exact. */
+    assert_true(a.poses.poses[1].r[0] == 0 && a.poses.poses[1].r[1] == -1 && a.poses.poses[1].r[3] == 1);
+    assert_int_equal(cli_distance_check(&a, 0, err, sizeof err), 0);
+    assert_int_equal(cli_distance_check(&a, 1, err, sizeof err), 0);
+    cli_distance_args_free(&a);
+
+    struct {
+        char *argv[6];
+        int argc;
+        const char *says;
+    } bad[] = {
+        {{"w", "--point", "1", "2"}, 4, "--point"},
+        {{"w", "--point", "1", "2", "x"}, 5, "--point '1 2 x': expected three finite numbers x y z"},
+        {{"w", "--point", "1", "2", "nan"}, 5, "expected three finite numbers"},
+        {{"w", "--within", "-1"}, 3, "--within '-1': expected a distance >= 0"},
+        {{"w", "--within", "1", "--within", "2"}, 5, "--within given twice"},
+        {{"w", "--shape", "no-such!"}, 3, "is not a shape name"},
+        {{"w", "--pose", "1 2"}, 3, "--pose '1 2'"},
+    };
+    for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) {
+        if (scan_distance(bad[i].argv, bad[i].argc, &a, pos, &n, err, sizeof err) != -1 || !strstr(err, bad[i].says))
+            fail_msg("case %zu: expected an error saying \"%s\", got \"%s\"", i, bad[i].says, err);
+        cli_distance_args_free(&a);
+    }
+
+    /* Scanned fine, refused as a whole: the checks name what is missing or mixed up. */
+    struct {
+        char *argv[6];
+        int argc, clear;
+        const char *says;
+    } mixed[] = {
+        {{"w", "--point=1,2,3", "--shape", "s"}, 4, 0, "--point and a shape exclude each other"},
+        {{"w", "--shape", "s", "--shape-file", "f.stl"}, 5, 0, "--shape and --shape-file exclude each other"},
+        {{"w", "--point=1,2,3", "--pose", "0 0 1"}, 4, 0, "--pose places a shape"},
+        {{"w", "--shape", "s"}, 3, 1, "clear needs --within R"},
+    };
+    for (size_t i = 0; i < sizeof mixed / sizeof mixed[0]; i++) {
+        assert_int_equal(scan_distance(mixed[i].argv, mixed[i].argc, &a, pos, &n, err, sizeof err), 0);
+        if (cli_distance_check(&a, mixed[i].clear, err, sizeof err) != -1 || !strstr(err, mixed[i].says))
+            fail_msg("case %zu: expected \"%s\", got \"%s\"", i, mixed[i].says, err);
+        cli_distance_args_free(&a);
+    }
+}
+
 static void test_scan_errors(void **state)
 {
     (void)state;
@@ -238,9 +338,11 @@ static void test_accuracy_effects_names(void **state)
     assert_int_equal(cli_parse_effects(" triangles  rays ", &e, err, sizeof err), 0);
     assert_int_equal(e, TRIOCT_EFFECT_RAYS | TRIOCT_EFFECT_TRIANGLES);
     assert_int_equal(cli_parse_effects("all", &e, err, sizeof err), 0);
-    assert_int_equal(e, 7);
+    assert_int_equal(e, 15); /* rays, triangles, meshes and distance */
+    assert_int_equal(cli_parse_effects("distance", &e, err, sizeof err), 0);
+    assert_int_equal(e, TRIOCT_EFFECT_DISTANCE);
     assert_int_equal(cli_parse_effects("rays,lasers", &e, err, sizeof err), -1);
-    assert_string_equal(err, "unknown effect 'lasers' (rays, triangles, meshes or all)");
+    assert_string_equal(err, "unknown effect 'lasers' (rays, triangles, meshes, distance or all)");
     assert_int_equal(cli_parse_effects(" , ", &e, err, sizeof err), -1);
 
     assert_true(cli_name_valid("yard_2", 32));
@@ -975,6 +1077,8 @@ int main(void)
         cmocka_unit_test(test_scan_negative_numbers_are_positional),
         cmocka_unit_test(test_scan_values_aliases_and_terminator),
         cmocka_unit_test(test_scan_errors),
+        cmocka_unit_test(test_distance_points_and_within),
+        cmocka_unit_test(test_distance_shapes_and_clear),
         cmocka_unit_test(test_scan_option_with_three_values),
         cmocka_unit_test(test_parse_size_and_shade),
         cmocka_unit_test(test_camera_rays),

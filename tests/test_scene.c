@@ -680,6 +680,23 @@ static void test_missing_scene_file(void **state)
 
 /* ---------- words ---------- */
 
+static void test_distance_effect_in_a_section_and_by_default(void **state)
+{
+    (void)state;
+    loaded l = load_text("[near]\nmesh = a.obj\neffects = distance\n[both]\nmesh = a.obj\neffects = rays, distance\n"
+                         "[plain]\nmesh = a.obj\n");
+    if (l.status != 0)
+        fail_msg("%s", l.err);
+    assert_int_equal(l.sc.world_count, 3);
+    assert_int_equal(l.sc.worlds[0].effects, EFFECT_DISTANCE);
+    assert_int_equal(l.sc.worlds[1].effects, EFFECT_RAYS | EFFECT_DISTANCE);
+    /* A section that names no effects serves them all, distance among them. */
+    assert_true(l.sc.worlds[2].effects & EFFECT_DISTANCE);
+    assert_int_equal(l.sc.worlds[2].effects, EFFECT_ALL);
+    scene_free(&l.sc);
+    expect_error_at("[w]\nmesh = a.obj\neffects = distances\n", 3, "effects: unknown effect 'distances'");
+}
+
 static void test_effects_and_accuracy_words(void **state)
 {
     (void)state;
@@ -693,12 +710,19 @@ static void test_effects_and_accuracy_words(void **state)
     assert_int_equal(e, EFFECT_RAYS);
     e = 99;
     assert_int_equal(effects_parse("rays ray", &e, err, sizeof err), -1);
-    assert_string_equal(err, "unknown effect 'ray' (rays, triangles or meshes)");
+    assert_string_equal(err, "unknown effect 'ray' (rays, triangles, meshes or distance)");
     assert_int_equal(e, 99);
     assert_int_equal(effects_parse("", &e, err, sizeof err), -1);
-    assert_string_equal(err, "no effect given (any of rays, triangles, meshes)");
+    assert_string_equal(err, "no effect given (any of rays, triangles, meshes, distance)");
+    assert_int_equal(effects_parse("distance", &e, err, sizeof err), 0);
+    assert_int_equal(e, EFFECT_DISTANCE);
+    assert_int_equal(EFFECT_DISTANCE, 8); /* world_info_t.EFFECT_DISTANCE on the wire */
+    assert_int_equal(effects_parse("rays,distance", &e, err, sizeof err), 0);
+    assert_int_equal(e, EFFECT_RAYS | EFFECT_DISTANCE);
 
-    assert_string_equal(effects_text(EFFECT_ALL, buf, sizeof buf), "rays triangles meshes");
+    /* All effects, the default, take in distance: the longest text fits 32 bytes. */
+    assert_string_equal(effects_text(EFFECT_ALL, buf, sizeof buf), "rays triangles meshes distance");
+    assert_string_equal(effects_text(EFFECT_MESHES | EFFECT_DISTANCE, buf, sizeof buf), "meshes distance");
     assert_string_equal(effects_text(EFFECT_RAYS | EFFECT_MESHES, buf, sizeof buf), "rays meshes");
     assert_string_equal(effects_text(EFFECT_TRIANGLES, buf, sizeof buf), "triangles");
     assert_string_equal(effects_text(0, buf, sizeof buf), "none");
@@ -790,6 +814,7 @@ int main(void)
         cmocka_unit_test(test_more_than_max_worlds),
         cmocka_unit_test(test_missing_scene_file),
         cmocka_unit_test(test_effects_and_accuracy_words),
+        cmocka_unit_test(test_distance_effect_in_a_section_and_by_default),
         cmocka_unit_test(test_world_spec_equal),
     };
     return cmocka_run_group_tests_name("scene", tests, NULL, NULL);

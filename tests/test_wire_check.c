@@ -20,6 +20,8 @@
 
 #include "trioct_admin_reply_t.h"
 #include "trioct_admin_request_t.h"
+#include "trioct_distance_reply_t.h"
+#include "trioct_distance_request_t.h"
 #include "trioct_mesh_reply_t.h"
 #include "trioct_mesh_request_t.h"
 #include "trioct_object_edit_request_t.h"
@@ -421,6 +423,46 @@ static void make_state_reply(rng *r, variant v, trioct_state_reply_t *m)
                                                   random_i32(r), random_i32(r), random_i32(r)};
 }
 
+static void make_distance_request(rng *r, variant v, trioct_distance_request_t *m)
+{
+    fill_request_header(r, v, &m->header);
+    m->kind = (int8_t)random_i32(r);
+    m->within = random_double(r);
+    m->num_points = pick_count(r, v);
+    m->points = array_of(m->num_points, sizeof *m->points);
+    for (int32_t i = 0; i < m->num_points; i++)
+        m->points[i] = random_vec3(r);
+    m->shape = random_text(r, v);
+    m->num_shape_triangles = pick_count(r, v);
+    m->shape_triangles = array_of(m->num_shape_triangles, sizeof *m->shape_triangles);
+    fill_triangles(r, m->shape_triangles, m->num_shape_triangles);
+    m->num_poses = pick_count(r, v);
+    m->poses = array_of(m->num_poses, sizeof *m->poses);
+    for (int32_t i = 0; i < m->num_poses; i++)
+        random_pose(r, &m->poses[i]);
+    m->rotation = (int8_t)random_i32(r);
+    m->num_quaternions = pick_count(r, v);
+    m->quaternions = array_of(m->num_quaternions, sizeof *m->quaternions);
+    for (int32_t i = 0; i < m->num_quaternions; i++)
+        m->quaternions[i] = random_double(r);
+}
+
+static void make_distance_reply(rng *r, variant v, trioct_distance_reply_t *m)
+{
+    fill_reply_header(r, v, &m->header);
+    m->kind = (int8_t)random_i32(r);
+    m->num_objects = pick_count(r, v);
+    m->objects = random_names(r, v, m->num_objects);
+    m->num_results = pick_count(r, v);
+    m->results = array_of(m->num_results, sizeof *m->results);
+    for (int32_t i = 0; i < m->num_results; i++)
+        m->results[i] = (trioct_distance_result_t){
+            random_i32(r),      (int8_t)random_i32(r), (int8_t)random_i32(r), random_double(r),
+            random_double(r),   random_double(r),      random_double(r),      random_vec3(r),
+            random_vec3(r),     random_i32(r),         random_i32(r),         random_i32(r),
+            (int8_t)random_i32(r), (int8_t)random_i32(r), (int8_t)random_i32(r)};
+}
+
 static void make_status(rng *r, variant v, trioct_status_t *m)
 {
     m->utime = random_i64(r);
@@ -431,7 +473,7 @@ static void make_status(rng *r, variant v, trioct_status_t *m)
     m->threads = random_i32(r);
     m->queue_depth = random_i32(r);
     m->queue_capacity = random_i32(r);
-    for (int k = 0; k < 6; k++)
+    for (int k = 0; k < 7; k++)
         m->served[k] = random_i64(r);
     m->malformed = random_i64(r);
     m->num_status_codes = pick_count(r, v);
@@ -740,12 +782,39 @@ static void lay_state_reply(layout *l, const trioct_state_reply_t *m)
     lay_bytes(l, __trioct_state_contact_t_encoded_array_size(m->contacts, m->num_contacts));
 }
 
+static void lay_distance_request(layout *l, const trioct_distance_request_t *m)
+{
+    lay_request_header(l, &m->header);
+    lay_bytes(l, 1 + 8);
+    lay_count(l, "num_points", m->num_points);
+    lay_bytes(l, __trioct_vec3_t_encoded_array_size(m->points, m->num_points));
+    lay_string(l, "shape", &m->shape);
+    lay_count(l, "num_shape_triangles", m->num_shape_triangles);
+    lay_bytes(l, __trioct_triangle_t_encoded_array_size(m->shape_triangles, m->num_shape_triangles));
+    lay_count(l, "num_poses", m->num_poses);
+    lay_bytes(l, __trioct_pose_t_encoded_array_size(m->poses, m->num_poses));
+    lay_bytes(l, 1);
+    lay_count(l, "num_quaternions", m->num_quaternions);
+    lay_bytes(l, __double_encoded_array_size(m->quaternions, m->num_quaternions));
+}
+
+static void lay_distance_reply(layout *l, const trioct_distance_reply_t *m)
+{
+    lay_reply_header(l, &m->header);
+    lay_bytes(l, 1);
+    lay_count(l, "num_objects", m->num_objects);
+    for (int32_t k = 0; k < m->num_objects; k++)
+        lay_string_element(l, "objects", (int)k, &m->objects[k]);
+    lay_count(l, "num_results", m->num_results);
+    lay_bytes(l, __trioct_distance_result_t_encoded_array_size(m->results, m->num_results));
+}
+
 static void lay_status(layout *l, const trioct_status_t *m)
 {
     lay_bytes(l, 8);
     lay_string(l, "daemon", &m->daemon);
     lay_string(l, "version", &m->version);
-    lay_bytes(l, 8 + 1 + 3 * 4 + 2 * 8 + 6 * 8 + 3 * 8);
+    lay_bytes(l, 8 + 1 + 3 * 4 + 2 * 8 + 7 * 8 + 3 * 8);
     lay_count(l, "num_status_codes", m->num_status_codes);
     lay_bytes(l, __int64_t_encoded_array_size(m->replies_by_status, m->num_status_codes));
     lay_bytes(l, 3 * 8);
@@ -781,6 +850,8 @@ typedef union any_message {
     trioct_object_reply_t object_reply;
     trioct_state_request_t state_request;
     trioct_state_reply_t state_reply;
+    trioct_distance_request_t distance_request;
+    trioct_distance_reply_t distance_reply;
 } any_message;
 
 typedef struct codec {
@@ -824,6 +895,8 @@ CODEC_FUNCTIONS(object_edit_request)
 CODEC_FUNCTIONS(object_reply)
 CODEC_FUNCTIONS(state_request)
 CODEC_FUNCTIONS(state_reply)
+CODEC_FUNCTIONS(distance_request)
+CODEC_FUNCTIONS(distance_reply)
 
 #define CODEC_ENTRY(type, member)                                                                     \
     {type, #member "_t", codec_make_##member, codec_lay_##member, codec_encode_##member,              \
@@ -837,6 +910,7 @@ static const codec codecs[WIRE_TYPE_COUNT] = {
     CODEC_ENTRY(WIRE_STATUS, status),               CODEC_ENTRY(WIRE_RAY_REQUEST_V1, ray_request_v1),
     CODEC_ENTRY(WIRE_OBJECT_EDIT_REQUEST, object_edit_request), CODEC_ENTRY(WIRE_OBJECT_REPLY, object_reply),
     CODEC_ENTRY(WIRE_STATE_REQUEST, state_request), CODEC_ENTRY(WIRE_STATE_REPLY, state_reply),
+    CODEC_ENTRY(WIRE_DISTANCE_REQUEST, distance_request), CODEC_ENTRY(WIRE_DISTANCE_REPLY, distance_reply),
 };
 
 /* ---------- samples: encoded messages with their layout ---------- */
@@ -1406,7 +1480,7 @@ static void test_short_absent_and_oversized_input_is_rejected(void **state)
         assert_non_null(strstr(err.what, "more than LCM can encode"));
     }
     assert_int_equal(wire_check(WIRE_TYPE_COUNT, fingerprint, 8, &err), -1);
-    assert_string_equal(err.what, "wire type 14 is unknown");
+    assert_string_equal(err.what, "wire type 16 is unknown");
     assert_int_equal(wire_check((wire_type)-3, fingerprint, 8, NULL), -1);
 }
 

@@ -645,7 +645,7 @@ static void test_build_refuses_bad_paths_and_bad_specs(void **state)
     spec = cube_spec("noeffects");
     spec.effects = 0;
     build_fails(&spec, s.dir, TRIOCT_ERR_BAD_REQUEST, err, sizeof err);
-    spec.effects = 8;
+    spec.effects = 16; /* 8 is EFFECT_DISTANCE */
     build_fails(&spec, s.dir, TRIOCT_ERR_BAD_REQUEST, err, sizeof err);
     int status = 0;
     assert_null(world_build(NULL, s.dir, NULL, &status, err, sizeof err));
@@ -738,6 +738,8 @@ static void test_triangle_boxes_follow_effects(void **state)
         {EFFECT_TRIANGLES, 1},
         {EFFECT_MESHES, 1},
         {EFFECT_RAYS | EFFECT_MESHES, 1},
+        {EFFECT_DISTANCE, 1}, /* the nearest-first walk prunes triangles by their boxes */
+        {EFFECT_RAYS | EFFECT_DISTANCE, 1},
         {EFFECT_ALL, 1},
     };
     for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {

@@ -223,7 +223,8 @@ static int effect_bit(const char *word, size_t len)
         {"rays", TRIOCT_EFFECT_RAYS},
         {"triangles", TRIOCT_EFFECT_TRIANGLES},
         {"meshes", TRIOCT_EFFECT_MESHES},
-        {"all", TRIOCT_EFFECT_RAYS | TRIOCT_EFFECT_TRIANGLES | TRIOCT_EFFECT_MESHES},
+        {"distance", TRIOCT_EFFECT_DISTANCE},
+        {"all", TRIOCT_EFFECT_RAYS | TRIOCT_EFFECT_TRIANGLES | TRIOCT_EFFECT_MESHES | TRIOCT_EFFECT_DISTANCE},
     };
     for (size_t i = 0; i < sizeof words / sizeof words[0]; i++)
         if (strlen(words[i].name) == len && strncmp(words[i].name, word, len) == 0)
@@ -243,7 +244,7 @@ int cli_parse_effects(const char *text, int *out, char *err, size_t err_len)
         size_t len = strcspn(p, ", \t");
         int bit = effect_bit(p, len);
         if (bit == 0) {
-            snprintf(err, err_len, "unknown effect '%.*s' (rays, triangles, meshes or all)",
+            snprintf(err, err_len, "unknown effect '%.*s' (rays, triangles, meshes, distance or all)",
                      (int)(len > 40 ? 40 : len), p);
             return -1;
         }
@@ -251,7 +252,7 @@ int cli_parse_effects(const char *text, int *out, char *err, size_t err_len)
         p += len;
     }
     if (bits == 0) {
-        snprintf(err, err_len, "no effect named (rays, triangles, meshes or all)");
+        snprintf(err, err_len, "no effect named (rays, triangles, meshes, distance or all)");
         return -1;
     }
     *out = bits;

@@ -84,6 +84,7 @@ static void daemon_json(cli_json *j, const trioct_daemon_status *s)
     cli_json_key_int(j, "admin", s->served[3]);
     cli_json_key_int(j, "objects", s->served[4]);
     cli_json_key_int(j, "state", s->served[5]);
+    cli_json_key_int(j, "distance", s->served[6]);
     cli_json_object_end(j);
     cli_json_key_int(j, "errors", error_replies(s));
     cli_json_key(j, "replies_by_status");
@@ -154,8 +155,8 @@ static int daemon_print(cli_context *ctx, const trioct_daemon_status *s)
             s->duplicates_answered, s->duplicates_joined);
     fprintf(out,
             "  served    ray %" PRId64 ", triangle %" PRId64 ", mesh %" PRId64 ", admin %" PRId64
-            ", objects %" PRId64 ", state %" PRId64 "\n",
-            s->served[0], s->served[1], s->served[2], s->served[3], s->served[4], s->served[5]);
+            ", objects %" PRId64 ", state %" PRId64 ", distance %" PRId64 "\n",
+            s->served[0], s->served[1], s->served[2], s->served[3], s->served[4], s->served[5], s->served[6]);
     if (s->latency_count > 0)
         fprintf(out,
                 "  latency   p50 %" PRId64 " us, p99 %" PRId64 " us (%" PRId64

@@ -465,7 +465,7 @@ const cli_command cli_command_load = {
     "  --resolution D       the leaf side d (default: the seed heuristic)\n"
     "  --accuracy MODE      exact (default), seed or fast\n"
     "  --seed-epsilon E     the epsilon of seed mode\n"
-    "  --effects LIST       what the world serves: rays,triangles,meshes (default all)\n"
+    "  --effects LIST       what the world serves: rays,triangles,meshes,distance (default all)\n"
     "  --daemon NAME        the daemon that builds it (default: the one daemon on the\n"
     "                       bus, found with LIST; with several, --daemon is needed)\n"
     "\n"

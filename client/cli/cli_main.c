@@ -9,7 +9,7 @@ static const cli_command *const commands[] = {
     &cli_command_worlds, &cli_command_info, &cli_command_load, &cli_command_unload,
     &cli_command_ray,    &cli_command_rays, &cli_command_tri,  &cli_command_mesh,
     &cli_command_status, &cli_command_objects, &cli_command_object, &cli_command_state,
-    &cli_command_render,
+    &cli_command_render, &cli_command_distance, &cli_command_clear,
 };
 #define NUM_COMMANDS (sizeof commands / sizeof commands[0])
 

@@ -13,6 +13,7 @@ static const struct {
     {TRIOCT_EFFECT_RAYS, "rays"},
     {TRIOCT_EFFECT_TRIANGLES, "triangles"},
     {TRIOCT_EFFECT_MESHES, "meshes"},
+    {TRIOCT_EFFECT_DISTANCE, "distance"},
 };
 #define NUM_EFFECTS (sizeof effect_names / sizeof effect_names[0])
 

@@ -74,7 +74,7 @@ v -0.5 0.5 0.5
 """ + BOX_OBJ[BOX_OBJ.index("f "):]
 SCENE = """[box]
 mesh = box.obj
-effects = rays triangles meshes
+effects = rays triangles meshes distance
 shape.cube = cube.obj
 
 [box_tri]
@@ -118,9 +118,9 @@ def cube_touches(t):
 
 class TestPackage(unittest.TestCase):
     def test_library_from_build_tree(self):
-        """Imported from the build tree, the package loads the build's libtrioct.so.3."""
+        """Imported from the build tree, the package loads the build's libtrioct.so.4."""
         self.assertNotIn("TRIOCT_LIBRARY", os.environ)
-        self.assertTrue(os.path.samefile(trioct.library_path, os.path.join(BUILD, "libtrioct.so.3")),
+        self.assertTrue(os.path.samefile(trioct.library_path, os.path.join(BUILD, "libtrioct.so.4")),
                         trioct.library_path)
         self.assertTrue(os.path.samefile(os.path.dirname(trioct.__file__), os.path.join(BUILD, "python", "trioct")))
 
@@ -461,12 +461,54 @@ class TestDaemon(unittest.TestCase):
         self.assertEqual(cm.exception.status, trioct.Status.ERR_ZERO_DIRECTION)
         self.assertTrue(cm.exception.message.startswith("rays 1280..1999 of 2000: "), cm.exception.message)
 
+    # -- distance --
+
+    def test_distance_face_edge_vertex(self):
+        """The box [0,4] x [0,4] x [0,2]: distances known exactly, and their features."""
+        r = self.c.distance("box", [[6, 1, 1.5], [7, -2, 1], [7, 7, 5], [2, 1, 1.5]])
+        self.assertEqual(len(r), 4)
+        self.assertTrue(r.found.all())
+        want = [2.0, 13 ** 0.5, 27 ** 0.5, 0.5]
+        for i, w in enumerate(want):
+            self.assertLessEqual(abs(r.distance[i] - w), r.bound[i] + 1e-15)
+            self.assertTrue(r.lower[i] <= r.distance[i] <= r.upper[i])
+        self.assertEqual(r.feature[:3], ["face", "edge", "vertex"])
+        self.assertEqual(tuple(r.point[0]), (4.0, 1.0, 1.5))
+        self.assertEqual(tuple(r.point[2]), (4.0, 4.0, 2.0))
+        self.assertEqual(r.object_names(), ["box"] * 4)
+        self.assertIn(int(r.triangle[0]), (6, 7))  # the side x = 4
+        self.assertEqual(r.requests, 1)
+
+    def test_distance_within_and_one_point(self):
+        r = self.c.distance("box", [6, 1, 1.5], within=1.5)
+        self.assertFalse(r.found[0])
+        self.assertTrue(np.isnan(r.distance[0]))
+        self.assertEqual(r.object_names(), [None])
+        self.assertIsNone(r.feature[0])
+        r = self.c.distance("box", [6, 1, 1.5], within=2.5)
+        self.assertTrue(r.found[0])
+        with self.assertRaises(ValueError):
+            self.c.distance("box", [6, 1, 1.5], within=-1)
+
+    def test_distance_batch_over_the_cap(self):
+        n = trioct.MAX_POINTS + 100
+        pts = np.column_stack([np.linspace(5, 9, n), np.full(n, 1.0), np.full(n, 1.5)])
+        r = self.c.distance("box", pts)
+        self.assertEqual(r.requests, 2)
+        self.assertTrue(np.all(np.abs(r.distance - (pts[:, 0] - 4)) <= r.bound + 1e-12))
+
+    def test_distance_needs_the_effect(self):
+        with self.assertRaises(trioct.DaemonError) as cm:
+            self.c.distance("box_tri", [6, 1, 1.5])
+        self.assertEqual(cm.exception.status, trioct.Status.ERR_EFFECT)
+        self.assertIn("distance queries need effects = distance", cm.exception.message)
+
     # -- worlds, status, admin --
 
     def test_info_worlds_status(self):
         w = self.c.info("box")
         self.assertEqual((w.name, w.daemon, w.triangles, w.vertices, w.objects), ("box", DAEMON, 12, 8, 1))
-        self.assertEqual(w.effects, {"rays", "triangles", "meshes"})
+        self.assertEqual(w.effects, {"rays", "triangles", "meshes", "distance"})
         self.assertEqual(w.shapes, ["cube"])
         self.assertEqual((w.bbox_min, w.bbox_max), ((0.0, 0.0, 0.0), (4.0, 4.0, 2.0)))
         self.assertEqual(w.accuracy, "exact")

@@ -11,7 +11,7 @@ status of the shared table. docs/python.md is the tour.
 """
 
 from . import _constants, _lib
-from .client import Client, DaemonStatus, RayResult, WorldInfo, connect
+from .client import Client, DaemonStatus, DistanceResult, RayResult, WorldInfo, connect
 from .errors import BadReply, DaemonError, Error, NoReply, Status, TransportError, status_name, status_text
 
 __version__ = _constants.VERSION
@@ -22,7 +22,8 @@ library_path = _lib.path
 #: The per-request caps the package splits batches under (trioct_limits.h).
 MAX_RAYS = _lib.MAX_RAYS
 MAX_POSES = _lib.MAX_POSES
+MAX_POINTS = _lib.MAX_POINTS
 
-__all__ = ["connect", "Client", "RayResult", "WorldInfo", "DaemonStatus", "Error", "DaemonError", "NoReply",
+__all__ = ["connect", "Client", "RayResult", "DistanceResult", "WorldInfo", "DaemonStatus", "Error", "DaemonError", "NoReply",
            "TransportError", "BadReply", "Status", "status_name", "status_text", "library_path", "MAX_RAYS",
-           "MAX_POSES", "__version__"]
+           "MAX_POSES", "MAX_POINTS", "__version__"]

@@ -16,8 +16,8 @@ from . import _constants
 
 # The soname this package was written against: a library of another major version has
 # another ABI, so no other name is ever tried (ctypes.util.find_library would happily
-# return a libtrioct.so.3).
-SONAME = "libtrioct.so.3"
+# return a libtrioct.so.4).
+SONAME = "libtrioct.so.4"
 
 
 def _candidates():
@@ -87,12 +87,13 @@ MAX_PATH_LEN = _constants.LIMITS["TRIOCT_MAX_PATH_LEN"]
 MAX_SHAPES = _constants.LIMITS["TRIOCT_MAX_SHAPES"]
 MAX_RAYS = _constants.LIMITS["TRIOCT_MAX_RAYS"]
 MAX_POSES = _constants.LIMITS["TRIOCT_MAX_POSES"]
+MAX_POINTS = _constants.LIMITS["TRIOCT_MAX_POINTS"]
 MAX_INLINE_SHAPE_TRIANGLES = _constants.LIMITS["TRIOCT_MAX_INLINE_SHAPE_TRIANGLES"]
 
 # ---- enums ---------------------------------------------------------------------------------------
 
 ACCURACY_WORLD, ACCURACY_EXACT, ACCURACY_SEED, ACCURACY_FAST = -1, 0, 1, 2
-EFFECT_RAYS, EFFECT_TRIANGLES, EFFECT_MESHES = 1, 2, 4
+EFFECT_RAYS, EFFECT_TRIANGLES, EFFECT_MESHES, EFFECT_DISTANCE = 1, 2, 4, 8
 RAY_ANY, RAY_CLOSEST, RAY_ALL = 0, 1, 2
 CONTACT_CROSSING, CONTACT_TOUCH = 0, 1
 MESH_YESNO, MESH_PAIRS = 0, 1
@@ -175,6 +176,25 @@ class MeshResult(ctypes.Structure):
                 ("num_pairs", c_size_t), ("pairs", ctypes.POINTER(MeshPair)), ("objects", ObjectNames)]
 
 
+class PointDistanceQuery(ctypes.Structure):
+    _c_name_ = "trioct_point_distance_query"
+    _fields_ = [("world", c_char_p), ("within", c_double), ("count", c_size_t), ("points", c_void_p)]
+
+
+class Distance(ctypes.Structure):
+    _c_name_ = "trioct_distance"
+    _fields_ = [("item", c_int32), ("found", c_int), ("clear", c_int), ("distance", c_double),
+                ("bound", c_double), ("lower", c_double), ("upper", c_double), ("point", Vec3),
+                ("shape_point", Vec3), ("object", c_int32), ("triangle", c_int32), ("shape_triangle", c_int32),
+                ("feature", c_int), ("feature_index", c_int), ("inside", c_int)]
+
+
+class DistanceResult(ctypes.Structure):
+    _c_name_ = "trioct_distance_result"
+    _fields_ = [("reply", Reply), ("num_results", c_size_t), ("results", ctypes.POINTER(Distance)),
+                ("objects", ObjectNames)]
+
+
 class WorldInfo(ctypes.Structure):
     _c_name_ = "trioct_world_info"
     _fields_ = [
@@ -227,7 +247,7 @@ class DaemonStatus(ctypes.Structure):
     _fields_ = [
         ("reply", Reply), ("utime", c_int64), ("version", ctypes.c_char * 64), ("uptime_us", c_int64),
         ("state", c_int), ("threads", c_int), ("queue_depth", c_int), ("queue_capacity", c_int),
-        ("memory_used", c_int64), ("memory_budget", c_int64), ("served", c_int64 * 6), ("malformed", c_int64),
+        ("memory_used", c_int64), ("memory_budget", c_int64), ("served", c_int64 * 7), ("malformed", c_int64),
         ("duplicates_answered", c_int64), ("duplicates_joined", c_int64),
         ("num_status_codes", c_size_t), ("replies_by_status", ctypes.POINTER(c_int64)),
         ("latency_p50_us", c_int64), ("latency_p99_us", c_int64), ("latency_count", c_int64),
@@ -237,7 +257,7 @@ class DaemonStatus(ctypes.Structure):
 
 
 STRUCTS = (Vec3, Triangle, Pose, ConnectOptions, Reply, ObjectNames, RayQuery, RayHit, RayResult, MeshQuery,
-           MeshPair, MeshResult, WorldInfo, AdminResult, LoadOptions, ListOptions, ListResult, LoadProgress,
+           MeshPair, MeshResult, PointDistanceQuery, Distance, DistanceResult, WorldInfo, AdminResult, LoadOptions, ListOptions, ListResult, LoadProgress,
            DaemonStatus)
 
 # ---- functions -----------------------------------------------------------------------------------
@@ -262,6 +282,9 @@ trioct_rays_contact = _declare("trioct_rays_contact", c_int, c_void_p, P(RayQuer
 trioct_ray_result_free = _declare("trioct_ray_result_free", None, P(RayResult))
 trioct_mesh = _declare("trioct_mesh", c_int, c_void_p, P(MeshQuery), c_int, P(MeshResult))
 trioct_mesh_result_free = _declare("trioct_mesh_result_free", None, P(MeshResult))
+trioct_point_distance = _declare("trioct_point_distance", c_int, c_void_p, P(PointDistanceQuery), c_int,
+                                 P(DistanceResult))
+trioct_distance_result_free = _declare("trioct_distance_result_free", None, P(DistanceResult))
 trioct_pose_from_quaternion = _declare("trioct_pose_from_quaternion", c_int, c_double, c_double, c_double,
                                        c_double, c_double, c_double, c_double, P(Pose))
 trioct_info = _declare("trioct_info", c_int, c_void_p, c_char_p, c_int, P(AdminResult))

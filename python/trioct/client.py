@@ -20,9 +20,10 @@ from .errors import Status, TransportError, error_for
 
 _ACCURACY = {None: _lib.ACCURACY_WORLD, "world": _lib.ACCURACY_WORLD, "exact": _lib.ACCURACY_EXACT,
              "seed": _lib.ACCURACY_SEED, "fast": _lib.ACCURACY_FAST}
-_EFFECTS = {"rays": _lib.EFFECT_RAYS, "triangles": _lib.EFFECT_TRIANGLES, "meshes": _lib.EFFECT_MESHES}
+_EFFECTS = {"rays": _lib.EFFECT_RAYS, "triangles": _lib.EFFECT_TRIANGLES, "meshes": _lib.EFFECT_MESHES,
+            "distance": _lib.EFFECT_DISTANCE}
 _DAEMON_STATES = ("starting", "ready", "reloading", "stopping")
-_SERVED = ("ray", "triangle", "mesh", "admin", "objects", "state")
+_SERVED = ("ray", "triangle", "mesh", "admin", "objects", "state", "distance")
 
 
 # ---- arguments -----------------------------------------------------------------------------------
@@ -312,6 +313,54 @@ class RayResult:
         return "RayResult(%d rays, %d hits)" % (len(self), int(self.hit.sum()))
 
 
+_FEATURES = ("face", "edge", "vertex")
+
+
+class DistanceResult:
+    """The answers of a batch of N points, each array indexed by point:
+
+    found     bool (N,): something of the world lies within `within`
+    distance  float64 (N,): the distance, NaN when not found
+    bound     float64 (N,): its proven error: |distance - exact| <= bound
+    lower, upper  float64 (N,): the exact distance lies in [lower, upper]
+    point     float64 (N, 3): the nearest point of the world; NaN when not found
+    object    int32 (N,): an index into .objects; -1 when not found
+    triangle  int32 (N,): the triangle in that object's mesh; -1 when not found
+    feature   list of "face", "edge" or "vertex" (None when not found)
+    feature_index  int32 (N,): the edge (vertex k to k + 1 mod 3) or vertex; 0 for a face
+    objects   tuple of the object names .object indexes
+    requests, world_versions, daemon  as for RayResult
+
+    Distance is to the surface: no object is solid yet, so none is inside.
+    """
+
+    def __init__(self, n):
+        self.found = np.zeros(n, dtype=bool)
+        self.distance = np.full(n, np.nan)
+        self.bound = np.full(n, np.nan)
+        self.lower = np.full(n, np.nan)
+        self.upper = np.full(n, np.nan)
+        self.point = np.full((n, 3), np.nan)
+        self.object = np.full(n, -1, dtype=np.int32)
+        self.triangle = np.full(n, -1, dtype=np.int32)
+        self.feature = [None] * n
+        self.feature_index = np.zeros(n, dtype=np.int32)
+        self.objects = ()
+        self.requests = 0
+        self.world_versions = ()
+        self.daemon = ""
+
+    def __len__(self):
+        return self.distance.shape[0]
+
+    def object_names(self):
+        """The object's name for each point, None when not found."""
+        return [self.objects[i] if i >= 0 else None for i in self.object]
+
+    def __repr__(self):
+        return "DistanceResult(%d points, %d found)" % (len(self), int(self.found.sum()))
+
+
 # ---- the connection ------------------------------------------------------------------------------
 
 
@@ -521,6 +570,65 @@ class Client:
                 done += k
                 if done >= n:
                     break
+        return out
+
+    def distance(self, world, points, *, within=None, timeout_ms=None):
+        """The nearest point of the world to each point, as `trioct distance` asks it.
+
+        points  (N, 3), or (3,) for one point
+        within  look no farther than this (>= 0); None: no limit
+
+        Any number of points: the batch is cut into requests of at most TRIOCT_MAX_POINTS.
+        The world must serve distance. Returns a DistanceResult."""
+        w = _text(world, "world")
+        p, _ = _points(points, "points")
+        p = np.ascontiguousarray(p, dtype=np.float64)
+        if within is not None and not (float(within) >= 0):
+            raise ValueError("within must be a distance >= 0, not %r" % (within,))
+        n = p.shape[0]
+        out = DistanceResult(n)
+        names = _Names()
+        versions = []
+        q = _lib.PointDistanceQuery(world=w, within=-1.0 if within is None else float(within))
+        with self._lock:
+            h = self._handle()
+            timeout = _timeout(timeout_ms, self.timeout_ms)
+            done = 0
+            while True:
+                k = min(n - done, _lib.MAX_POINTS)
+                q.count = k
+                q.points = p.ctypes.data + done * 24 if k else None
+                res = _lib.DistanceResult()
+                rc = _lib.trioct_point_distance(h, ctypes.byref(q), timeout, ctypes.byref(res))
+                try:
+                    if rc != Status.OK:
+                        part = "points %d..%d of %d" % (done, done + k - 1, n) if k < n else None
+                        raise _failure(res.reply, part)
+                    m = names.mapping(res.objects)
+                    for i in range(k):
+                        d = res.results[i]
+                        if not d.found:
+                            continue
+                        j = done + i
+                        out.found[j] = True
+                        out.distance[j], out.bound[j] = d.distance, d.bound
+                        out.lower[j], out.upper[j] = d.lower, d.upper
+                        out.point[j] = (d.point.x, d.point.y, d.point.z)
+                        out.object[j] = m[d.object]
+                        out.triangle[j] = d.triangle
+                        out.feature[j] = _FEATURES[d.feature] if 0 <= d.feature < 3 else "unknown"
+                        out.feature_index[j] = d.feature_index
+                    out.requests += 1
+                    out.daemon = _str(res.reply.daemon)
+                    if res.reply.world_version not in versions:
+                        versions.append(res.reply.world_version)
+                finally:
+                    _lib.trioct_distance_result_free(ctypes.byref(res))
+                done += k
+                if done >= n:
+                    break
+        out.objects = tuple(names.names)
+        out.world_versions = tuple(versions)
         return out
 
     # -- worlds --

@@ -36,7 +36,7 @@
 #include "trioct_status_t.h"
 
 /* The channels a held world is heard on (daemon_subscriptions.c lists them). */
-#define DAEMON_WORLD_KINDS 6
+#define DAEMON_WORLD_KINDS 7
 
 typedef struct world_subs {
     char name[TRIOCT_MAX_NAME_LEN + 1];

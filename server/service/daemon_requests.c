@@ -18,6 +18,7 @@ static const char *const type_names[REQUEST_TYPE_COUNT] = {
     [REQUEST_ADMIN] = "admin",
     [REQUEST_OBJECTS] = "objects",
     [REQUEST_STATE] = "state",
+    [REQUEST_DISTANCE] = "distance",
 };
 
 static const char *type_name(int type)

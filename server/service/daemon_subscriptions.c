@@ -19,6 +19,7 @@ static const trioct_channel_kind world_kinds[] = {
     TRIOCT_CHANNEL_ADMIN,
     TRIOCT_CHANNEL_OBJECTS,
     TRIOCT_CHANNEL_STATE,
+    TRIOCT_CHANNEL_DISTANCE,
 };
 _Static_assert(sizeof world_kinds / sizeof world_kinds[0] == DAEMON_WORLD_KINDS,
                "world_subs holds one subscription a kind");

@@ -29,7 +29,7 @@ static void service_summary(daemon *d, char *out, size_t len)
 {
     size_t held = registry_entries(d->ctx.worlds, NULL, 0);
     int64_t queries = d->st.served[REQUEST_RAY] + d->st.served[REQUEST_TRIANGLE] +
-                      d->st.served[REQUEST_MESH];
+                      d->st.served[REQUEST_MESH] + d->st.served[REQUEST_DISTANCE];
     const char *state = daemon_state_name(d->state);
     if (d->state == TRIOCT_STATUS_T_READY && !bus_proven(d))
         state = "testing the bus";

@@ -92,6 +92,7 @@ static const wire_type wire_of[REQUEST_TYPE_COUNT] = {
     [REQUEST_ADMIN] = WIRE_ADMIN_REQUEST,
     [REQUEST_OBJECTS] = WIRE_OBJECT_EDIT_REQUEST,
     [REQUEST_STATE] = WIRE_STATE_REQUEST,
+    [REQUEST_DISTANCE] = WIRE_DISTANCE_REQUEST,
 };
 
 /* Offsets after the header of the fields dispatch_is_small reads: ray_request_t (and v1)
@@ -180,6 +181,9 @@ static dispatch_peek_result peek(const dispatch_ctx *ctx, const char *channel, c
     case TRIOCT_CHANNEL_STATE:
         type = REQUEST_STATE;
         break;
+    case TRIOCT_CHANNEL_DISTANCE:
+        type = REQUEST_DISTANCE;
+        break;
     default:
         return PEEK_NOT_MINE; /* STATUS: another daemon's heartbeat */
     }
@@ -192,7 +196,8 @@ static dispatch_peek_result peek(const dispatch_ctx *ctx, const char *channel, c
     int len = __trioct_request_header_t_decode_array(bytes, 8, (int)size - 8, hdr, 1);
     if (len < 0)
         return PEEK_MALFORMED;
-    /* Every request type carries one int8 right after its header: detail, or the admin op. */
+    /* Every request type carries one int8 right after its header: detail, the admin op or
+     * the distance kind. */
     int8_t after = 0;
     if (__int8_t_decode_array(bytes, 8 + len, (int)size - 8 - len, &after, 1) != 1) {
         __trioct_request_header_t_decode_array_cleanup(hdr, 1);
@@ -338,7 +343,8 @@ static int check_admin_channel(job *j)
 static int channel_has_world(trioct_channel_kind kind)
 {
     return kind == TRIOCT_CHANNEL_RAY || kind == TRIOCT_CHANNEL_TRI || kind == TRIOCT_CHANNEL_MESH ||
-           kind == TRIOCT_CHANNEL_ADMIN || kind == TRIOCT_CHANNEL_OBJECTS || kind == TRIOCT_CHANNEL_STATE;
+           kind == TRIOCT_CHANNEL_ADMIN || kind == TRIOCT_CHANNEL_OBJECTS || kind == TRIOCT_CHANNEL_STATE ||
+           kind == TRIOCT_CHANNEL_DISTANCE;
 }
 
 static const struct {
@@ -350,24 +356,34 @@ static const struct {
     [REQUEST_TRIANGLE] = {EFFECT_TRIANGLES, "triangles", "triangle"},
     [REQUEST_MESH] = {EFFECT_MESHES, "meshes", "mesh"},
     [REQUEST_STATE] = {EFFECT_MESHES, "meshes", "state"},
+    [REQUEST_DISTANCE] = {EFFECT_DISTANCE, "distance", "distance"},
 };
 
-/* "rays", "rays and meshes", ...: what a world serves, for a person. */
+/* The effects in the order a person reads them, each once (state queries share meshes). */
+static const request_type effect_order[] = {REQUEST_RAY, REQUEST_TRIANGLE, REQUEST_MESH, REQUEST_DISTANCE};
+#define EFFECT_ORDER_COUNT (sizeof effect_order / sizeof effect_order[0])
+
+/* "rays", "rays and meshes", "rays, meshes and distance": what a world serves, for a person. */
 static const char *effects_words(unsigned effects, char *buf, size_t len)
 {
-    const char *names[3];
+    const char *names[EFFECT_ORDER_COUNT];
     size_t n = 0;
-    for (int t = REQUEST_RAY; t <= REQUEST_MESH; t++)
-        if (effects & effect_of[t].bit)
-            names[n++] = effect_of[t].effect;
-    if (n == 0)
+    for (size_t k = 0; k < EFFECT_ORDER_COUNT; k++)
+        if (effects & effect_of[effect_order[k]].bit)
+            names[n++] = effect_of[effect_order[k]].effect;
+    if (n == 0) {
         snprintf(buf, len, "nothing");
-    else if (n == 1)
-        snprintf(buf, len, "%s", names[0]);
-    else if (n == 2)
-        snprintf(buf, len, "%s and %s", names[0], names[1]);
-    else
-        snprintf(buf, len, "%s, %s and %s", names[0], names[1], names[2]);
+        return buf;
+    }
+    size_t used = 0;
+    buf[0] = '\0';
+    for (size_t k = 0; k < n && used < len; k++) {
+        const char *sep = k == 0 ? "" : k + 1 == n ? " and " : ", ";
+        int w = snprintf(buf + used, len - used, "%s%s", sep, names[k]);
+        if (w < 0)
+            break;
+        used += (size_t)w;
+    }
     return buf;
 }
 
@@ -474,6 +490,14 @@ static int run_request(job *j, const void *bytes, size_t size)
             break;
         status = dispatch_state(j, &m);
         trioct_state_request_t_decode_cleanup(&m);
+        return status;
+    }
+    case REQUEST_DISTANCE: {
+        trioct_distance_request_t m;
+        if (trioct_distance_request_t_decode(bytes, 0, len, &m) < 0)
+            break;
+        status = dispatch_distance(j, &m);
+        trioct_distance_request_t_decode_cleanup(&m);
         return status;
     }
     case REQUEST_OBJECTS: {

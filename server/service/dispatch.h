@@ -48,6 +48,7 @@ typedef enum request_type {
     REQUEST_ADMIN = 3,
     REQUEST_OBJECTS = 4,
     REQUEST_STATE = 5,
+    REQUEST_DISTANCE = 6,
     REQUEST_TYPE_COUNT
 } request_type;
 

@@ -209,8 +209,8 @@ static int load_spec(job *j, const trioct_admin_request_t *m, world_spec *spec)
                         m->accuracy);
     if (m->effects & ~(int32_t)EFFECT_ALL)
         return job_fail(j, TRIOCT_ERR_BAD_REQUEST,
-                        "effects 0x%x has bits other than EFFECT_RAYS (1), EFFECT_TRIANGLES (2) and "
-                        "EFFECT_MESHES (4)",
+                        "effects 0x%x has bits other than EFFECT_RAYS (1), EFFECT_TRIANGLES (2), "
+                        "EFFECT_MESHES (4) and EFFECT_DISTANCE (8)",
                         (unsigned)m->effects);
     world_spec_init(spec, name);
     memcpy(spec->meshes[0], m->mesh_path, len + 1);

@@ -398,9 +398,64 @@ int encode_state_reply(dispatch_reply *out, const reply_head *h, int8_t detail, 
     return split_encode(out, &ops, &q, count);
 }
 
+/* Distance replies: chunk 0 carries the object names; the results, one an item and all of
+ * one size, are cut over the chunks in order. */
+typedef struct distance_chunks {
+    const reply_head *head;
+    int8_t kind;
+    int32_t object_count;
+    char **objects;
+    const trioct_distance_result_t *results;
+    size_t record_bytes;
+} distance_chunks;
+
+static void distance_fill(const distance_chunks *q, int first, size_t lo, size_t hi, int32_t index, int32_t count,
+                          trioct_distance_reply_t *m)
+{
+    fill_head(&m->header, q->head, index, count);
+    m->kind = q->kind;
+    m->num_objects = first ? q->object_count : 0;
+    m->objects = first ? q->objects : NULL;
+    m->num_results = (int32_t)(hi - lo);
+    m->results = (trioct_distance_result_t *)SLICE(q->results, lo);
+}
+
+static int distance_size(const void *ctx, int first, size_t lo, size_t hi)
+{
+    trioct_distance_reply_t m;
+    distance_fill(ctx, first, lo, hi, 0, 1, &m);
+    return trioct_distance_reply_t_encoded_size(&m);
+}
+
+static int distance_encode(const void *ctx, int first, size_t lo, size_t hi, int32_t index, int32_t count,
+                           void *buf, int len)
+{
+    trioct_distance_reply_t m;
+    distance_fill(ctx, first, lo, hi, index, count, &m);
+    return trioct_distance_reply_t_encode(buf, 0, len, &m);
+}
+
+static size_t distance_record_size(const void *ctx, size_t i)
+{
+    (void)i;
+    return ((const distance_chunks *)ctx)->record_bytes;
+}
+
+int encode_distance_reply(dispatch_reply *out, const reply_head *h, int8_t kind, int32_t object_count, char **objects,
+                          const trioct_distance_result_t *results, size_t count)
+{
+    static const chunk_ops ops = {distance_size, distance_encode, distance_record_size};
+    trioct_distance_result_t one = {0};
+    distance_chunks q = {h, kind, object_count, objects, count ? results : NULL,
+                         (size_t)__trioct_distance_result_t_encoded_array_size(&one, 1)};
+    return split_encode(out, &ops, &q, count);
+}
+
 int encode_error_reply(dispatch_reply *out, request_type type, const reply_head *h, int8_t detail)
 {
     switch (type) {
+    case REQUEST_DISTANCE:
+        return encode_distance_reply(out, h, detail, 0, NULL, NULL, 0);
     case REQUEST_OBJECTS:
         return encode_object_reply(out, h, -1, 0, 0, NULL, 0);
     case REQUEST_STATE:

@@ -7,6 +7,7 @@
  *   dispatch_admin.c    LIST, INFO, LOAD, UNLOAD and world_info_t
  *   dispatch_objects.c  object edits and listings
  *   dispatch_state.c    robot state checks
+ *   dispatch_distance.c distances from points (and, later, shapes) and clearance
  *   dispatch_encode.c   replies cut into chunks that each fit TRIOCT_MAX_CHUNK_BYTES */
 #ifndef TRIOCT_SERVICE_DISPATCH_INTERNAL_H
 #define TRIOCT_SERVICE_DISPATCH_INTERNAL_H
@@ -18,6 +19,8 @@
 #include "dispatch.h"
 #include "trioct_admin_reply_t.h"
 #include "trioct_admin_request_t.h"
+#include "trioct_distance_reply_t.h"
+#include "trioct_distance_request_t.h"
 #include "trioct_mesh_reply_t.h"
 #include "trioct_mesh_request_t.h"
 #include "trioct_object_edit_request_t.h"
@@ -102,6 +105,7 @@ int dispatch_mesh(job *j, const trioct_mesh_request_t *m);
 int dispatch_admin(job *j, const trioct_admin_request_t *m);
 int dispatch_objects(job *j, const trioct_object_edit_request_t *m);
 int dispatch_state(job *j, const trioct_state_request_t *m);
+int dispatch_distance(job *j, const trioct_distance_request_t *m);
 
 /* ---------- replies ---------- */
 
@@ -183,6 +187,11 @@ int encode_object_reply(dispatch_reply *out, const reply_head *h, int32_t failed
  * the count contacts are split over the chunks. */
 int encode_state_reply(dispatch_reply *out, const reply_head *h, int8_t detail, int32_t states, const int32_t *found, int32_t object_count, char **objects,
                        const trioct_state_contact_t *contacts, size_t count);
+
+/* A distance reply: chunk 0 carries the object names; the count results, all of one size,
+ * are split over the chunks in order. */
+int encode_distance_reply(dispatch_reply *out, const reply_head *h, int8_t kind, int32_t object_count, char **objects,
+                          const trioct_distance_result_t *results, size_t count);
 
 /* One chunk, no results, of the reply type for type. */
 int encode_error_reply(dispatch_reply *out, request_type type, const reply_head *h, int8_t detail);

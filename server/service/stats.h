@@ -18,7 +18,7 @@
 
 #include "../../common/trioct_status.h"
 
-#define STATS_REQUEST_TYPES 6 /* ray, triangle, mesh, admin, objects, state: status_t.served */
+#define STATS_REQUEST_TYPES 7 /* ray, triangle, mesh, admin, objects, state, distance: status_t.served */
 #define STATS_DEFAULT_MAX_SAMPLES ((size_t)1 << 20)
 
 typedef struct stats {

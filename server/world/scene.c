@@ -93,6 +93,7 @@ static const struct {
     {"rays", EFFECT_RAYS},
     {"triangles", EFFECT_TRIANGLES},
     {"meshes", EFFECT_MESHES},
+    {"distance", EFFECT_DISTANCE},
 };
 #define EFFECT_WORD_COUNT (sizeof effect_words / sizeof effect_words[0])
 
@@ -135,7 +136,7 @@ int effects_parse(const char *text, unsigned *effects, char *err, size_t err_len
                 bit = effect_words[i].bit;
         if (!bit) {
             if (err && err_len)
-                snprintf(err, err_len, "unknown effect '%.*s' (rays, triangles or meshes)",
+                snprintf(err, err_len, "unknown effect '%.*s' (rays, triangles, meshes or distance)",
                          n > 64 ? 64 : (int)n, at);
             return -1;
         }
@@ -144,7 +145,7 @@ int effects_parse(const char *text, unsigned *effects, char *err, size_t err_len
     }
     if (mask == 0) {
         if (err && err_len)
-            snprintf(err, err_len, "no effect given (any of rays, triangles, meshes)");
+            snprintf(err, err_len, "no effect given (any of rays, triangles, meshes, distance)");
         return -1;
     }
     *effects = mask;

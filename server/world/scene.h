@@ -15,7 +15,7 @@
  *   max_depth = 16
  *   accuracy = exact         ; exact | seed | fast
  *   seed_epsilon = 1e-9      ; seed only
- *   effects = rays triangles meshes  ; what the world serves, any of the three
+ *   effects = rays triangles meshes distance  ; what the world serves, any of the four
  *   shape.gripper = gripper.stl      ; query shapes for mesh queries (meshes effect)
  *   solid = yes              ; yes | no (default): the mesh (or every object) is a closed
  *                            ; solid whose inside counts as contact; solid.NAME overrides
@@ -43,12 +43,13 @@ enum {
     EFFECT_RAYS = 1,
     EFFECT_TRIANGLES = 2,
     EFFECT_MESHES = 4,
-    EFFECT_ALL = 7,
+    EFFECT_DISTANCE = 8,
+    EFFECT_ALL = 15,
 };
 
 /* The text of an effects mask ("rays triangles"); buf of at least 32 bytes. */
 const char *effects_text(unsigned effects, char *buf, size_t len);
-/* Parses "rays triangles meshes" (spaces or commas); 0, or -1 naming the bad word in err. */
+/* Parses "rays triangles meshes distance" (spaces or commas); 0, or -1 naming the bad word in err. */
 int effects_parse(const char *text, unsigned *effects, char *err, size_t err_len);
 /* "exact" | "seed" | "fast"; 0 or -1. */
 int accuracy_parse(const char *text, accuracy_mode *mode);

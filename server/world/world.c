@@ -422,7 +422,7 @@ static octree_def world_tree_def(const world_spec *spec)
 {
     octree_def def = spec->def;
 #ifdef OCTREE_HAS_TRIANGLE_BOXES
-    def.triangle_boxes = (spec->effects & (EFFECT_TRIANGLES | EFFECT_MESHES)) != 0;
+    def.triangle_boxes = (spec->effects & (EFFECT_TRIANGLES | EFFECT_MESHES | EFFECT_DISTANCE)) != 0;
 #endif
     return def;
 }

@@ -592,7 +592,7 @@ static int group_setup(void **state)
         return -1;
     fputs(box_obj, pf);
     fclose(pf);
-    write_text("scene.ini", "[box]\nmesh = box.obj\neffects = rays triangles meshes\n"
+    write_text("scene.ini", "[box]\nmesh = box.obj\neffects = rays triangles meshes distance\n"
                             "shape.cube = cube.obj\n\n"
                             "[box_rays]\nmesh = box.obj\neffects = rays\n\n"
                             "[broken]\nmesh = missing.obj\n");
@@ -705,7 +705,7 @@ static void test_worlds(void **state)
     check_box_info(v, at);
     char p[64];
     snprintf(p, sizeof p, "worlds.%d.effects", box);
-    assert_int_equal(jlen(v, p), 3);
+    assert_int_equal(jlen(v, p), 4); /* all: rays, triangles, meshes, distance */
     snprintf(p, sizeof p, "worlds.%d.shapes.0", box);
     assert_string_equal(jstr(v, p), "cube");
     snprintf(p, sizeof p, "worlds.%d.effects", rays);
@@ -724,7 +724,7 @@ static void test_worlds(void **state)
     expect_text(r.out, "3 worlds on 1 daemon (" BUS_URL "), 1 not loaded");
     expect_text(r.out, "WORLD");
     expect_text(r.out, "box_rays");
-    expect_text(r.out, "rays triangles meshes");
+    expect_text(r.out, "rays triangles meshes distance");
     expect_text(r.out, "not loaded: world 'broken': missing.obj: No such file or directory");
     run_free(&r);
 
@@ -1506,6 +1506,101 @@ static void test_state(void **state)
     run_free(&r);
 }
 
+/* trioct distance against the box [0,4] x [0,4] x [0,2]: distances known exactly, the
+ * nearest feature a face, an edge or a vertex, --within, and the shape and clearance
+ * forms printing the daemon's refusal. */
+static void test_distance(void **state)
+{
+    (void)state;
+    jv *v = JSON(0, "distance", "box", "--point", "6", "1", "1.5", "--point", "7", "-2", "1", "--point", "7", "7",
+                 "5", "--point", "2", "1", "1.5");
+    assert_string_equal(jstr(v, "command"), "distance");
+    assert_int_equal((int)jnum(v, "points"), 4);
+    assert_int_equal(jget(v, "within")->type, J_NULL);
+    assert_int_equal(jlen(v, "results"), 4);
+    /* (6, 1, 1.5) is 2 from the side x = 4, on its face. */
+    assert_true(jbool(v, "results.0.found"));
+    assert_true(fabs(jnum(v, "results.0.distance") - 2.0) <= jnum(v, "results.0.bound"));
+    assert_true(jnum(v, "results.0.lower") <= 2.0 && 2.0 <= jnum(v, "results.0.upper"));
+    assert_true(jnum(v, "results.0.point.0") == 4.0 && jnum(v, "results.0.point.1") == 1.0 &&
+                jnum(v, "results.0.point.2") == 1.5);
+    assert_true(jnum(v, "results.0.query.0") == 6.0);
+    assert_string_equal(jstr(v, "results.0.object"), "box");
+    int tri = (int)jnum(v, "results.0.triangle");
+    assert_true(tri == 6 || tri == 7); /* the side x = 4 */
+    assert_string_equal(jstr(v, "results.0.feature"), "face");
+    assert_int_equal((int)jnum(v, "results.0.feature_index"), 0);
+    assert_null(jget(v, "results.0.inside")); /* no solid objects: left out */
+    /* (7, -2, 1): sqrt(13) from the edge x = 4, y = 0. */
+    assert_string_equal(jstr(v, "results.1.feature"), "edge");
+    assert_true(fabs(jnum(v, "results.1.distance") - sqrt(13.0)) <= jnum(v, "results.1.bound") + 1e-15);
+    assert_true(jnum(v, "results.1.point.0") == 4.0 && jnum(v, "results.1.point.1") == 0.0);
+    /* (7, 7, 5): 3 sqrt(3) from the corner (4, 4, 2). */
+    assert_string_equal(jstr(v, "results.2.feature"), "vertex");
+    assert_true(fabs(jnum(v, "results.2.distance") - sqrt(27.0)) <= jnum(v, "results.2.bound") + 1e-15);
+    assert_true(jnum(v, "results.2.point.0") == 4.0 && jnum(v, "results.2.point.1") == 4.0 &&
+                jnum(v, "results.2.point.2") == 2.0);
+    /* Inside the box, its surface distance: 0.5 to the top. */
+    assert_true(fabs(jnum(v, "results.3.distance") - 0.5) <= jnum(v, "results.3.bound"));
+    assert_true(jnum(v, "results.3.point.2") == 2.0);
+    jfree(v);
+
+    v = JSON(0, "distance", "box", "--point", "6", "1", "1.5", "--within", "1.5");
+    assert_true(jnum(v, "within") == 1.5);
+    assert_false(jbool(v, "results.0.found"));
+    assert_null(jget(v, "results.0.distance"));
+    jfree(v);
+
+    cli_run r = CLI("distance", "box", "--point", "6", "1", "1.5", "--point", "7", "-2", "1");
+    expect_code(&r, 0);
+    expect_text(r.out, "2 points, 2 with a nearest point");
+    expect_text(r.out, "DISTANCE");
+    expect_text(r.out, "2 ± ");
+    expect_text(r.out, "4 1 1.5");
+    expect_text(r.out, "face");
+    expect_text(r.out, "edge ");
+    run_free(&r);
+    r = CLI("distance", "box", "--point", "6", "1", "1.5", "--within", "1");
+    expect_code(&r, 0);
+    expect_text(r.out, "none within");
+    run_free(&r);
+
+    v = JSON(1, "distance", "box_rays", "--point", "6", "1", "1.5");
+    assert_string_equal(jstr(v, "status"), "ERR_EFFECT");
+    expect_text(jstr(v, "message"), "distance queries need effects = distance");
+    jfree(v);
+
+    /* Shape distance and clearance: parsed and sent, refused by this daemon by name. */
+    r = CLI("distance", "box", "--shape", "cube", "--pose", "2 2 5 1 0 0 0");
+    expect_code(&r, 1);
+    expect_text(r.err, "ERR_BAD_REQUEST");
+    expect_text(r.err, "distance kind SHAPE (1) is not served by this version of trioctd");
+    run_free(&r);
+    v = JSON(1, "clear", "box", "--shape", "cube", "--pose", "2 2 5 1 0 0 0", "--pose", "2 2 2.6", "--within", "0.05");
+    assert_string_equal(jstr(v, "command"), "clear");
+    expect_text(jstr(v, "message"), "distance kind CLEAR (2) is not served by this version of trioctd");
+    jfree(v);
+
+    /* Usage errors: nothing is asked. */
+    const char *const bad[][9] = {
+        {"distance", "box", NULL},
+        {"distance", "box", "--point", "1", "2", NULL},
+        {"distance", "box", "--point", "1", "2", "x", NULL},
+        {"distance", "box", "--point", "1", "2", "3", "--within", "-1"},
+        {"distance", "box", "--point", "1", "2", "3", "--shape", "cube", NULL},
+        {"clear", "box", "--shape", "cube", NULL},
+        {"clear", "box", "--within", "0.1", NULL},
+    };
+    for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) {
+        const char *args[10] = {0};
+        for (int k = 0; k < 9 && bad[i][k]; k++)
+            args[k] = bad[i][k];
+        r = run_cli(NULL, args);
+        expect_code(&r, 2);
+        run_free(&r);
+    }
+}
+
 static void test_load_and_unload(void **state)
 {
     (void)state;
@@ -1939,6 +2034,7 @@ int main(int argc, char **argv)
         cmocka_unit_test(test_status),
         cmocka_unit_test(test_objects),
         cmocka_unit_test(test_state),
+        cmocka_unit_test(test_distance),
     };
     return cmocka_run_group_tests(tests, group_setup, group_teardown);
 }

@@ -10,12 +10,12 @@
 #   - a multiarch LIBDIR (PREFIX=/usr LIBDIR=/usr/lib/<triplet>) gets the libraries and
 #     trioct.pc, whose libdir says so, and the Python package loads the library from there;
 #   - the installed Python package imports with its directory on sys.path and loads the
-#     installed libtrioct.so.3, not the build's;
+#     installed libtrioct.so.4, not the build's;
 #   - client/examples/ray_example.c (C) and ray_example.cpp (C++), copied out of the tree,
 #     compile against the installed header alone and link with one line against the shared
 #     and against the static library, and run: no daemon on a private memq:// bus, so each
 #     says so and exits 1;
-#   - the shared library's soname is libtrioct.so.3 and it exports exactly the functions
+#   - the shared library's soname is libtrioct.so.4 and it exports exactly the functions
 #     trioct.h declares (TRIOCT_API), nothing of the generated wire code or common/;
 #   - `make uninstall` with the same variables leaves no file in any of those trees and no
 #     directory of trioct's own, but keeps an edited /etc/trioct/scene.ini.
@@ -78,8 +78,8 @@ usr/libexec/trioct d
 usr/libexec/trioct/trioct-load f 755
 usr/lib d
 usr/lib/libtrioct.a f 644
-usr/lib/libtrioct.so l -> libtrioct.so.3
-usr/lib/libtrioct.so.3 f 644
+usr/lib/libtrioct.so l -> libtrioct.so.4
+usr/lib/libtrioct.so.4 f 644
 usr/lib/pkgconfig d
 usr/lib/pkgconfig/trioct.pc f 644
 usr/lib/python3 d
@@ -126,7 +126,7 @@ fi
 
 for pair in "$build/trioctd usr/bin/trioctd" "$build/trioct-load usr/libexec/trioct/trioct-load" \
     "$build/trioct usr/bin/trioct" "$build/trioct-replay usr/bin/trioct-replay" \
-    "$build/libtrioct.a usr/lib/libtrioct.a" "$build/libtrioct.so.3 usr/lib/libtrioct.so.3" \
+    "$build/libtrioct.a usr/lib/libtrioct.a" "$build/libtrioct.so.4 usr/lib/libtrioct.so.4" \
     "client/trioct.h usr/include/trioct/trioct.h" \
     "$build/trioct-lcm-types.jar usr/share/java/trioct-lcm-types.jar" \
     "common/trioct_limits.h usr/include/trioct/trioct_limits.h" \
@@ -167,7 +167,7 @@ if quiet $make -s --no-print-directory BUILD="$build" install-lib DESTDIR="$tmp/
     grep -qx 'prefix=/usr/local' "$tmp/dest-local/usr/local/lib/pkgconfig/trioct.pc" &&
     grep -qx 'libdir=/usr/local/lib' "$tmp/dest-local/usr/local/lib/pkgconfig/trioct.pc" &&
     [ -f "$tmp/dest-local/usr/local/include/trioct/trioct.h" ] &&
-    [ -f "$tmp/dest-local/usr/local/lib/libtrioct.so.3" ]; then
+    [ -f "$tmp/dest-local/usr/local/lib/libtrioct.so.4" ]; then
     ok "without PREFIX: /usr/local, written into trioct.pc"
 else
     not_ok "without PREFIX: not installed under /usr/local, or trioct.pc says otherwise"
@@ -208,11 +208,11 @@ for name in c_shared c_static cxx_shared cxx_static; do
     if quiet $line; then ok "$name: $line"; else not_ok "$name: $line"; fi
 done
 for name in c_shared cxx_shared; do
-    if readelf -d $name 2>/dev/null | grep -q 'NEEDED.*\[libtrioct\.so\.3\]' &&
-        LD_LIBRARY_PATH="$dest/usr/lib" ldd ./$name | grep -q "libtrioct.so.3 => $dest/usr/lib/libtrioct.so.3"; then
-        ok "$name loads the installed libtrioct.so.3"
+    if readelf -d $name 2>/dev/null | grep -q 'NEEDED.*\[libtrioct\.so\.4\]' &&
+        LD_LIBRARY_PATH="$dest/usr/lib" ldd ./$name | grep -q "libtrioct.so.4 => $dest/usr/lib/libtrioct.so.4"; then
+        ok "$name loads the installed libtrioct.so.4"
     else
-        not_ok "$name does not load the installed libtrioct.so.3"
+        not_ok "$name does not load the installed libtrioct.so.4"
     fi
 done
 for name in c_static cxx_static; do
@@ -242,8 +242,8 @@ done
 cd - >/dev/null
 
 # ---- what the shared library exports -------------------------------------------------------
-so="$dest/usr/lib/libtrioct.so.3"
-if readelf -d "$so" | grep -q 'SONAME.*\[libtrioct\.so\.3\]'; then ok "soname libtrioct.so.3"; else not_ok "the soname is not libtrioct.so.3"; fi
+so="$dest/usr/lib/libtrioct.so.4"
+if readelf -d "$so" | grep -q 'SONAME.*\[libtrioct\.so\.4\]'; then ok "soname libtrioct.so.4"; else not_ok "the soname is not libtrioct.so.4"; fi
 sed -n 's/^TRIOCT_API[^(]*[ *]\(trioct_[a-z0-9_]*\)(.*/\1/p' "$dest/usr/include/trioct/trioct.h" |
     LC_ALL=C sort -u >"$tmp/api.want"
 nm -D --defined-only "$so" | awk '{ print $3 }' | LC_ALL=C sort -u >"$tmp/api.got"
@@ -296,8 +296,8 @@ for style in angle quoted; do
     fi
     out=$(LD_LIBRARY_PATH="$opt/opt/trioct/lib" "$tmp/user/$style" 2>&1)
     if [ "$out" = "ERR_NO_DAEMON 1280" ] &&
-        LD_LIBRARY_PATH="$opt/opt/trioct/lib" ldd "$tmp/user/$style" | grep -q "libtrioct.so.3 => $opt/opt/trioct/lib/libtrioct.so.3"; then
-        ok "/opt/trioct, $style include: built with pkg-config, runs on the installed libtrioct.so.3"
+        LD_LIBRARY_PATH="$opt/opt/trioct/lib" ldd "$tmp/user/$style" | grep -q "libtrioct.so.4 => $opt/opt/trioct/lib/libtrioct.so.4"; then
+        ok "/opt/trioct, $style include: built with pkg-config, runs on the installed libtrioct.so.4"
     else
         not_ok "/opt/trioct, $style include: printed '$out', or did not load /opt/trioct's library"
     fi
@@ -313,7 +313,7 @@ if quiet $make -s --no-print-directory BUILD="$build" install DESTDIR="$ma" PREF
 else
     not_ok "make install DESTDIR=... PREFIX=/usr LIBDIR=$madir failed"
 fi
-if [ -f "$ma$madir/libtrioct.so.3" ] && [ -f "$ma$madir/libtrioct.a" ] && [ -L "$ma$madir/libtrioct.so" ] &&
+if [ -f "$ma$madir/libtrioct.so.4" ] && [ -f "$ma$madir/libtrioct.a" ] && [ -L "$ma$madir/libtrioct.so" ] &&
     [ -f "$ma$madir/pkgconfig/trioct.pc" ] && ! ls "$ma"/usr/lib/libtrioct* "$ma"/usr/lib/pkgconfig >/dev/null 2>&1; then
     ok "$madir: the libraries and trioct.pc, nothing in /usr/lib"
 else
@@ -328,7 +328,7 @@ fi
 
 # ---- the Python package, installed -----------------------------------------------------------
 # Imported with only its installed directory added to sys.path (and no TRIOCT_LIBRARY), from
-# outside the tree: it must load the libtrioct.so.3 installed with it, found through the
+# outside the tree: it must load the libtrioct.so.4 installed with it, found through the
 # relative path its _paths.py holds, since DESTDIR is not where the absolute one points.
 py_run() {
     (cd "$tmp" && env -u TRIOCT_LIBRARY -u PYTHONPATH $py_env PYTHONPATH="$1" "$python" -c '
@@ -348,11 +348,11 @@ for spec in "$dest|/usr/lib|/usr/lib" "$opt|/opt/trioct/lib|/opt/trioct/lib" "$m
     libdir=${rest#*|}
     pkg="$root$pylib/python3/dist-packages"
     want="$pkg/trioct/__init__.py
-$root$libdir/libtrioct.so.3
+$root$libdir/libtrioct.so.4
 ERR_NO_DAEMON"
     got=$(py_run "$pkg")
-    if [ "$got" = "$want" ] && grep -qx "LIBRARY = \"$libdir/libtrioct.so.3\"" "$pkg/trioct/_paths.py"; then
-        ok "python3: import trioct from $pylib/python3/dist-packages loads $libdir/libtrioct.so.3 of that install"
+    if [ "$got" = "$want" ] && grep -qx "LIBRARY = \"$libdir/libtrioct.so.4\"" "$pkg/trioct/_paths.py"; then
+        ok "python3: import trioct from $pylib/python3/dist-packages loads $libdir/libtrioct.so.4 of that install"
     else
         printf 'expected:\n%s\ngot:\n%s\n' "$want" "$got"
         cat "$pkg/trioct/_paths.py"

@@ -80,7 +80,7 @@ int main(int argc, char **argv)
     st.queue_capacity = INT32_MAX;
     st.memory_used = INT64_MIN;
     st.memory_budget = INT64_C(0x0123456789abcdef);
-    for (int i = 0; i < 6; i++)
+    for (int i = 0; i < 7; i++)
         st.served[i] = i + 1;
     st.malformed = -1;
     st.num_status_codes = 3;

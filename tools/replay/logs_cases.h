@@ -16,7 +16,9 @@
  *   touch     the contact rule: grazing rays as CROSSING (old and new request types) and
  *             as TOUCH, and the touch requests refused
  *   objects   object edits interleaved with queries: moves, adds (a file shared, inline
- *             triangles), removes, every edit error, and lists all or none */
+ *             triangles), removes, every edit error, and lists all or none
+ *   distance  point distances on one tree and on posed objects, limits, chunks, and what
+ *             is refused (no effect, NaN, SHAPE and CLEAR not served yet) */
 #ifndef TRIOCT_LOGS_CASES_H
 #define TRIOCT_LOGS_CASES_H
 
@@ -32,6 +34,7 @@ int logs_write_hostile(const char *dir);
 int logs_write_stopping(const char *dir);
 int logs_write_touch(const char *dir);
 int logs_write_objects(const char *dir);
+int logs_write_distance(const char *dir);
 
 /* The seed every log draws its geometry from. */
 #define LOGS_SEED UINT64_C(0x7472696f63740006)

@@ -149,6 +149,33 @@ void lr_state_quaternions(logs_writer *w, const lr_req *q, int8_t detail, int8_t
     lw_state(w, channel_of(q, TRIOCT_CHANNEL_STATE), &m);
 }
 
+void lr_distance_points(logs_writer *w, const lr_req *q, double within, int n, const trioct_vec3_t *points)
+{
+    trioct_distance_request_t m;
+    memset(&m, 0, sizeof m);
+    m.header = header_of(q);
+    m.kind = TRIOCT_DISTANCE_REQUEST_T_POINTS;
+    m.within = within;
+    m.num_points = n;
+    m.points = (trioct_vec3_t *)points;
+    m.shape = "";
+    lw_distance(w, channel_of(q, TRIOCT_CHANNEL_DISTANCE), &m);
+}
+
+void lr_distance_shape(logs_writer *w, const lr_req *q, int8_t kind, double within, const char *shape, int n_poses,
+                       const trioct_pose_t *poses)
+{
+    trioct_distance_request_t m;
+    memset(&m, 0, sizeof m);
+    m.header = header_of(q);
+    m.kind = kind;
+    m.within = within;
+    m.shape = (char *)shape;
+    m.num_poses = n_poses;
+    m.poses = (trioct_pose_t *)poses;
+    lw_distance(w, channel_of(q, TRIOCT_CHANNEL_DISTANCE), &m);
+}
+
 void lr_load(logs_writer *w, const lr_req *q, const char *mesh_path, double resolution, int8_t accuracy,
              double seed_epsilon, int32_t effects)
 {

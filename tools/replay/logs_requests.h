@@ -42,6 +42,11 @@ void lr_state(logs_writer *w, const lr_req *q, int8_t detail, int8_t self_collis
 void lr_state_quaternions(logs_writer *w, const lr_req *q, int8_t detail, int8_t self_collision, int n_links,
                           const trioct_state_link_t *links, int n_poses, const trioct_pose_t *poses,
                           const double *quaternions);
+/* Point distances: n points (none when 0), nothing farther than within (< 0: no limit). */
+void lr_distance_points(logs_writer *w, const lr_req *q, double within, int n, const trioct_vec3_t *points);
+/* A shape distance or clearance request (kind SHAPE or CLEAR) of a named shape at n poses. */
+void lr_distance_shape(logs_writer *w, const lr_req *q, int8_t kind, double within, const char *shape, int n_poses,
+                       const trioct_pose_t *poses);
 /* A LOAD with every option. */
 void lr_load(logs_writer *w, const lr_req *q, const char *mesh_path, double resolution, int8_t accuracy,
              double seed_epsilon, int32_t effects);

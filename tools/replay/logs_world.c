@@ -63,7 +63,7 @@ static const char scene_worlds[] =
     "mesh = terrain.obj\n"
     "mesh = crates.obj\n"
     "mesh = ball.obj\n"
-    "effects = rays triangles meshes\n"
+    "effects = rays triangles meshes distance\n"
     "shape.probe = probe.obj\n"
     "shape.ring = ring.obj\n"
     "\n"
@@ -94,7 +94,7 @@ static const char scene_worlds[] =
     "pose.crate_a = 0 0 0.5 1 0 0 0\n"
     "object.crate_b = crates.obj\n"
     "pose.crate_b = 0 0 4 0.7071067811865476 0 0 0.7071067811865476\n"
-    "effects = rays triangles meshes\n"
+    "effects = rays triangles meshes distance\n"
     "shape.probe = probe.obj\n";
 
 int logs_write_world(const char *dir)

@@ -109,6 +109,11 @@ static uint8_t *encode_state(const trioct_state_request_t *m, size_t *size)
     ENCODE(trioct_state_request_t, m, size);
 }
 
+static uint8_t *encode_distance(const trioct_distance_request_t *m, size_t *size)
+{
+    ENCODE(trioct_distance_request_t, m, size);
+}
+
 void lw_ray(logs_writer *w, const char *channel, const trioct_ray_request_t *m)
 {
     size_t n;
@@ -181,6 +186,13 @@ void lw_state(logs_writer *w, const char *channel, const trioct_state_request_t 
 {
     size_t n;
     uint8_t *b = encode_state(m, &n);
+    push(w, channel, b, n);
+}
+
+void lw_distance(logs_writer *w, const char *channel, const trioct_distance_request_t *m)
+{
+    size_t n;
+    uint8_t *b = encode_distance(m, &n);
     push(w, channel, b, n);
 }
 

@@ -13,6 +13,7 @@
 
 #include "replay_log.h"
 #include "trioct_admin_request_t.h"
+#include "trioct_distance_request_t.h"
 #include "trioct_mesh_request_t.h"
 #include "trioct_object_edit_request_t.h"
 #include "trioct_state_request_t.h"
@@ -50,6 +51,7 @@ void lw_mesh(logs_writer *w, const char *channel, const trioct_mesh_request_t *m
 void lw_admin(logs_writer *w, const char *channel, const trioct_admin_request_t *m);
 void lw_objects(logs_writer *w, const char *channel, const trioct_object_edit_request_t *m);
 void lw_state(logs_writer *w, const char *channel, const trioct_state_request_t *m);
+void lw_distance(logs_writer *w, const char *channel, const trioct_distance_request_t *m);
 /* An ordered daemon's mark: the word, then an auth_t's bytes signed with the logs' key.
  * lw_admin and lw_objects sign with it too (replay_key.h). */
 void lw_mark(logs_writer *w, const char *channel, const char *word);

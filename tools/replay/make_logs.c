@@ -57,7 +57,7 @@ int main(int argc, char **argv)
         write_readme,      logs_write_world,  logs_write_queries, logs_write_chunked, logs_write_burst,
         logs_write_admin,  logs_write_reload,  logs_write_busy,    logs_write_errors,
         logs_write_overcap, logs_write_hostile, logs_write_stopping, logs_write_touch,
-        logs_write_objects,
+        logs_write_objects, logs_write_distance,
     };
     int rc = 0;
     for (size_t i = 0; i < sizeof logs / sizeof logs[0]; i++)

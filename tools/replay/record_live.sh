@@ -45,6 +45,11 @@ cli tri yard 20 20 20  21 20 20  20 21 20
 cli ray nowhere 0 0 0 1 0 0
 cli ray yard 0 0 0 0 0 0
 cli mesh yard probe --pose "0 0 4" --pose "0 0 10" --pose "-5 -5 1 0 0 45" --pairs
+cli distance yard --point 0 0 10 --point -10 0.1 2.1 --point 0.3 0.2 -3
+cli distance yard --point 0 0 10 --within 0.5 --json
+cli distance yard_fast --point 0 0 0
+cli distance yard --shape probe --pose "0 0 4"
+cli clear yard --shape probe --pose "0 0 4" --within 0.1
 cli status
 kill -TERM $daemon
 wait $daemon || true

@@ -5,6 +5,7 @@
 #include <string.h>
 
 #include "trioct_admin_reply_t.h"
+#include "trioct_distance_reply_t.h"
 #include "trioct_mesh_reply_t.h"
 #include "trioct_object_reply_t.h"
 #include "trioct_state_reply_t.h"
@@ -26,6 +27,8 @@ size_t replay_reply_struct_size(wire_type type)
         return sizeof(trioct_object_reply_t);
     case WIRE_STATE_REPLY:
         return sizeof(trioct_state_reply_t);
+    case WIRE_DISTANCE_REPLY:
+        return sizeof(trioct_distance_reply_t);
     default:
         return 0;
     }
@@ -48,6 +51,8 @@ int replay_reply_decode(wire_type type, const void *bytes, size_t size, void *ms
         return trioct_object_reply_t_decode(bytes, 0, n, msg) == n ? 0 : -1;
     case WIRE_STATE_REPLY:
         return trioct_state_reply_t_decode(bytes, 0, n, msg) == n ? 0 : -1;
+    case WIRE_DISTANCE_REPLY:
+        return trioct_distance_reply_t_decode(bytes, 0, n, msg) == n ? 0 : -1;
     default:
         return -1;
     }
@@ -73,6 +78,9 @@ void replay_reply_cleanup(wire_type type, void *msg)
         break;
     case WIRE_STATE_REPLY:
         trioct_state_reply_t_decode_cleanup(msg);
+        break;
+    case WIRE_DISTANCE_REPLY:
+        trioct_distance_reply_t_decode_cleanup(msg);
         break;
     default:
         break;
@@ -144,6 +152,9 @@ static int32_t chunk_names(wire_type type, void *m, char ***names)
     case WIRE_STATE_REPLY:
         *names = ((trioct_state_reply_t *)m)->objects;
         return ((trioct_state_reply_t *)m)->num_objects;
+    case WIRE_DISTANCE_REPLY:
+        *names = ((trioct_distance_reply_t *)m)->objects;
+        return ((trioct_distance_reply_t *)m)->num_objects;
     default:
         *names = NULL;
         return 0;
@@ -157,6 +168,16 @@ static size_t chunk_records(wire_type type, void *m, const void **base, size_t *
     *segs = NULL;
     *nsegs = 0;
     switch (type) {
+    case WIRE_DISTANCE_REPLY: {
+        /* One result an item, each naming its item: no found[] beside them. */
+        trioct_distance_reply_t *r = m;
+        *base = r->results;
+        *stride = sizeof *r->results;
+        *items = 0;
+        *found = NULL;
+        *detail = r->kind;
+        return (size_t)r->num_results;
+    }
     case WIRE_STATE_REPLY: {
         trioct_state_reply_t *r = m;
         *base = r->contacts;

@@ -66,6 +66,9 @@ static int request_type_of(trioct_channel_kind kind, wire_type *type)
     case TRIOCT_CHANNEL_STATE:
         *type = WIRE_STATE_REQUEST;
         return 1;
+    case TRIOCT_CHANNEL_DISTANCE:
+        *type = WIRE_DISTANCE_REQUEST;
+        return 1;
     default:
         return 0;
     }
@@ -75,7 +78,7 @@ static int request_type_of(trioct_channel_kind kind, wire_type *type)
 static int reply_type_of(const replay_event *ev, wire_type *type)
 {
     static const wire_type replies[] = {WIRE_RAY_REPLY, WIRE_TRIANGLE_REPLY, WIRE_MESH_REPLY, WIRE_ADMIN_REPLY,
-                                        WIRE_OBJECT_REPLY, WIRE_STATE_REPLY};
+                                        WIRE_OBJECT_REPLY, WIRE_STATE_REPLY, WIRE_DISTANCE_REPLY};
     if (ev->size < 8)
         return 0;
     uint64_t fp = 0;

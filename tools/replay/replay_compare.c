@@ -9,6 +9,7 @@
 #include "trioct_contact_t.h"
 #include "trioct_mesh_pair_t.h"
 #include "trioct_object_reply_t.h"
+#include "trioct_distance_reply_t.h"
 #include "trioct_state_reply_t.h"
 #include "trioct_ray_hit_t.h"
 #include "trioct_ray_request_t.h"
@@ -391,6 +392,39 @@ static void cmp_worlds(diff *d, const replay_reply *e, const replay_reply *g, co
 }
 
 /* Object replies: the edit that failed, the version's counts and the listing, in order. */
+/* Distance results, one an item in item order: every field, bit for bit (the bounds are
+ * the engine's deterministic arithmetic), the object by name. */
+static void cmp_distances(diff *d, const replay_reply *e, const replay_reply *g)
+{
+    if (e->num_records != g->num_records) {
+        say(d, "distance results expected %zu got %zu", e->num_records, g->num_records);
+        return;
+    }
+    for (size_t k = 0; k < e->num_records; k++) {
+        const trioct_distance_result_t *a = e->records[k], *b = g->records[k];
+        char where[64];
+        snprintf(where, sizeof where, "result %zu: ", k);
+        cmp_i64(d, where, "item", a->item, b->item);
+        cmp_i64(d, where, "found", a->found, b->found);
+        cmp_i64(d, where, "clear", a->clear, b->clear);
+        cmp_f64(d, where, "distance", a->distance, b->distance);
+        cmp_f64(d, where, "bound", a->bound, b->bound);
+        cmp_f64(d, where, "lower", a->lower, b->lower);
+        cmp_f64(d, where, "upper", a->upper, b->upper);
+        cmp_vec(d, where, "point", &a->point, &b->point);
+        cmp_vec(d, where, "shape_point", &a->shape_point, &b->shape_point);
+        if (a->found && b->found)
+            cmp_object(d, where, e, a->object, g, b->object);
+        else
+            cmp_i64(d, where, "object", a->object, b->object);
+        cmp_i64(d, where, "triangle", a->triangle, b->triangle);
+        cmp_i64(d, where, "shape_triangle", a->shape_triangle, b->shape_triangle);
+        cmp_i64(d, where, "feature", a->feature, b->feature);
+        cmp_i64(d, where, "feature_index", a->feature_index, b->feature_index);
+        cmp_i64(d, where, "inside", a->inside, b->inside);
+    }
+}
+
 static void cmp_objects(diff *d, const replay_reply *e, const replay_reply *g)
 {
     const trioct_object_reply_t *a = e->chunk[0], *b = g->chunk[0];
@@ -476,6 +510,9 @@ size_t replay_compare(const replay_reply *expected, const replay_reply *got, con
         break;
     case WIRE_STATE_REPLY:
         cmp_items(&d, e, g, &state_kind);
+        break;
+    case WIRE_DISTANCE_REPLY:
+        cmp_distances(&d, e, g);
         break;
     default:
         cmp_worlds(&d, e, g, rules);

@@ -18,6 +18,7 @@
 #include "trioct_ray_reply_t.h"
 #include "trioct_status.h"
 #include "trioct_object_reply_t.h"
+#include "trioct_distance_reply_t.h"
 #include "trioct_state_reply_t.h"
 #include "trioct_triangle_reply_t.h"
 
@@ -39,6 +40,9 @@ static int encode(wire_type type, const void *m, uint8_t **out, size_t *size)
         break;
     case WIRE_STATE_REPLY:
         n = trioct_state_reply_t_encoded_size(m);
+        break;
+    case WIRE_DISTANCE_REPLY:
+        n = trioct_distance_reply_t_encoded_size(m);
         break;
     default:
         n = trioct_admin_reply_t_encoded_size(m);
@@ -63,6 +67,9 @@ static int encode(wire_type type, const void *m, uint8_t **out, size_t *size)
         break;
     case WIRE_STATE_REPLY:
         w = trioct_state_reply_t_encode(*out, 0, n, m);
+        break;
+    case WIRE_DISTANCE_REPLY:
+        w = trioct_distance_reply_t_encode(*out, 0, n, m);
         break;
     default:
         w = trioct_admin_reply_t_encode(*out, 0, n, m);
