@@ -70,7 +70,11 @@ $(GEN_STAMP): $(PROTO) | $(DEPS_STAMP)
 	lcm-gen -c --c-cpath $(GEN_DIR) --c-hpath $(GEN_DIR) $(PROTO)
 	@touch $@
 $(GEN_SRC): $(GEN_STAMP)
-# lcm-gen's C has unused parameters; only its warnings are relaxed.
+# lcm-gen's C has unused parameters; only its warnings are relaxed. Each object depends on
+# the stamp itself too: the stamp's recipe empties GEN_DIR, objects included, and an
+# object make had already found newer than its .c (a prerequisite without a recipe) was
+# then missing when ar ran, the first make -j after a proto change.
+$(GEN_OBJ): $(GEN_STAMP)
 $(GEN_DIR)/%.o: $(GEN_DIR)/%.c
 	$(CC) $(ALL_CFLAGS) -Wno-unused-parameter -c $< -o $@
 
