@@ -134,7 +134,10 @@ static int build_result(const assembly *a, size_t n, trioct_distance_result *out
             const trioct_distance_result_t *d = &chunk->results[j];
             if (d->item < 0 || (size_t)d->item != k)
                 return client_fail(r, TRIOCT_ERR_BAD_REPLY, "result %zu names item %d", k, d->item);
-            if (d->found && client_check_object(r, d->object, &out->objects, "result", k) != TRIOCT_OK)
+            /* A found distance names its object, and so does a clearance that is not clear
+             * (the object it could not be proven clear of). */
+            int named = d->found || (d->object >= 0 && !d->clear);
+            if (named && client_check_object(r, d->object, &out->objects, "result", k) != TRIOCT_OK)
                 return r->status;
             out->results[k] = (trioct_distance){
                 .item = d->item,
@@ -146,7 +149,7 @@ static int build_result(const assembly *a, size_t n, trioct_distance_result *out
                 .upper = d->upper,
                 .point = vec_of(d->point),
                 .shape_point = vec_of(d->shape_point),
-                .object = d->found ? d->object : -1,
+                .object = named ? d->object : -1,
                 .triangle = d->triangle,
                 .shape_triangle = d->shape_triangle,
                 .feature = d->feature,

@@ -144,7 +144,7 @@ static int setup(void **state)
                             "[layers]\nmesh = layers.obj\neffects = rays\n\n"
                             "[spare]\nmesh = box.obj\naccuracy = fast\neffects = rays\n\n"
                             "[edited]\nmesh = box.obj\neffects = rays triangles meshes\nshape.cube = cube.obj\n\n"
-                            "[near]\nmesh = box.obj\neffects = distance\n\n"
+                            "[near]\nmesh = box.obj\neffects = distance\nshape.cube = cube.obj\n\n"
                             "[pair]\nobject.a = box.obj\nobject.b = box.obj\npose.b = 5 0 0 1 0 0 0\neffects = distance\n");
     char path[256], err[512];
     snprintf(path, sizeof path, "%s/scene.ini", F.dir);
@@ -1819,8 +1819,8 @@ static void test_point_distances_to_the_unit_cube(void **state)
         assert_true(fabs(d->point.x - want[i].point.x) < 1e-12 && fabs(d->point.y - want[i].point.y) < 1e-12 &&
                     fabs(d->point.z - want[i].point.z) < 1e-12);
     }
-    /* The face case is exact: 2, with no error at all. */
-    assert_true(a.results[0].distance == 2.0 && a.results[0].lower <= 2.0 && a.results[0].upper >= 2.0);
+    /* The face case: 2 within the bound. */
+    assert_true(a.results[0].lower <= 2.0 && a.results[0].upper >= 2.0);
     free(a.results);
 
     /* within bounds the search: nothing within 1.5 of (3, .5, .5), the cube within 2.5. */
@@ -1837,7 +1837,7 @@ static void test_point_distances_to_the_unit_cube(void **state)
     q = points_request("near", 2.5, 1, pts);
     a = ask_distance("near", &q);
     assert_int_equal(a.results[0].found, 1);
-    assert_true(a.results[0].distance == 2.0);
+    assert_true(a.results[0].lower <= 2.0 && 2.0 <= a.results[0].upper);
     free(a.results);
 
     /* An empty batch is an answer too. */
@@ -1932,6 +1932,114 @@ static void test_distance_results_come_in_chunks(void **state)
     free(pts);
 }
 
+/* A cube shape ([-0.2, 0.2]^3, registered as "cube", and inline) at poses about the unit
+ * cube world, where the distances are known exactly: 1 face to face, 0 touching (exactly),
+ * and across two objects the nearer named; clearance clear below the distance and not at
+ * it. */
+static trioct_distance_request_t shape_request(const char *world, int8_t kind, double within, const char *shape,
+                                               int n, trioct_pose_t *poses)
+{
+    trioct_distance_request_t q = points_request(world, within, 0, NULL);
+    q.kind = kind;
+    q.shape = (char *)shape;
+    q.num_poses = n;
+    q.poses = poses;
+    return q;
+}
+
+static void test_shape_distances_and_clearance(void **state)
+{
+    (void)state;
+    install_from_scene("near");
+    trioct_pose_t poses[3] = {
+        {{1, 0, 0, 0, 1, 0, 0, 0, 1}, {2.2, 0.5, 0.5}}, /* x in [2, 2.4]: 1 from the x = 1 face */
+        {{0, -1, 0, 1, 0, 0, 0, 0, 1}, {1.2, 0.5, 0.5}}, /* a quarter turn, x in [1, 1.4]: touching */
+        {{1, 0, 0, 0, 1, 0, 0, 0, 1}, {0.5, 0.5, 0.5}}, /* inside: 0.3 from every face */
+    };
+    /* The registered cube came through an OBJ file, read in floats: its corners are
+     * +-(double)0.2f, posed by one rounded addition each. */
+    const double h = (double)0.2f;
+    const double want[3] = {(2.2 - h) - 1.0, 0.0, 0.5 - h};
+    trioct_distance_request_t q = shape_request("near", TRIOCT_DISTANCE_REQUEST_T_SHAPE, -1, "cube", 3, poses);
+    distance_answer a = ask_distance("near", &q);
+    assert_int_equal(a.status, TRIOCT_OK);
+    assert_int_equal(a.count, 3);
+    assert_int_equal(a.num_names, 1);
+    assert_string_equal(a.names[0], "near");
+    for (int i = 0; i < 3; i++) {
+        const trioct_distance_result_t *r = &a.results[i];
+        assert_int_equal(r->item, i);
+        assert_true(r->found);
+        if (!(r->lower <= want[i] && want[i] <= r->upper))
+            fail_msg("pose %d: [%.17g, %.17g], want %g", i, r->lower, r->upper, want[i]);
+        assert_true(r->bound < 1e-12);
+        assert_true(r->triangle >= 0 && r->triangle < 12 && r->shape_triangle >= 0 && r->shape_triangle < 12);
+        assert_int_equal(r->object, 0);
+    }
+    assert_true(a.results[1].lower == 0 && a.results[1].upper == 0); /* touching, exactly */
+    assert_true(a.results[0].point.x == 1 && a.results[0].shape_point.x == 2.2 - h);
+    free(a.results);
+
+    /* The same cube inline, as twelve triangles: the same answers. */
+    trioct_triangle_t tris[12];
+    mesh_data cube = meshgen_box((box3){{-0.2, -0.2, -0.2}, {0.2, 0.2, 0.2}});
+    for (int i = 0; i < 12; i++) {
+        vec3 v[3];
+        for (int k = 0; k < 3; k++)
+            v[k] = cube.vertices[cube.indices[3 * i + k]];
+        tris[i] = (trioct_triangle_t){{v[0].x, v[0].y, v[0].z}, {v[1].x, v[1].y, v[1].z}, {v[2].x, v[2].y, v[2].z}};
+    }
+    mesh_data_free(&cube);
+    q = shape_request("near", TRIOCT_DISTANCE_REQUEST_T_SHAPE, -1, "", 3, poses);
+    q.num_shape_triangles = 12;
+    q.shape_triangles = tris;
+    a = ask_distance("near", &q);
+    assert_int_equal(a.status, TRIOCT_OK);
+    const double inline_want[3] = {1.0, 0.0, 0.5 - 0.2};
+    for (int i = 0; i < 3; i++)
+        assert_true(a.results[i].lower <= inline_want[i] && inline_want[i] <= a.results[i].upper);
+    free(a.results);
+
+    /* Nothing within 0.5 of the first pose: found 0, no object named for it. */
+    q = shape_request("near", TRIOCT_DISTANCE_REQUEST_T_SHAPE, 0.5, "cube", 1, poses);
+    a = ask_distance("near", &q);
+    assert_int_equal(a.status, TRIOCT_OK);
+    assert_false(a.results[0].found);
+    assert_int_equal(a.results[0].object, -1);
+    assert_int_equal(a.num_names, 0);
+    free(a.results);
+
+    /* Clearance at the first pose: clear at 0.99, not at exactly the contact distance,
+     * not at 2. */
+    const double radii[3] = {0.99, want[0], 2.0};
+    const int clear[3] = {1, 0, 0};
+    for (int k = 0; k < 3; k++) {
+        q = shape_request("near", TRIOCT_DISTANCE_REQUEST_T_CLEAR, radii[k], "cube", 1, poses);
+        a = ask_distance("near", &q);
+        assert_int_equal(a.status, TRIOCT_OK);
+        assert_int_equal(a.kind, TRIOCT_DISTANCE_REQUEST_T_CLEAR);
+        assert_int_equal(a.results[0].clear, clear[k]);
+        if (!clear[k]) {
+            assert_int_equal(a.num_names, 1);
+            assert_string_equal(a.names[a.results[0].object], "near");
+        }
+        free(a.results);
+    }
+
+    /* Objects: a at the origin, b at x = 5; the cube at x = 2.2 is 1.0 from a, 2.6 from b. */
+    install_from_scene("pair");
+    trioct_pose_t mid = {{1, 0, 0, 0, 1, 0, 0, 0, 1}, {2.2, 0.5, 0.5}};
+    q = shape_request("pair", TRIOCT_DISTANCE_REQUEST_T_SHAPE, -1, "", 1, &mid);
+    q.num_shape_triangles = 12;
+    q.shape_triangles = tris;
+    a = ask_distance("pair", &q);
+    assert_int_equal(a.status, TRIOCT_OK);
+    assert_true(a.results[0].lower <= 1.0 && 1.0 <= a.results[0].upper);
+    assert_string_equal(a.names[a.results[0].object], "a");
+    free(a.results);
+    assert_int_equal(registry_remove(F.reg, "pair"), 0);
+}
+
 /* What a distance request may not do gets a reply naming it. */
 static void test_distance_refusals_name_the_reason(void **state)
 {
@@ -1976,21 +2084,41 @@ static void test_distance_refusals_name_the_reason(void **state)
     expect_distance_error(&a, TRIOCT_ERR_BAD_REQUEST, "kind POINTS takes points only");
     free(a.results);
 
-    /* SHAPE and CLEAR are in the message, not yet in this daemon: refused by name. */
-    const int8_t later[2] = {TRIOCT_DISTANCE_REQUEST_T_SHAPE, TRIOCT_DISTANCE_REQUEST_T_CLEAR};
-    const char *said[2] = {"distance kind SHAPE (1) is not served by this version of trioctd",
-                           "distance kind CLEAR (2) is not served by this version of trioctd"};
-    for (int k = 0; k < 2; k++) {
-        q = points_request("near", 0.1, 0, NULL);
-        q.kind = later[k];
-        q.shape = "cube";
-        q.num_poses = 1;
-        q.poses = &at;
-        a = ask_distance("near", &q);
-        expect_distance_error(&a, TRIOCT_ERR_BAD_REQUEST, said[k]);
-        assert_non_null(strstr(a.message, "answers POINTS (0) only"));
-        free(a.results);
-    }
+    /* SHAPE and CLEAR: their own checks, each named. */
+    q = points_request("near", 0.1, 1, pts);
+    q.kind = TRIOCT_DISTANCE_REQUEST_T_SHAPE;
+    q.shape = "cube";
+    q.num_poses = 1;
+    q.poses = &at;
+    a = ask_distance("near", &q);
+    expect_distance_error(&a, TRIOCT_ERR_BAD_REQUEST, "kind SHAPE (1) takes a shape and poses, but the request has 1 points");
+    free(a.results);
+    q.num_points = 0;
+    q.kind = TRIOCT_DISTANCE_REQUEST_T_CLEAR;
+    q.within = -1;
+    a = ask_distance("near", &q);
+    expect_distance_error(&a, TRIOCT_ERR_BAD_REQUEST, "CLEAR's radius must be >= 0");
+    free(a.results);
+    q.within = 0.5;
+    q.shape = "gripper";
+    a = ask_distance("near", &q);
+    expect_distance_error(&a, TRIOCT_ERR_UNKNOWN_SHAPE, "world near has no query shape \"gripper\"");
+    free(a.results);
+    q.shape = "";
+    a = ask_distance("near", &q);
+    expect_distance_error(&a, TRIOCT_ERR_BAD_REQUEST, "name a shape of the world's scene or send");
+    free(a.results);
+    q.shape = "cube";
+    q.num_poses = 0;
+    a = ask_distance("near", &q);
+    expect_distance_error(&a, TRIOCT_ERR_BAD_REQUEST, "num_poses 0: send 1..TRIOCT_MAX_POSES");
+    free(a.results);
+    trioct_pose_t scaled = {{2, 0, 0, 0, 1, 0, 0, 0, 1}, {0, 0, 0}};
+    q.num_poses = 1;
+    q.poses = &scaled;
+    a = ask_distance("near", &q);
+    expect_distance_error(&a, TRIOCT_ERR_BAD_POSE, "poses[0].r is not a rotation");
+    free(a.results);
 
     /* Over the cap: an error naming it, never a cut. */
     trioct_vec3_t *many = calloc(TRIOCT_MAX_POINTS + 1, sizeof *many);
@@ -2993,6 +3121,7 @@ int main(void)
         cmocka_unit_test(test_point_distances_to_the_unit_cube),
         cmocka_unit_test(test_point_distances_equal_the_engine),
         cmocka_unit_test(test_distance_results_come_in_chunks),
+        cmocka_unit_test(test_shape_distances_and_clearance),
         cmocka_unit_test(test_distance_refusals_name_the_reason),
         cmocka_unit_test(test_list_and_info_describe_the_worlds),
         cmocka_unit_test(test_load_and_unload),

@@ -34,7 +34,7 @@ static int distance_answer_add(distance_answer *a, const trioct_distance_result 
     for (size_t i = 0; i < res->num_results; i++) {
         trioct_distance d = res->results[i];
         d.item += (int32_t)offset;
-        if (d.found && cli_names_map(&a->names, &res->objects, &d.object) != 0)
+        if (d.object >= 0 && cli_names_map(&a->names, &res->objects, &d.object) != 0)
             return -1;
         a->results[offset + i] = d;
     }
@@ -109,8 +109,9 @@ static int ask_shape(cli_context *ctx, const char *world, const cli_distance_arg
     return rc;
 }
 
-/* One result as JSON. Inside is left out: it means something only for solid objects, and
- * no object is solid yet; a result that found nothing carries found false and no more. */
+/* One result as JSON: a point's or a shape's distance with its bounds and witnesses, or a
+ * clearance answer (clear, and the object it could not be proven clear of). inside
+ * appears only for a point inside a solid object, whose distance is then negative. */
 static void result_json(cli_json *j, const distance_answer *a, const trioct_distance *d, const char *item,
                         trioct_vec3 asked, int shaped, int clear)
 {
@@ -118,8 +119,13 @@ static void result_json(cli_json *j, const distance_answer *a, const trioct_dist
     cli_json_key_int(j, item, d->item);
     if (!shaped)
         cli_json_key_vec3(j, "query", asked);
-    if (clear)
+    if (clear) {
         cli_json_key_bool(j, "clear", d->clear);
+        if (!d->clear && d->object >= 0)
+            cli_json_key_string(j, "object", cli_names_get(&a->names, d->object));
+        cli_json_object_end(j);
+        return;
+    }
     cli_json_key_bool(j, "found", d->found);
     if (d->found) {
         cli_json_key_double(j, "distance", d->distance);
@@ -133,8 +139,10 @@ static void result_json(cli_json *j, const distance_answer *a, const trioct_dist
         }
         cli_json_key_string(j, "object", cli_names_get(&a->names, d->object));
         cli_json_key_int(j, "triangle", d->triangle);
-        cli_json_key_string(j, "feature", cli_feature_name(d->feature));
-        cli_json_key_int(j, "feature_index", d->feature_index);
+        if (!shaped) {
+            cli_json_key_string(j, "feature", cli_feature_name(d->feature));
+            cli_json_key_int(j, "feature_index", d->feature_index);
+        }
         if (d->inside)
             cli_json_key_bool(j, "inside", 1);
     }
@@ -170,8 +178,35 @@ static void distance_json(cli_context *ctx, const distance_answer *a, const cli_
     cli_json_finish(&j);
 }
 
+/* A clearance answer: one line a pose. */
+static int clear_print(cli_context *ctx, const distance_answer *a, const cli_distance_args *args)
+{
+    size_t clear = 0;
+    for (size_t i = 0; i < a->count; i++)
+        clear += a->results[i].clear;
+    fprintf(ctx->out, "world %s (version %" PRId64 ", daemon %s): %zu pose%s, %zu clear of everything within %.17g\n",
+            a->batch.reply.world, a->batch.first_version, a->batch.reply.daemon, a->count, a->count == 1 ? "" : "s",
+            clear, args->within);
+    cli_table t;
+    cli_table_init(&t, 3, 0x1);
+    cli_table_cell(&t, "POSE");
+    cli_table_cell(&t, "CLEAR");
+    cli_table_cell(&t, "WITHIN R");
+    for (size_t i = 0; i < a->count; i++) {
+        const trioct_distance *d = &a->results[i];
+        cli_table_cell(&t, "%zu", i);
+        cli_table_cell(&t, "%s", d->clear ? "yes" : "no");
+        cli_table_cell(&t, "%s", d->clear ? "-" : d->object >= 0 ? cli_names_get(&a->names, d->object) : "?");
+    }
+    int rc = cli_table_print(&t, ctx->out, "");
+    cli_table_free(&t);
+    return rc == 0 ? CLI_EXIT_OK : cli_internal_error(ctx, "out of memory printing the answer");
+}
+
 static int distance_print(cli_context *ctx, const distance_answer *a, const cli_distance_args *args, int clear)
 {
+    if (clear)
+        return clear_print(ctx, a, args);
     int shaped = args->num_points == 0;
     size_t found = 0;
     for (size_t i = 0; i < a->count; i++)
@@ -183,34 +218,33 @@ static int distance_print(cli_context *ctx, const distance_answer *a, const cli_
         fprintf(ctx->out, " within %.17g", args->within);
     fprintf(ctx->out, "\n");
     cli_table t;
-    cli_table_init(&t, clear ? 7 : 6, 0x1);
+    cli_table_init(&t, 6, 0x1);
     cli_table_cell(&t, shaped ? "POSE" : "POINT");
-    if (clear)
-        cli_table_cell(&t, "CLEAR");
     cli_table_cell(&t, "DISTANCE");
     cli_table_cell(&t, "NEAREST");
     cli_table_cell(&t, "OBJECT");
     cli_table_cell(&t, "TRIANGLE");
-    cli_table_cell(&t, "FEATURE");
+    cli_table_cell(&t, shaped ? "SHAPE POINT (TRIANGLE)" : "FEATURE");
     for (size_t i = 0; i < a->count; i++) {
         const trioct_distance *d = &a->results[i];
         if (shaped)
             cli_table_cell(&t, "%zu", i);
         else
             cli_table_cell(&t, "%.17g %.17g %.17g", args->points[i].x, args->points[i].y, args->points[i].z);
-        if (clear)
-            cli_table_cell(&t, "%s", d->clear ? "yes" : "no");
         if (!d->found) {
             cli_table_cell(&t, "none within");
             for (int k = 0; k < 4; k++)
                 cli_table_cell(&t, "-");
             continue;
         }
-        cli_table_cell(&t, "%.17g ± %.3g", d->distance, d->bound);
+        cli_table_cell(&t, "%.17g ± %.3g%s", d->distance, d->bound, d->inside ? " (inside)" : "");
         cli_table_cell(&t, "%.17g %.17g %.17g", d->point.x, d->point.y, d->point.z);
         cli_table_cell(&t, "%s", cli_names_get(&a->names, d->object));
         cli_table_cell(&t, "%" PRId32, d->triangle);
-        if (d->feature == TRIOCT_FEATURE_FACE)
+        if (shaped)
+            cli_table_cell(&t, "%.17g %.17g %.17g (%" PRId32 ")", d->shape_point.x, d->shape_point.y, d->shape_point.z,
+                           d->shape_triangle);
+        else if (d->feature == TRIOCT_FEATURE_FACE)
             cli_table_cell(&t, "face");
         else
             cli_table_cell(&t, "%s %d", cli_feature_name(d->feature), d->feature_index);
@@ -293,7 +327,7 @@ static int run_clear(cli_context *ctx, int argc, char **argv)
 
 const cli_command cli_command_distance = {
     "distance",
-    "nearest point of the world to points (or, later, to a shape at poses), with a proven bound",
+    "nearest point of the world to points, or a shape's distance at poses, with a proven bound",
     "Usage: trioct distance WORLD --point X Y Z [--point X Y Z]... [--within R] [global options]\n"
     "       trioct distance WORLD (--shape NAME | --shape-file FILE) [--pose POSE]... [--poses FILE|-]\n"
     "                       [--within R] [global options]\n"
@@ -302,13 +336,14 @@ const cli_command cli_command_distance = {
     "daemon proves (the exact distance lies in [lower, upper]), the object and triangle it\n"
     "lies on and the feature there: the triangle's face, an edge (vertex k to k + 1 mod 3)\n"
     "or a vertex. With --within R, a point with nothing within R says so instead. The world\n"
-    "must serve distance (effects = ... distance). Contact is surface contact: a point inside\n"
-    "a closed mesh gets its distance to the surface.\n"
+    "must serve distance (effects = ... distance). Contact is surface contact unless the\n"
+    "object is solid: a point inside a solid gets a negative distance (its depth below the\n"
+    "surface, marked inside); inside any other closed mesh, its distance to the surface.\n"
     "\n"
     "With --shape (a query shape of WORLD's scene) or --shape-file (a mesh file's triangles,\n"
-    "sent inline), the shape's minimum distance at each pose, poses as trioct mesh takes\n"
-    "them. This version of trioctd does not answer shape distance yet: the command prints\n"
-    "the daemon's refusal.\n"
+    "sent inline), the shape's minimum distance to the world at each pose, poses as trioct\n"
+    "mesh takes them: the bound, the world's nearest point and triangle and the shape's;\n"
+    "0 exactly when they touch.\n"
     "\n"
     "Options:\n"
     "  --point X Y Z      a query point (repeatable)\n"
@@ -320,7 +355,8 @@ const cli_command cli_command_distance = {
     "\n"
     "With --json, results[i] carries index, query, found and, when found, distance, bound,\n"
     "lower, upper, point, object, triangle, feature (\"face\", \"edge\" or \"vertex\") and\n"
-    "feature_index; inside appears only for solid objects, which there are none of yet.\n"
+    "feature_index (a shape's: pose, shape_point and shape_triangle instead of query and\n"
+    "feature); inside (true) appears only for a point inside a solid object.\n"
     "\n"
     "Examples:\n"
     "  trioct distance yard --point 3 0.5 0.5\n"
@@ -331,14 +367,15 @@ const cli_command cli_command_distance = {
 
 const cli_command cli_command_clear = {
     "clear",
-    "is anything of the world within R of a shape at poses (answered by a later trioctd)",
+    "is anything of the world within R of a shape at poses (conservative: never clear at R)",
     "Usage: trioct clear WORLD (--shape NAME | --shape-file FILE) [--pose POSE]... [--poses FILE|-]\n"
     "                    --within R [global options]\n"
     "\n"
     "For each pose, whether the shape is clear of WORLD by more than R: never \"clear\" when\n"
     "the exact distance is R or less. Poses as trioct mesh takes them; without any pose the\n"
-    "shape is tested where it is. This version of trioctd does not answer clearance yet: the\n"
-    "command prints the daemon's refusal.\n"
+    "shape is tested where it is. A pose whose proven bound straddles R answers not clear,\n"
+    "naming the object; the walk stops at the first pair it cannot prove beyond R. With\n"
+    "--json, results[i] carries pose, clear and, when not clear, object.\n"
     "\n"
     "Options:\n"
     "  --shape NAME       a query shape of the world's scene\n"

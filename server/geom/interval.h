@@ -118,6 +118,17 @@ static inline interval iv_sqrt_nonnegative(interval a)
     return (interval){lo > 0 ? lo : 0.0, hi};
 }
 
+/* A distance enclosed in [lower, upper] as reported: est (the plain double distance between
+ * the points found, what a caller would compute from them) clamped into the enclosure, and
+ * the bound |distance - real| <= bound that the enclosure proves. */
+static inline void iv_distance_report(double est, double lower, double upper, double *distance, double *bound)
+{
+    double d = est >= lower ? (est <= upper ? est : upper) : lower; /* a NaN takes lower */
+    double below = d > lower ? iv_up(d - lower) : 0.0, above = upper > d ? iv_up(upper - d) : 0.0;
+    *distance = d;
+    *bound = below > above ? below : above;
+}
+
 /* The real difference a - b of two points of doubles. */
 static inline interval3 iv3_diff(vec3 a, vec3 b)
 {

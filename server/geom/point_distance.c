@@ -154,5 +154,12 @@ void point_triangle_distance_bounds(vec3 p, const vec3 v[3], point_triangle_dist
         point_triangle_distance_intervals(p, v, out);
         return;
     }
-    *out = (point_triangle_distance){lo2, hi.hi, region.feature, region.index, vec3_add(p, n)};
+    /* The point reported: a vertex itself, else the weights' point on the triangle (in the
+     * triangle's coordinates, so an edge along an axis keeps its exact coordinates). */
+    vec3 at = v[region.index];
+    if (region.feature != DISTANCE_VERTEX) {
+        vec3 e1 = vec3_sub(v[1], v[0]), e2 = vec3_sub(v[2], v[0]);
+        at = (vec3){v[0].x + s * e1.x + t * e2.x, v[0].y + s * e1.y + t * e2.y, v[0].z + s * e1.z + t * e2.z};
+    }
+    *out = (point_triangle_distance){lo2, hi.hi, region.feature, region.index, at};
 }

@@ -205,10 +205,9 @@ static octree_status point_distance(const octree *tree, const distance_query *q,
     out->found = 1;
     out->lower = lower.lo;
     out->upper = upper.hi;
-    out->distance = 0.5 * out->lower + 0.5 * out->upper;
-    double below = iv_up(out->distance - out->lower), above = iv_up(out->upper - out->distance);
-    out->bound = below > above ? below : above;
     out->point = s.best.point;
+    iv_distance_report(vec3_length(vec3_sub(q->world_point, out->point)), out->lower, out->upper, &out->distance,
+                       &out->bound);
     out->triangle = s.best_id;
     out->feature = s.best.feature;
     out->feature_index = s.best.index;

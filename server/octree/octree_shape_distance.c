@@ -408,11 +408,10 @@ octree_status octree_shape_distance(const octree *world, const pose *world_at, c
     out->found = 1;
     out->lower = iv_sqrt_nonnegative((interval){w.lower2, w.lower2}).lo;
     out->upper = iv_sqrt_nonnegative((interval){w.best.hi2, w.best.hi2}).hi;
-    out->distance = 0.5 * out->lower + 0.5 * out->upper;
-    double below = iv_up(out->distance - out->lower), above = iv_up(out->upper - out->distance);
-    out->bound = below > above ? below : above;
     out->world_point = w.best.a_point;
     out->shape_point = w.best.b_point;
+    iv_distance_report(vec3_length(vec3_sub(out->world_point, out->shape_point)), out->lower, out->upper,
+                       &out->distance, &out->bound);
     out->world_triangle = w.best_world;
     out->shape_triangle = w.best_shape;
     return OCTREE_OK;

@@ -1,13 +1,15 @@
-/* Distance requests (distance_request_t). POINTS is answered here: each point's nearest
- * point of the world, with the proven bound of the engine's walk (octree_point_distance
- * for a world of one object at the identity, object_set_point_distance otherwise). SHAPE
- * and CLEAR are part of the message already but get a refusal naming the kind, so that a
- * client learns this daemon's version does not answer them rather than waiting. Every
- * field is checked before any work, so one bad point fails the request with its index. */
+/* Distance requests (distance_request_t): POINTS, each point's nearest point of the world;
+ * SHAPE, the minimum distance of a shape (registered, or inline triangles given a tree
+ * here) at each pose, with both witnesses; CLEAR, whether anything lies within the radius
+ * of it. Each with the proven bounds of the engine's walks (octree_point_distance,
+ * octree_shape_distance, octree_shape_clearance for a world of one object at the
+ * identity; their object_set_ forms otherwise). Every field is checked before any work,
+ * so one bad point or pose fails the request with its index. */
 #include <math.h>
 #include <string.h>
 
 #include "../world/object_set.h"
+#include "../world/world.h"
 #include "dispatch_internal.h"
 
 _Static_assert(DISTANCE_FACE == TRIOCT_DISTANCE_RESULT_T_FACE && DISTANCE_EDGE == TRIOCT_DISTANCE_RESULT_T_EDGE &&
@@ -73,7 +75,8 @@ static octree_status point_distance(const world *w, vec3 p, double max_distance,
     distance_output d;
     uint32_t object = 0; /* a world of one object at the identity: that object, index 0 */
     octree_status st;
-    if (w->tree) {
+    /* A solid's inside signs the distance, which only the objects' path asks. */
+    if (w->tree && w->objects->solids == 0) {
         st = octree_point_distance(w->tree, p, max_distance, &d, NULL);
     } else {
         object_distance_output od;
@@ -81,12 +84,12 @@ static octree_status point_distance(const world *w, vec3 p, double max_distance,
         d = od.distance;
         d.found = od.found;
         object = od.object;
+        out->inside = (int8_t)od.inside; /* inside a solid: the distance is negative */
     }
     if (st != OCTREE_OK)
         return st;
     out->shape_point = (trioct_vec3_t){p.x, p.y, p.z};
     out->shape_triangle = -1;
-    out->inside = 0; /* no object is solid yet: every distance is to the surface */
     if (!d.found) {
         out->object = -1;
         out->triangle = -1;
@@ -140,15 +143,198 @@ static int answer_points(job *j, const trioct_distance_request_t *m)
     return status;
 }
 
+static int finite3(const trioct_vec3_t *v)
+{
+    return isfinite(v->x) && isfinite(v->y) && isfinite(v->z);
+}
+
+/* SHAPE and CLEAR: a shape (a name or inline triangles, one of them) and 1..TRIOCT_MAX_POSES
+ * rigid poses, no points; CLEAR's radius >= 0. */
+static int check_shape(job *j, const trioct_distance_request_t *m)
+{
+    int named = m->shape[0] != '\0';
+    if (m->num_points != 0)
+        return job_fail(j, TRIOCT_ERR_BAD_REQUEST, "kind %s takes a shape and poses, but the request has %d points",
+                        kind_name(m->kind), m->num_points);
+    if (m->kind == TRIOCT_DISTANCE_REQUEST_T_CLEAR && !(m->within >= 0))
+        return job_fail(j, TRIOCT_ERR_BAD_REQUEST, "within %g: CLEAR's radius must be >= 0", m->within);
+    if (named && m->num_shape_triangles != 0)
+        return job_fail(j, TRIOCT_ERR_BAD_REQUEST, "both shape and %d inline shape_triangles were sent; send one of them",
+                        m->num_shape_triangles);
+    if (!named && (m->num_shape_triangles < 1 || m->num_shape_triangles > TRIOCT_MAX_INLINE_SHAPE_TRIANGLES))
+        return job_fail(j, m->num_shape_triangles < 1 ? TRIOCT_ERR_BAD_REQUEST : TRIOCT_ERR_OVER_CAP,
+                        "num_shape_triangles %d: name a shape of the world's scene or send "
+                        "1..TRIOCT_MAX_INLINE_SHAPE_TRIANGLES=%d triangles",
+                        m->num_shape_triangles, TRIOCT_MAX_INLINE_SHAPE_TRIANGLES);
+    for (int i = 0; i < m->num_shape_triangles; i++) {
+        const trioct_triangle_t *t = &m->shape_triangles[i];
+        if (!finite3(&t->a) || !finite3(&t->b) || !finite3(&t->c))
+            return job_fail(j, TRIOCT_ERR_NONFINITE, "shape_triangles[%d] has a coordinate that is not finite", i);
+    }
+    if (m->num_poses < 1 || m->num_poses > TRIOCT_MAX_POSES)
+        return job_fail(j, m->num_poses < 1 ? TRIOCT_ERR_BAD_REQUEST : TRIOCT_ERR_OVER_CAP,
+                        "num_poses %d: send 1..TRIOCT_MAX_POSES=%d poses", m->num_poses, TRIOCT_MAX_POSES);
+    int quaternions = m->rotation == TRIOCT_DISTANCE_REQUEST_T_QUATERNION;
+    if (m->num_quaternions != (quaternions ? 4 * m->num_poses : 0))
+        return job_fail(j, TRIOCT_ERR_BAD_REQUEST, "num_quaternions %d: %s", m->num_quaternions,
+                        quaternions ? "QUATERNION rotations are 4 numbers a pose" : "MATRIX rotations send none");
+    for (int i = 0; i < m->num_poses; i++) {
+        pose at;
+        octree_status st = dispatch_wire_pose(&m->poses[i], quaternions ? &m->quaternions[4 * i] : NULL, &at);
+        if (st == OCTREE_ERR_NONFINITE)
+            return job_fail(j, TRIOCT_ERR_NONFINITE, "poses[%d] has an entry that is not finite", i);
+        if (st != OCTREE_OK)
+            return job_fail(j, TRIOCT_ERR_BAD_POSE,
+                            quaternions ? "poses[%d]: its quaternion's length is not 1 within 1e-3"
+                                        : "poses[%d].r is not a rotation: R^T R must be I within 1e-6 in every entry "
+                                          "and det(R) +1 (a scale, shear or mirror is refused)",
+                            i);
+    }
+    return TRIOCT_OK;
+}
+
+/* The inline triangles' own tree, built as a registered shape's is (node bounds and
+ * slabs), within the world's default budget for that many triangles. */
+static octree *inline_shape_tree(job *j, const trioct_distance_request_t *m)
+{
+    size_t n = (size_t)m->num_shape_triangles;
+    vec3 *vertices = dispatch_malloc(3 * n * sizeof *vertices);
+    uint32_t *indices = dispatch_malloc(3 * n * sizeof *indices);
+    octree *tree = NULL;
+    if (vertices && indices) {
+        for (size_t i = 0; i < n; i++) {
+            const trioct_triangle_t *t = &m->shape_triangles[i];
+            vertices[3 * i] = (vec3){t->a.x, t->a.y, t->a.z};
+            vertices[3 * i + 1] = (vec3){t->b.x, t->b.y, t->b.z};
+            vertices[3 * i + 2] = (vec3){t->c.x, t->c.y, t->c.z};
+            for (uint32_t k = 0; k < 3; k++)
+                indices[3 * i + k] = (uint32_t)(3 * i) + k;
+        }
+        mesh_view view = {vertices, 3 * n, indices, n};
+        octree_def def = octree_default_def();
+        def.node_bounds = 1;
+        def.node_slabs = 1;
+        octree_error e;
+        tree = octree_build(&view, &def, &e);
+        if (!tree && e.status != OCTREE_ERR_NOMEM)
+            job_fail(j, TRIOCT_ERR_BAD_REQUEST, "the inline shape: %s: %s", octree_status_text(e.status), e.message);
+    }
+    if (!tree && j->status == TRIOCT_OK)
+        dispatch_out_of_memory(j, "the inline shape's tree");
+    free(vertices);
+    free(indices);
+    return tree;
+}
+
+/* One pose's answer into *out (out->item set by the caller). */
+static octree_status shape_answer(const world *w, const octree *shape, const pose *at, int8_t kind, double within,
+                                  trioct_distance_result_t *out)
+{
+    out->object = -1;
+    out->triangle = -1;
+    out->shape_triangle = -1;
+    out->feature = -1; /* a shape's witness is on a triangle pair, not one feature */
+    out->feature_index = -1;
+    octree_status st;
+    if (kind == TRIOCT_DISTANCE_REQUEST_T_CLEAR) {
+        int clear;
+        long first = w->tree ? 0 : -1;
+        st = w->tree ? octree_shape_clearance(w->tree, NULL, shape, at, within, &clear, NULL)
+                     : object_set_shape_clearance(w->objects, shape, at, within, &clear, &first, NULL);
+        if (st == OCTREE_OK) {
+            out->clear = (int8_t)clear;
+            out->object = clear ? -1 : (int32_t)first; /* the first object not proven clear */
+        }
+        return st;
+    }
+    double max_distance = within < 0 ? INFINITY : within;
+    shape_distance_output d;
+    uint32_t object = 0;
+    if (w->tree) {
+        st = octree_shape_distance(w->tree, NULL, shape, at, max_distance, &d, NULL);
+    } else {
+        object_shape_distance_output od;
+        st = object_set_shape_distance(w->objects, shape, at, max_distance, &od, NULL);
+        d = od.distance;
+        d.found = od.found;
+        object = od.object;
+    }
+    if (st != OCTREE_OK || !d.found)
+        return st;
+    out->found = 1;
+    out->distance = d.distance;
+    out->bound = d.bound;
+    out->lower = d.lower;
+    out->upper = d.upper;
+    out->point = (trioct_vec3_t){d.world_point.x, d.world_point.y, d.world_point.z};
+    out->shape_point = (trioct_vec3_t){d.shape_point.x, d.shape_point.y, d.shape_point.z};
+    out->object = (int32_t)object;
+    out->triangle = (int32_t)d.world_triangle;
+    out->shape_triangle = (int32_t)d.shape_triangle;
+    return OCTREE_OK;
+}
+
+/* Object index of a shape result for the names table: a found distance's, or the object
+ * a CLEAR could not prove clear of. */
+static int32_t *shape_result_object(void *records, size_t i)
+{
+    trioct_distance_result_t *r = records;
+    return r[i].object >= 0 ? &r[i].object : NULL;
+}
+
+static int answer_shapes(job *j, const trioct_distance_request_t *m)
+{
+    const octree *shape = NULL;
+    octree *own = NULL;
+    if (m->shape[0] != '\0') {
+        const world_shape *ws = world_find_shape(j->w, m->shape);
+        if (!ws) {
+            char q[48];
+            return job_fail(j, TRIOCT_ERR_UNKNOWN_SHAPE, "world %s has no query shape \"%s\" (it has %zu)",
+                            j->w->spec.name, dispatch_quote(m->shape, q, sizeof q), j->w->shape_count);
+        }
+        shape = ws->model->tree;
+    } else if (!(shape = own = inline_shape_tree(j, m))) {
+        return j->status;
+    }
+    size_t n = (size_t)m->num_poses;
+    trioct_distance_result_t *results = dispatch_calloc(n, sizeof *results);
+    int status = results ? TRIOCT_OK : dispatch_out_of_memory(j, "the distance results");
+    int quaternions = m->rotation == TRIOCT_DISTANCE_REQUEST_T_QUATERNION;
+    for (size_t i = 0; i < n && status == TRIOCT_OK; i++) {
+        pose at;
+        dispatch_wire_pose(&m->poses[i], quaternions ? &m->quaternions[4 * i] : NULL, &at); /* checked */
+        results[i].item = (int32_t)i;
+        octree_status st = shape_answer(j->w, shape, &at, m->kind, m->within, &results[i]);
+        if (st != OCTREE_OK)
+            status = job_engine_error(j, st, "pose", i);
+    }
+    octree_free(own);
+    int32_t object_count = 0;
+    char **objects = NULL;
+    if (status == TRIOCT_OK)
+        status = dispatch_name_objects(j, results, n, shape_result_object, &object_count, &objects);
+    if (status == TRIOCT_OK) {
+        reply_head h = job_head(j, TRIOCT_OK, "ok");
+        status = encode_distance_reply(j->out, &h, m->kind, object_count, objects, results, n);
+        if (status == TRIOCT_ERR_NOMEM)
+            dispatch_out_of_memory(j, "the reply");
+        else if (status != TRIOCT_OK)
+            job_fail(j, status, "the reply does not fit chunks of TRIOCT_MAX_CHUNK_BYTES=%d", TRIOCT_MAX_CHUNK_BYTES);
+        else
+            j->counted = 1;
+    }
+    free(objects);
+    free(results);
+    return status;
+}
+
 int dispatch_distance(job *j, const trioct_distance_request_t *m)
 {
     if (check_kind(j, m) != TRIOCT_OK)
         return j->status;
-    /* SHAPE and CLEAR plug in here, as answer_shapes beside answer_points, once the engine walks shapes. */
     if (m->kind != TRIOCT_DISTANCE_REQUEST_T_POINTS)
-        return job_fail(j, TRIOCT_ERR_BAD_REQUEST,
-                        "distance kind %s is not served by this version of trioctd, which answers POINTS (0) only",
-                        kind_name(m->kind));
+        return check_shape(j, m) != TRIOCT_OK ? j->status : answer_shapes(j, m);
     if (check_points(j, m) != TRIOCT_OK)
         return j->status;
     return answer_points(j, m);

@@ -87,9 +87,7 @@ octree_status object_set_point_distance(const object_set *s, vec3 p, double max_
         return st;
     /* The midpoint and bound of the merged enclosure, as the engine states them. */
     distance_output *d = &out->distance;
-    d->distance = 0.5 * d->lower + 0.5 * d->upper;
-    double below = iv_up(d->distance - d->lower), above = iv_up(d->upper - d->distance);
-    d->bound = below > above ? below : above;
+    iv_distance_report(vec3_length(vec3_sub(p, d->point)), d->lower, d->upper, &d->distance, &d->bound);
     if (s->solids > 0) {
         object_point_output side;
         st = object_set_point(s, p, &side, stats);
@@ -135,11 +133,12 @@ static void merge_shape(object_shape_distance_output *out, const shape_distance_
     out->distance.lower = lower;
 }
 
-static void finish_bounds(double *distance, double *bound, double lower, double upper)
+/* A merged shape answer's reported value and bound (iv_distance_report), from its own
+ * witness points and the merged enclosure. */
+static void finish_bounds(shape_distance_output *d)
 {
-    *distance = 0.5 * lower + 0.5 * upper;
-    double below = iv_up(*distance - lower), above = iv_up(upper - *distance);
-    *bound = below > above ? below : above;
+    iv_distance_report(vec3_length(vec3_sub(d->world_point, d->shape_point)), d->lower, d->upper, &d->distance,
+                       &d->bound);
 }
 
 octree_status object_set_shape_distance(const object_set *s, const octree *shape, const pose *at,
@@ -179,7 +178,7 @@ octree_status object_set_shape_distance(const object_set *s, const octree *shape
     if (cand != local)
         free(cand);
     if (st == OCTREE_OK && out->found)
-        finish_bounds(&out->distance.distance, &out->distance.bound, out->distance.lower, out->distance.upper);
+        finish_bounds(&out->distance);
     return st;
 }
 
@@ -281,6 +280,6 @@ octree_status object_set_state_distance(const object_set *s, const state_link *l
 done:
     free(cand);
     if (st == OCTREE_OK && out->found)
-        finish_bounds(&out->distance.distance, &out->distance.bound, out->distance.lower, out->distance.upper);
+        finish_bounds(&out->distance);
     return st;
 }

@@ -424,6 +424,12 @@ static octree_def world_tree_def(const world_spec *spec)
 #ifdef OCTREE_HAS_TRIANGLE_BOXES
     def.triangle_boxes = (spec->effects & (EFFECT_TRIANGLES | EFFECT_MESHES | EFFECT_DISTANCE)) != 0;
 #endif
+    /* Distance walks bound nodes by their triangles' bounds and slabs (docs/engine.md,
+     * "Distances"): 88 bytes a node more, which only worlds serving distance pay. */
+    if (spec->effects & EFFECT_DISTANCE) {
+        def.node_bounds = 1;
+        def.node_slabs = 1;
+    }
     return def;
 }
 
@@ -646,6 +652,7 @@ static int load_shape(world_builder *b, const world_shape_spec *spec, world_shap
         return -1;
     octree_def def = octree_default_def();
     def.node_bounds = 1;
+    def.node_slabs = (b->spec->effects & EFFECT_DISTANCE) != 0; /* for shape distance walks */
     budget_tree(b, &def, mesh.triangle_count);
     mesh_view view = mesh_data_view(&mesh);
     octree_error oerr;
@@ -684,7 +691,7 @@ static int load_shape(world_builder *b, const world_shape_spec *spec, world_shap
 static int load_shapes(world_builder *b)
 {
     world *w = b->w;
-    if (!(b->spec->effects & EFFECT_MESHES) || b->spec->shape_count == 0)
+    if (!(b->spec->effects & (EFFECT_MESHES | EFFECT_DISTANCE)) || b->spec->shape_count == 0)
         return 0;
     w->shapes = calloc(b->spec->shape_count, sizeof *w->shapes);
     if (!w->shapes)
@@ -782,7 +789,7 @@ world *world_build(const world_spec *spec, const char *world_dir, const world_en
 
     double started = monotonic_seconds();
     if (spec && env && env->progress) {
-        size_t shapes = (spec->effects & EFFECT_MESHES) ? spec->shape_count : 0;
+        size_t shapes = (spec->effects & (EFFECT_MESHES | EFFECT_DISTANCE)) ? spec->shape_count : 0;
         atomic_store(&env->progress->files_total, (int)(spec->mesh_count + shapes));
     }
     int failed = !spec ? build_fail(&b, TRIOCT_ERR_BAD_REQUEST, "no world spec given") : check_spec(&b);

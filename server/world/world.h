@@ -34,7 +34,7 @@ typedef struct world {
      * go through the objects (exact mode). */
     const octree *tree;
     mesh_load_report report;  /* summed over the objects; bbox: their posed boxes */
-    world_shape *shapes;      /* loaded only when the world serves EFFECT_MESHES */
+    world_shape *shapes;      /* loaded only when the world serves EFFECT_MESHES or EFFECT_DISTANCE */
     size_t shape_count;
     size_t bytes_shapes;      /* the shapes' meshes and their trees */
     atomic_uint_fast64_t queries; /* requests answered on this version */
@@ -87,7 +87,7 @@ int world_resolve_path(const char *world_dir, const char *rel, char *out, size_t
 int world_resolve_path_in(const char *world_dir, const mesh_roots *roots, const char *rel, char *out,
                           size_t out_len, char *err, size_t err_len);
 
-/* Loads the spec's meshes (and shapes, for EFFECT_MESHES) from world_dir, applies the
+/* Loads the spec's meshes (and shapes, for EFFECT_MESHES and EFFECT_DISTANCE) from world_dir, applies the
  * transform and builds the octree with what the effects need, within the spec's memory
  * budget and env's account (env may be NULL). Returns the world with one reference, or
  * NULL with *status (a trioct_status: TRIOCT_ERR_BAD_PATH, TRIOCT_ERR_LOAD_FAILED,

@@ -1534,7 +1534,8 @@ static void test_distance(void **state)
     /* (7, -2, 1): sqrt(13) from the edge x = 4, y = 0. */
     assert_string_equal(jstr(v, "results.1.feature"), "edge");
     assert_true(fabs(jnum(v, "results.1.distance") - sqrt(13.0)) <= jnum(v, "results.1.bound") + 1e-15);
-    assert_true(jnum(v, "results.1.point.0") == 4.0 && jnum(v, "results.1.point.1") == 0.0);
+    /* The nearest point is a rounded result: on the edge to within its rounding. */
+    assert_true(fabs(jnum(v, "results.1.point.0") - 4.0) < 1e-14 && fabs(jnum(v, "results.1.point.1")) < 1e-14);
     /* (7, 7, 5): 3 sqrt(3) from the corner (4, 4, 2). */
     assert_string_equal(jstr(v, "results.2.feature"), "vertex");
     assert_true(fabs(jnum(v, "results.2.distance") - sqrt(27.0)) <= jnum(v, "results.2.bound") + 1e-15);
@@ -1570,16 +1571,40 @@ static void test_distance(void **state)
     expect_text(jstr(v, "message"), "distance queries need effects = distance");
     jfree(v);
 
-    /* Shape distance and clearance: parsed and sent, refused by this daemon by name. */
+    /* Shape distance: the cube ([-0.5, 0.5]^3) at z = 5 is 2.5 above the box's top (z = 2),
+     * at z = 2.6 it is fl(2.6 - 0.5) - 2 above it, and at z = 2.4 it touches: 0 exactly. */
     r = CLI("distance", "box", "--shape", "cube", "--pose", "2 2 5 1 0 0 0");
-    expect_code(&r, 1);
-    expect_text(r.err, "ERR_BAD_REQUEST");
-    expect_text(r.err, "distance kind SHAPE (1) is not served by this version of trioctd");
+    expect_code(&r, 0);
+    expect_text(r.out, "1 pose, 1 with a nearest point");
+    expect_text(r.out, "2.5 ± ");
+    expect_text(r.out, "SHAPE POINT (TRIANGLE)");
     run_free(&r);
-    v = JSON(1, "clear", "box", "--shape", "cube", "--pose", "2 2 5 1 0 0 0", "--pose", "2 2 2.6", "--within", "0.05");
-    assert_string_equal(jstr(v, "command"), "clear");
-    expect_text(jstr(v, "message"), "distance kind CLEAR (2) is not served by this version of trioctd");
+    v = JSON(0, "distance", "box", "--shape", "cube", "--pose", "2 2 5 1 0 0 0", "--pose", "2 2 2.6", "--pose",
+             "2 2 2.4");
+    assert_int_equal(jlen(v, "results"), 3);
+    assert_true(jnum(v, "results.0.lower") <= 2.5 && 2.5 <= jnum(v, "results.0.upper"));
+    assert_true(jnum(v, "results.0.shape_point.2") == 4.5 && jnum(v, "results.0.point.2") == 2);
+    double above = (2.6 - 0.5) - 2;
+    assert_true(jnum(v, "results.1.lower") <= above && above <= jnum(v, "results.1.upper"));
+    assert_true(jnum(v, "results.2.distance") == 0 && jnum(v, "results.2.upper") == 0);
+    assert_string_equal(jstr(v, "results.2.object"), "box");
+    assert_true(jget(v, "results.0.feature") == NULL); /* a shape's witness is a pair of triangles */
     jfree(v);
+    /* Clearance: both poses clear of 0.05; at the second pose's own distance, not clear. */
+    v = JSON(0, "clear", "box", "--shape", "cube", "--pose", "2 2 5 1 0 0 0", "--pose", "2 2 2.6", "--within", "0.05");
+    assert_string_equal(jstr(v, "command"), "clear");
+    assert_true(jbool(v, "results.0.clear") && jbool(v, "results.1.clear"));
+    jfree(v);
+    char at[32];
+    snprintf(at, sizeof at, "%.17g", above);
+    v = JSON(0, "clear", "box", "--shape", "cube", "--pose", "2 2 2.6", "--within", at);
+    assert_false(jbool(v, "results.0.clear"));
+    assert_string_equal(jstr(v, "results.0.object"), "box");
+    jfree(v);
+    r = CLI("clear", "box", "--shape", "cube", "--pose", "2 2 2.6", "--within", "0.2");
+    expect_code(&r, 0);
+    expect_text(r.out, "1 pose, 0 clear of everything within 0.20000000000000001");
+    run_free(&r);
 
     /* Usage errors: nothing is asked. */
     const char *const bad[][9] = {
