@@ -1,7 +1,8 @@
 /* The distance log: point distances on a world of one object at the identity (yard) and
  * on posed objects (shop), with and without a limit, an empty batch and a batch large
- * enough for several chunks; then what is refused: a world without the effect, a NaN
- * point, a batch over the cap, and the SHAPE and CLEAR kinds this daemon does not serve. */
+ * enough for several chunks; the probe's shape distance and clearance at poses over both,
+ * with a limit and at several radii; then what is refused: a world without the effect, a
+ * NaN point, a CLEAR without a radius. */
 #include <math.h>
 #include <stdlib.h>
 
@@ -60,12 +61,28 @@ int logs_write_distance(const char *dir)
     lr_distance_points(&w, &q, -1, 2, bad);
     q.id = 22;
     lr_distance_points(&w, &q, NAN, 1, bad);
-    trioct_pose_t at[2];
-    ls_poses(&r, 2, ls_vec(-6, -6, 1), ls_vec(6, 6, 4), at);
-    q.id = 23;
-    lr_distance_shape(&w, &q, TRIOCT_DISTANCE_REQUEST_T_SHAPE, -1, "probe", 2, at);
-    q.id = 24;
-    lr_distance_shape(&w, &q, TRIOCT_DISTANCE_REQUEST_T_CLEAR, 0.25, "probe", 2, at);
+    q.id = 23; /* CLEAR needs a radius >= 0 */
+    trioct_pose_t one[1];
+    ls_poses(&r, 1, ls_vec(-6, -6, 1), ls_vec(6, 6, 4), one);
+    lr_distance_shape(&w, &q, TRIOCT_DISTANCE_REQUEST_T_CLEAR, -1, "probe", 1, one);
+
+    /* The probe at poses over the ground and among the crates: distances (some touching),
+     * within a limit, and clearance at three radii. */
+    enum { POSES = 12 };
+    trioct_pose_t at[POSES];
+    ls_poses(&r, POSES, ls_vec(-6, -6, -0.5), ls_vec(6, 6, 4), at);
+    lr_req shapes[2] = {q, shop};
+    for (int k = 0; k < 2; k++) {
+        shapes[k].id = 30 + 10 * k;
+        lr_distance_shape(&w, &shapes[k], TRIOCT_DISTANCE_REQUEST_T_SHAPE, -1, "probe", POSES, at);
+        shapes[k].id++;
+        lr_distance_shape(&w, &shapes[k], TRIOCT_DISTANCE_REQUEST_T_SHAPE, 1.0, "probe", POSES, at);
+        const double radii[3] = {0.05, 0.5, 2.0};
+        for (int i = 0; i < 3; i++) {
+            shapes[k].id++;
+            lr_distance_shape(&w, &shapes[k], TRIOCT_DISTANCE_REQUEST_T_CLEAR, radii[i], "probe", POSES, at);
+        }
+    }
     free(many);
     return lw_save(&w, dir, "distance");
 }
