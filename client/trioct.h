@@ -327,10 +327,9 @@ TRIOCT_API void trioct_mesh_result_free(trioct_mesh_result *r);
 
 /* Distances to a world that serves the distance effect (docs/client.md, "Distance"). Each
  * answer comes with a proven bound: the real distance of the double inputs lies in
- * [lower, upper], distance is their midpoint and |distance - real| <= bound. Point
- * distance is answered; shape distance and clearance have their calls already, and a
- * daemon of this version answers them TRIOCT_ERR_BAD_REQUEST naming the kind. Contact is
- * surface contact: no object is solid yet, so inside is 0 and distances are >= 0. */
+ * [lower, upper], distance is the plain distance between the points found (clamped into
+ * that) and |distance - real| <= bound. Contact is surface contact, except that a point
+ * inside a solid object is inside (1) with a negative distance, its depth. */
 enum { TRIOCT_FEATURE_FACE = 0, TRIOCT_FEATURE_EDGE = 1, TRIOCT_FEATURE_VERTEX = 2 };
 
 typedef struct trioct_point_distance_query {

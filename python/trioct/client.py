@@ -331,7 +331,8 @@ class DistanceResult:
     objects   tuple of the object names .object indexes
     requests, world_versions, daemon  as for RayResult
 
-    Distance is to the surface: no object is solid yet, so none is inside.
+    inside    bool (N,): the point lies inside a solid object; its distance is then
+              negative, its depth below the surface
     """
 
     def __init__(self, n):
@@ -345,6 +346,7 @@ class DistanceResult:
         self.triangle = np.full(n, -1, dtype=np.int32)
         self.feature = [None] * n
         self.feature_index = np.zeros(n, dtype=np.int32)
+        self.inside = np.zeros(n, dtype=bool)
         self.objects = ()
         self.requests = 0
         self.world_versions = ()
@@ -618,6 +620,7 @@ class Client:
                         out.triangle[j] = d.triangle
                         out.feature[j] = _FEATURES[d.feature] if 0 <= d.feature < 3 else "unknown"
                         out.feature_index[j] = d.feature_index
+                        out.inside[j] = bool(d.inside)
                     out.requests += 1
                     out.daemon = _str(res.reply.daemon)
                     if res.reply.world_version not in versions:
