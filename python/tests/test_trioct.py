@@ -497,6 +497,30 @@ class TestDaemon(unittest.TestCase):
         self.assertEqual(r.requests, 2)
         self.assertTrue(np.all(np.abs(r.distance - (pts[:, 0] - 4)) <= r.bound + 1e-12))
 
+    def test_shape_distance_and_clearance(self):
+        """The cube [-0.5, 0.5]^3 over the box [0,4] x [0,4] x [0,2]: 2.5 above at z = 5,
+        touching (0 exactly) at z = 2.4; clear of 0.05 at z = 2.6, not at its own distance."""
+        r = self.c.shape_distance("box", "cube", [[2, 2, 5], [2, 2, 2.4]])
+        self.assertEqual(len(r), 2)
+        self.assertTrue(r.found.all())
+        self.assertTrue(r.lower[0] <= 2.5 <= r.upper[0])
+        self.assertEqual((r.lower[1], r.upper[1], r.distance[1]), (0.0, 0.0, 0.0))
+        self.assertEqual(r.shape_point[0][2], 4.5)
+        self.assertEqual(r.object_names(), ["box", "box"])
+        self.assertTrue(0 <= r.shape_triangle[0] < 12 and 0 <= r.triangle[0] < 12)
+        self.assertFalse(self.c.shape_distance("box", "cube", [2, 2, 5], within=1.0).found[0])
+        above = (2.6 - 0.5) - 2
+        c = self.c.clear("box", "cube", [[2, 2, 2.6], [2, 2, 5]], 0.05)
+        np.testing.assert_array_equal(c.clear, [True, True])
+        c = self.c.clear("box", "cube", [2, 2, 2.6], above)
+        np.testing.assert_array_equal(c.clear, [False])
+        self.assertEqual(c.object_names(), ["box"])
+        with self.assertRaises(ValueError):
+            self.c.clear("box", "cube", [2, 2, 2.6], -1)
+        with self.assertRaises(trioct.DaemonError) as cm:
+            self.c.shape_distance("box", "gripper", [2, 2, 5])
+        self.assertEqual(cm.exception.status, trioct.Status.ERR_UNKNOWN_SHAPE)
+
     def test_distance_needs_the_effect(self):
         with self.assertRaises(trioct.DaemonError) as cm:
             self.c.distance("box_tri", [6, 1, 1.5])

@@ -11,7 +11,8 @@ status of the shared table. docs/python.md is the tour.
 """
 
 from . import _constants, _lib
-from .client import Client, DaemonStatus, DistanceResult, RayResult, WorldInfo, connect
+from .client import (Client, ClearanceResult, DaemonStatus, DistanceResult, RayResult, ShapeDistanceResult, WorldInfo,
+                     connect)
 from .errors import BadReply, DaemonError, Error, NoReply, Status, TransportError, status_name, status_text
 
 __version__ = _constants.VERSION
@@ -24,6 +25,6 @@ MAX_RAYS = _lib.MAX_RAYS
 MAX_POSES = _lib.MAX_POSES
 MAX_POINTS = _lib.MAX_POINTS
 
-__all__ = ["connect", "Client", "RayResult", "DistanceResult", "WorldInfo", "DaemonStatus", "Error", "DaemonError", "NoReply",
+__all__ = ["connect", "Client", "RayResult", "DistanceResult", "ShapeDistanceResult", "ClearanceResult", "WorldInfo", "DaemonStatus", "Error", "DaemonError", "NoReply",
            "TransportError", "BadReply", "Status", "status_name", "status_text", "library_path", "MAX_RAYS",
            "MAX_POSES", "MAX_POINTS", "__version__"]

@@ -181,6 +181,12 @@ class PointDistanceQuery(ctypes.Structure):
     _fields_ = [("world", c_char_p), ("within", c_double), ("count", c_size_t), ("points", c_void_p)]
 
 
+class ShapeDistanceQuery(ctypes.Structure):
+    _c_name_ = "trioct_shape_distance_query"
+    _fields_ = [("world", c_char_p), ("within", c_double), ("shape", c_char_p), ("num_shape_triangles", c_size_t),
+                ("shape_triangles", c_void_p), ("num_poses", c_size_t), ("poses", c_void_p)]
+
+
 class Distance(ctypes.Structure):
     _c_name_ = "trioct_distance"
     _fields_ = [("item", c_int32), ("found", c_int), ("clear", c_int), ("distance", c_double),
@@ -284,6 +290,9 @@ trioct_mesh = _declare("trioct_mesh", c_int, c_void_p, P(MeshQuery), c_int, P(Me
 trioct_mesh_result_free = _declare("trioct_mesh_result_free", None, P(MeshResult))
 trioct_point_distance = _declare("trioct_point_distance", c_int, c_void_p, P(PointDistanceQuery), c_int,
                                  P(DistanceResult))
+trioct_shape_distance = _declare("trioct_shape_distance", c_int, c_void_p, P(ShapeDistanceQuery), c_int,
+                                 P(DistanceResult))
+trioct_clearance = _declare("trioct_clearance", c_int, c_void_p, P(ShapeDistanceQuery), c_int, P(DistanceResult))
 trioct_distance_result_free = _declare("trioct_distance_result_free", None, P(DistanceResult))
 trioct_pose_from_quaternion = _declare("trioct_pose_from_quaternion", c_int, c_double, c_double, c_double,
                                        c_double, c_double, c_double, c_double, P(Pose))

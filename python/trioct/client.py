@@ -316,6 +316,57 @@ class RayResult:
 _FEATURES = ("face", "edge", "vertex")
 
 
+class ShapeDistanceResult:
+    """A shape's distances to a world, one per pose (Client.shape_distance):
+
+    found     bool (N,): something within the query's `within`
+    distance, bound, lower, upper  float64 (N,): the exact distance lies in [lower, upper];
+              0 exactly when the shape touches (NaN where not found)
+    point     (N, 3): the world's witness; shape_point (N, 3): the shape's, posed
+    object    int32 (N,): index into .objects; -1 where not found
+    triangle, shape_triangle  int32 (N,): the two triangles; -1 where not found
+    objects   tuple of the object names .object indexes
+    """
+
+    def __init__(self, n):
+        self.found = np.zeros(n, dtype=bool)
+        self.distance = np.full(n, np.nan)
+        self.bound = np.full(n, np.nan)
+        self.lower = np.full(n, np.nan)
+        self.upper = np.full(n, np.nan)
+        self.point = np.full((n, 3), np.nan)
+        self.shape_point = np.full((n, 3), np.nan)
+        self.object = np.full(n, -1, dtype=np.int32)
+        self.triangle = np.full(n, -1, dtype=np.int32)
+        self.shape_triangle = np.full(n, -1, dtype=np.int32)
+        self.objects = ()
+
+    def __len__(self):
+        return self.distance.shape[0]
+
+    def object_names(self):
+        """The object's name for each pose, None when not found."""
+        return [self.objects[i] if i >= 0 else None for i in self.object]
+
+
+class ClearanceResult:
+    """A shape's clearance, one per pose (Client.clear): clear bool (N,), and object int32
+    (N,), the index into .objects of the object a pose could not be proven clear of (-1
+    where clear)."""
+
+    def __init__(self, n):
+        self.clear = np.zeros(n, dtype=bool)
+        self.object = np.full(n, -1, dtype=np.int32)
+        self.objects = ()
+
+    def __len__(self):
+        return self.clear.shape[0]
+
+    def object_names(self):
+        """The object each pose could not be proven clear of, None where clear."""
+        return [self.objects[i] if i >= 0 else None for i in self.object]
+
+
 class DistanceResult:
     """The answers of a batch of N points, each array indexed by point:
 
@@ -632,6 +683,88 @@ class Client:
                     break
         out.objects = tuple(names.names)
         out.world_versions = tuple(versions)
+        return out
+
+    def _shape_distances(self, call, world, shape, poses, within, timeout_ms, take):
+        """Asks a shape at poses in requests of at most TRIOCT_MAX_POSES, take(j, d, m) per
+        result (m maps the reply's object indexes to the batch's names)."""
+        w = _text(world, "world")
+        if isinstance(shape, str):
+            shape_name, tris = _text(shape, "shape"), None
+        else:
+            shape_name, tris = None, _triangles(shape)
+        p = _poses(poses)
+        n = p.shape[0]
+        names = _Names()
+        q = _lib.ShapeDistanceQuery(world=w, within=within, shape=shape_name)
+        if tris is not None:
+            q.num_shape_triangles = tris.shape[0]
+            q.shape_triangles = tris.ctypes.data if tris.shape[0] else None
+        with self._lock:
+            h = self._handle()
+            timeout = _timeout(timeout_ms, self.timeout_ms)
+            done = 0
+            while done < n:
+                k = min(n - done, _lib.MAX_POSES)
+                q.num_poses = k
+                q.poses = p.ctypes.data + done * 96
+                res = _lib.DistanceResult()
+                rc = call(h, ctypes.byref(q), timeout, ctypes.byref(res))
+                try:
+                    if rc != Status.OK:
+                        part = "poses %d..%d of %d" % (done, done + k - 1, n) if k < n else None
+                        raise _failure(res.reply, part)
+                    m = names.mapping(res.objects)
+                    for i in range(k):
+                        take(done + i, res.results[i], m)
+                finally:
+                    _lib.trioct_distance_result_free(ctypes.byref(res))
+                done += k
+        return n, tuple(names.names)
+
+    def shape_distance(self, world, shape, poses, *, within=None, timeout_ms=None):
+        """The minimum distance between a query shape at each pose and the world, as
+        `trioct distance WORLD --shape` asks it: a ShapeDistanceResult.
+
+        shape, poses  as for mesh()
+        within        look no farther than this (>= 0); None: no limit"""
+        if within is not None and not (float(within) >= 0):
+            raise ValueError("within must be a distance >= 0, not %r" % (within,))
+        n = _poses(poses).shape[0]
+        out = ShapeDistanceResult(n)
+
+        def take(j, d, m):
+            if not d.found:
+                return
+            out.found[j] = True
+            out.distance[j], out.bound[j] = d.distance, d.bound
+            out.lower[j], out.upper[j] = d.lower, d.upper
+            out.point[j] = (d.point.x, d.point.y, d.point.z)
+            out.shape_point[j] = (d.shape_point.x, d.shape_point.y, d.shape_point.z)
+            out.object[j] = m[d.object]
+            out.triangle[j] = d.triangle
+            out.shape_triangle[j] = d.shape_triangle
+
+        _, out.objects = self._shape_distances(_lib.trioct_shape_distance, world, shape, poses,
+                                               -1.0 if within is None else float(within), timeout_ms, take)
+        return out
+
+    def clear(self, world, shape, poses, within, *, timeout_ms=None):
+        """Whether the shape at each pose is clear of the world by more than `within`, as
+        `trioct clear` asks it: a ClearanceResult (never clear when the exact distance is
+        `within` or less)."""
+        if not (float(within) >= 0):
+            raise ValueError("within must be a radius >= 0, not %r" % (within,))
+        n = _poses(poses).shape[0]
+        out = ClearanceResult(n)
+
+        def take(j, d, m):
+            out.clear[j] = bool(d.clear)
+            if not d.clear and d.object >= 0:
+                out.object[j] = m[d.object]
+
+        _, out.objects = self._shape_distances(_lib.trioct_clearance, world, shape, poses, float(within),
+                                               timeout_ms, take)
         return out
 
     # -- worlds --
