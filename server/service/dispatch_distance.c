@@ -69,6 +69,27 @@ static int32_t *result_object(void *records, size_t i)
     return r[i].found ? &r[i].object : NULL;
 }
 
+/* The reply of n results: their objects named, encoded into chunks. */
+static int send_results(job *j, const trioct_distance_request_t *m, trioct_distance_result_t *results, size_t n,
+                        object_field_fn field)
+{
+    int32_t object_count = 0;
+    char **objects = NULL;
+    int status = dispatch_name_objects(j, results, n, field, &object_count, &objects);
+    if (status == TRIOCT_OK) {
+        reply_head h = job_head(j, TRIOCT_OK, "ok");
+        status = encode_distance_reply(j->out, &h, m->kind, object_count, objects, results, n);
+        if (status == TRIOCT_ERR_NOMEM)
+            dispatch_out_of_memory(j, "the reply");
+        else if (status != TRIOCT_OK)
+            job_fail(j, status, "the reply does not fit chunks of TRIOCT_MAX_CHUNK_BYTES=%d", TRIOCT_MAX_CHUNK_BYTES);
+        else
+            j->counted = 1;
+    }
+    free(objects);
+    return status;
+}
+
 /* One point's nearest world point into *out (out->item set by the caller). */
 static octree_status point_distance(const world *w, vec3 p, double max_distance, trioct_distance_result_t *out)
 {
@@ -124,21 +145,8 @@ static int answer_points(job *j, const trioct_distance_request_t *m)
         if (st != OCTREE_OK)
             status = job_engine_error(j, st, "point", i);
     }
-    int32_t object_count = 0;
-    char **objects = NULL;
     if (status == TRIOCT_OK)
-        status = dispatch_name_objects(j, results, n, result_object, &object_count, &objects);
-    if (status == TRIOCT_OK) {
-        reply_head h = job_head(j, TRIOCT_OK, "ok");
-        status = encode_distance_reply(j->out, &h, m->kind, object_count, objects, results, n);
-        if (status == TRIOCT_ERR_NOMEM)
-            dispatch_out_of_memory(j, "the reply");
-        else if (status != TRIOCT_OK)
-            job_fail(j, status, "the reply does not fit chunks of TRIOCT_MAX_CHUNK_BYTES=%d", TRIOCT_MAX_CHUNK_BYTES);
-        else
-            j->counted = 1;
-    }
-    free(objects);
+        status = send_results(j, m, results, n, result_object);
     free(results);
     return status;
 }
@@ -310,21 +318,8 @@ static int answer_shapes(job *j, const trioct_distance_request_t *m)
             status = job_engine_error(j, st, "pose", i);
     }
     octree_free(own);
-    int32_t object_count = 0;
-    char **objects = NULL;
     if (status == TRIOCT_OK)
-        status = dispatch_name_objects(j, results, n, shape_result_object, &object_count, &objects);
-    if (status == TRIOCT_OK) {
-        reply_head h = job_head(j, TRIOCT_OK, "ok");
-        status = encode_distance_reply(j->out, &h, m->kind, object_count, objects, results, n);
-        if (status == TRIOCT_ERR_NOMEM)
-            dispatch_out_of_memory(j, "the reply");
-        else if (status != TRIOCT_OK)
-            job_fail(j, status, "the reply does not fit chunks of TRIOCT_MAX_CHUNK_BYTES=%d", TRIOCT_MAX_CHUNK_BYTES);
-        else
-            j->counted = 1;
-    }
-    free(objects);
+        status = send_results(j, m, results, n, shape_result_object);
     free(results);
     return status;
 }

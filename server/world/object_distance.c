@@ -13,6 +13,12 @@ typedef struct object_candidate {
     uint32_t object;
 } object_candidate;
 
+/* A limit on a distance as one on its square, rounded up. */
+static double squared_limit(double limit)
+{
+    return limit == INFINITY ? INFINITY : iv_up(limit * limit);
+}
+
 static int by_bound(const void *a, const void *b)
 {
     const object_candidate *x = a, *y = b;
@@ -59,7 +65,7 @@ octree_status object_set_point_distance(const object_set *s, vec3 p, double max_
     double limit = max_distance;
     octree_status st = OCTREE_OK;
     for (size_t k = 0; k < s->count; k++) {
-        double limit2 = limit == INFINITY ? INFINITY : iv_up(limit * limit);
+        double limit2 = squared_limit(limit);
         if (cand[k].lb2 > limit2)
             break; /* sorted: every later box is farther too */
         const world_object *o = &s->objects[cand[k].object];
@@ -160,7 +166,7 @@ octree_status object_set_shape_distance(const object_set *s, const octree *shape
     objects_by_box(s, octree_pose_box(at, octree_world_box(shape)), cand);
     double limit = max_distance;
     for (size_t k = 0; k < s->count; k++) {
-        double limit2 = limit == INFINITY ? INFINITY : iv_up(limit * limit);
+        double limit2 = squared_limit(limit);
         if (cand[k].lb2 > limit2)
             break;
         const world_object *o = &s->objects[cand[k].object];
@@ -203,7 +209,7 @@ octree_status object_set_shape_clearance(const object_set *s, const octree *shap
     if (!cand)
         return OCTREE_ERR_NOMEM;
     objects_by_box(s, octree_pose_box(at, octree_world_box(shape)), cand);
-    double limit2 = radius == INFINITY ? INFINITY : iv_up(radius * radius);
+    double limit2 = squared_limit(radius);
     for (size_t k = 0; k < s->count && cand[k].lb2 <= limit2; k++) {
         const world_object *o = &s->objects[cand[k].object];
         int one;
@@ -224,20 +230,12 @@ octree_status object_set_state_distance(const object_set *s, const state_link *l
                                         const state_allowed *allowed, size_t allowed_count, double max_distance,
                                         state_distance_output *out, query_stats *stats)
 {
-    if (!s || !out || (link_count && !links) || (allowed_count && !allowed) || link_count > STATE_MAX_LINKS ||
-        allowed_count > STATE_MAX_ALLOWED || !(max_distance >= 0))
+    if (!s || !out || !(max_distance >= 0))
         return OCTREE_ERR_INVALID;
     *out = (state_distance_output){0};
-    for (size_t i = 0; i < link_count; i++) {
-        if (!links[i].tree || !links[i].name)
-            return OCTREE_ERR_INVALID;
-        octree_status ps = octree_pose_check(&links[i].at);
-        if (ps != OCTREE_OK)
-            return ps;
-    }
-    for (size_t i = 0; i < allowed_count; i++)
-        if (!allowed[i].a || !allowed[i].b)
-            return OCTREE_ERR_INVALID;
+    octree_status checked = state_links_check(links, link_count, allowed, allowed_count);
+    if (checked != OCTREE_OK)
+        return checked;
     if (s->count == 0)
         return OCTREE_OK;
     object_candidate *cand = malloc(s->count * sizeof *cand);
@@ -249,7 +247,7 @@ octree_status object_set_state_distance(const object_set *s, const state_link *l
         const state_link *link = &links[l];
         objects_by_box(s, octree_pose_box(&link->at, link->bounds), cand);
         for (size_t k = 0; k < s->count; k++) {
-            double limit2 = limit == INFINITY ? INFINITY : iv_up(limit * limit);
+            double limit2 = squared_limit(limit);
             if (cand[k].lb2 > limit2)
                 break;
             const world_object *o = &s->objects[cand[k].object];

@@ -52,6 +52,25 @@ static int names_pair(const state_allowed *p, const char *x, const char *y)
     return (strcmp(p->a, x) == 0 && strcmp(p->b, y) == 0) || (strcmp(p->a, y) == 0 && strcmp(p->b, x) == 0);
 }
 
+octree_status state_links_check(const state_link *links, size_t link_count, const state_allowed *allowed,
+                                size_t allowed_count)
+{
+    if ((link_count && !links) || (allowed_count && !allowed) || link_count > STATE_MAX_LINKS ||
+        allowed_count > STATE_MAX_ALLOWED)
+        return OCTREE_ERR_INVALID;
+    for (size_t i = 0; i < link_count; i++) {
+        if (!links[i].tree || !links[i].name)
+            return OCTREE_ERR_INVALID;
+        octree_status ps = octree_pose_check(&links[i].at);
+        if (ps != OCTREE_OK)
+            return ps;
+    }
+    for (size_t i = 0; i < allowed_count; i++)
+        if (!allowed[i].a || !allowed[i].b)
+            return OCTREE_ERR_INVALID;
+    return OCTREE_OK;
+}
+
 int state_pair_allowed(const state_allowed *allowed, size_t count, const char *x, const char *y)
 {
     for (size_t i = 0; i < count; i++)
@@ -123,24 +142,17 @@ octree_status object_set_state(const object_set *s, const state_link *links, siz
                                const state_allowed *allowed, size_t allowed_count, int self_collision,
                                int all_contacts, state_output *out, state_scratch *scratch, query_stats *stats)
 {
-    if (!s || !out || (link_count && !links) || (allowed_count && !allowed) || link_count > STATE_MAX_LINKS ||
-        allowed_count > STATE_MAX_ALLOWED)
+    if (!s || !out)
         return OCTREE_ERR_INVALID;
     out->valid = 1;
     out->count = 0;
     out->truncated = 0;
+    octree_status checked = state_links_check(links, link_count, allowed, allowed_count);
+    if (checked != OCTREE_OK)
+        return checked;
     box3 link_boxes[STATE_MAX_LINKS];
-    for (size_t i = 0; i < link_count; i++) {
-        if (!links[i].tree || !links[i].name)
-            return OCTREE_ERR_INVALID;
-        octree_status ps = octree_pose_check(&links[i].at);
-        if (ps != OCTREE_OK)
-            return ps;
+    for (size_t i = 0; i < link_count; i++)
         link_boxes[i] = octree_pose_box(&links[i].at, links[i].bounds);
-    }
-    for (size_t i = 0; i < allowed_count; i++)
-        if (!allowed[i].a || !allowed[i].b)
-            return OCTREE_ERR_INVALID;
     state_scratch *own = NULL;
     if (!scratch && !(scratch = own = state_scratch_new()))
         return OCTREE_ERR_NOMEM;

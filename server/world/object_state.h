@@ -62,6 +62,11 @@ octree_status object_set_state(const object_set *s, const state_link *links, siz
                                const state_allowed *allowed, size_t allowed_count, int self_collision,
                                int all_contacts, state_output *out, state_scratch *scratch, query_stats *stats);
 
+/* object_set_state's checks of its links and allowed pairs: OCTREE_OK, or the status it
+ * returns for them. */
+octree_status state_links_check(const state_link *links, size_t link_count, const state_allowed *allowed,
+                                size_t allowed_count);
+
 /* 1 when the pair (x, y) is named in allowed (either way round). */
 int state_pair_allowed(const state_allowed *allowed, size_t count, const char *x, const char *y);
 
