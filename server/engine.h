@@ -408,6 +408,13 @@ typedef enum point_side {
 octree_status octree_point_side_posed(const octree *tree, const pose *at, vec3 p, point_side *side,
                                       query_stats *stats);
 
+/* One vertex of each connected part of the tree's mesh (triangles joined by shared
+ * vertices), in its frame, and a triangle of that part (the caller's id): points[0..cap)
+ * and triangles[0..cap) filled, the count of parts returned (more than cap: call again
+ * with room for them), SIZE_MAX when out of memory. What decides, for a shape touching no
+ * triangle of a closed surface, whether each part lies inside it. */
+size_t octree_component_points(const octree *tree, vec3 *points, uint32_t *triangles, size_t cap);
+
 /* ---------- batches ---------- */
 /* Each item gets its own status in statuses[i] and its own output; the batch returns
  * OCTREE_OK when every item was answered (an item's own error is not a batch error) and

@@ -1501,6 +1501,24 @@ static void test_solid_objects_over_the_wire(void **state)
         }
         answer_free(&a);
     }
+    /* The same for a shape: the cube inside the solid box collides through no triangle of
+     * it; inside the section's box it does not. */
+    trioct_pose_t in_solid[2] = {{{1, 0, 0, 0, 1, 0, 0, 0, 1}, {5.5, 0.5, 0.5}},
+                                 {{1, 0, 0, 0, 1, 0, 0, 0, 1}, {0.5, 0.5, 0.5}}};
+    for (int8_t detail = TRIOCT_MESH_REQUEST_T_YESNO; detail <= TRIOCT_MESH_REQUEST_T_PAIRS; detail++) {
+        trioct_mesh_request_t mq = {.header = header("edited"), .detail = detail, .accuracy = -1, .shape = "cube",
+                                    .num_poses = 2, .poses = in_solid};
+        a = ask_mesh("edited", &mq);
+        assert_int_equal(a.status, TRIOCT_OK);
+        assert_int_equal(a.found[0], 1);
+        assert_int_equal(a.found[1], 0);
+        if (detail == TRIOCT_MESH_REQUEST_T_PAIRS) {
+            assert_int_equal(a.records, 1);
+            assert_int_equal(a.pairs[0].world_triangle, -1);
+            assert_string_equal(a.names[a.pairs[0].object], "solid_box");
+        }
+        answer_free(&a);
+    }
 
     trioct_triangle_t open_box[11];
     mesh_data box = meshgen_box((box3){{0, 0, 0}, {1, 1, 1}});

@@ -23,6 +23,7 @@
 #include "support/obj_write.h"
 #include "trioct_status.h"
 #include "world/object_set.h"
+#include "world/object_state.h"
 #include "world/solid_check.h"
 #include "world/world.h"
 
@@ -548,6 +549,69 @@ static void test_triangles_inside_a_solid_collide(void **state)
     object_model_release(ball);
 }
 
+/* A link (a shape at a pose) wholly inside a solid collides, through no triangle of it; inside
+ * the hollow copy, or away, it does not; a link of two separate parts collides when one part
+ * is inside; a link crossing the surface reports surface contacts only. */
+static void test_links_inside_a_solid_collide(void **state)
+{
+    (void)state;
+    object_model *cube = closed_model("cube", meshgen_box((box3){{-1, -1, -1}, {1, 1, 1}}));
+    object_model *ball = closed_model("ball", meshgen_icosphere((vec3){0, 0, 0}, 1, 2));
+    object_set *s = solid_scene(cube, ball);
+    long crate = object_set_find(s, "crate");
+    /* Two parts: a small cube at the origin and another 5 away along x. */
+    mesh_data a = meshgen_box((box3){{-0.1, -0.1, -0.1}, {0.1, 0.1, 0.1}});
+    mesh_data b = meshgen_box((box3){{4.9, -0.1, -0.1}, {5.1, 0.1, 0.1}});
+    mesh_data two = meshgen_transformed(&a, 1.0, (vec3){0, 0, 0});
+    assert_int_equal(mesh_data_append(&two, &b), 0);
+    octree *one_tree = tree_of(&a), *two_tree = tree_of(&two);
+    const struct {
+        const octree *tree;
+        box3 bounds;
+        pose at;
+        int valid;
+    } cases[] = {
+        {one_tree, mesh_data_bounds(&a), placed(10, 0.2, 0.1, 1, 0, 0, 0), 0},   /* inside the crate */
+        {one_tree, mesh_data_bounds(&a), placed(-10, 0.2, 0.1, 1, 0, 0, 0), 1},  /* inside the hollow */
+        {one_tree, mesh_data_bounds(&a), placed(0, -30, 0, 1, 0, 0, 0), 1},      /* nowhere */
+        {two_tree, mesh_data_bounds(&two), placed(-15, 0, 0.2, 1, 0, 0, 0), 1},  /* parts at -15, -10: the hollow */
+        {two_tree, mesh_data_bounds(&two), placed(5, 0, 0.2, 1, 0, 0, 0), 0},    /* parts at 5, 10: one in the crate */
+    };
+    for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
+        for (int all = 0; all <= 1; all++) {
+            state_contact contacts[8];
+            state_output out = {.contacts = contacts, .capacity = 8};
+            state_link link = {"link", cases[i].tree, cases[i].bounds, cases[i].at};
+            assert_int_equal(object_set_state(s, &link, 1, NULL, 0, 0, all, &out, NULL, NULL), OCTREE_OK);
+            if (out.valid != cases[i].valid)
+                fail_msg("case %zu (all %d): valid %d", i, all, out.valid);
+            if (!cases[i].valid) {
+                assert_int_equal(out.count, 1);
+                assert_int_equal(contacts[0].other, crate);
+                assert_int_equal(contacts[0].other_triangle, OBJECT_INTERIOR);
+                assert_true(contacts[0].link_triangle < (cases[i].tree == one_tree ? 12u : 24u));
+            }
+        }
+    }
+    /* Crossing the crate's face: its triangles, no interior contact. */
+    state_contact contacts[64];
+    state_output out = {.contacts = contacts, .capacity = 64};
+    state_link crossing = {"link", one_tree, mesh_data_bounds(&a), placed(11, 0.2, 0.1, 1, 0, 0, 0)};
+    assert_int_equal(object_set_state(s, &crossing, 1, NULL, 0, 0, 1, &out, NULL, NULL), OCTREE_OK);
+    assert_false(out.valid);
+    assert_true(out.count > 0);
+    for (size_t k = 0; k < out.count && k < 64; k++)
+        assert_true(contacts[k].other_triangle != OBJECT_INTERIOR);
+    octree_free(one_tree);
+    octree_free(two_tree);
+    mesh_data_free(&a);
+    mesh_data_free(&b);
+    mesh_data_free(&two);
+    object_set_release(s);
+    object_model_release(cube);
+    object_model_release(ball);
+}
+
 /* ---------- worlds: the load refuses a solid that is not closed ---------- */
 
 typedef struct world_dir {
@@ -736,6 +800,7 @@ int main(void)
         cmocka_unit_test(test_point_in_a_set_of_objects),
         cmocka_unit_test(test_signed_distance_inside_a_solid),
         cmocka_unit_test(test_triangles_inside_a_solid_collide),
+        cmocka_unit_test(test_links_inside_a_solid_collide),
         cmocka_unit_test(test_world_load_checks_solids),
         cmocka_unit_test(test_added_solid_is_checked),
     };

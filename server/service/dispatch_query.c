@@ -623,7 +623,7 @@ int dispatch_mesh(job *j, const trioct_mesh_request_t *m)
     int status;
     if (!poses || !outs || !st)
         status = out_of_memory(j, "the poses");
-    else if (j->w->tree)
+    else if (j->w->tree && !(j->w->objects->solids > 0 && mode == ACCURACY_EXACT))
         status = mesh_work(j, m, mode, &shape, shape_tree, poses, outs, st, &res);
     else
         status = posed_mesh_work(j, m, &shape, shape_tree, poses, &res);

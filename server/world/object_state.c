@@ -91,8 +91,47 @@ typedef struct state_run {
     query_stats *stats;
 } state_run;
 
+/* For a link touching no triangle of a solid object: whether a part of it lies inside, by
+ * one vertex of each connected part (octree_component_points) placed by the link's pose;
+ * 1 with *triangle a triangle of that part. */
+static int link_inside(state_run *run, const octree *other, const pose *other_at, const state_link *link,
+                       uint32_t *triangle)
+{
+    enum { ROOM = 16 };
+    vec3 local_points[ROOM];
+    uint32_t local_ids[ROOM];
+    vec3 *points = local_points;
+    uint32_t *ids = local_ids;
+    size_t n = octree_component_points(link->tree, points, ids, ROOM);
+    if (n != SIZE_MAX && n > ROOM) {
+        points = malloc(n * sizeof *points);
+        ids = malloc(n * sizeof *ids);
+        if (points && ids)
+            n = octree_component_points(link->tree, points, ids, n);
+        else
+            n = SIZE_MAX;
+    }
+    int inside = 0;
+    if (n == SIZE_MAX)
+        run->st = OCTREE_ERR_NOMEM;
+    for (size_t k = 0; k < n && n != SIZE_MAX && !inside && run->st == OCTREE_OK; k++) {
+        point_side side;
+        run->st = octree_point_side_posed(other, other_at, octree_pose_point(&link->at, points[k]), &side, run->stats);
+        if (run->st == OCTREE_OK && side == POINT_INSIDE) {
+            inside = 1;
+            *triangle = ids[k];
+        }
+    }
+    if (points != local_points)
+        free(points);
+    if (ids != local_ids)
+        free(ids);
+    return inside;
+}
+
+/* solid: the other is a solid object, whose inside counts as contact. */
 static int test_pair(state_run *run, const octree *other, const pose *other_at, const state_link *link,
-                     uint32_t link_index, int with_link, uint32_t other_index)
+                     uint32_t link_index, int with_link, uint32_t other_index, int solid)
 {
     mesh_pair first[1];
     mesh_output m = run->all ? (mesh_output){.pairs = run->pairs, .capacity = run->pairs_cap}
@@ -117,6 +156,25 @@ static int test_pair(state_run *run, const octree *other, const pose *other_at, 
     }
     if (run->st != OCTREE_OK)
         return 1;
+    if (!m.hit && solid) {
+        uint32_t triangle;
+        int inside = link_inside(run, other, other_at, link, &triangle);
+        if (run->st != OCTREE_OK)
+            return 1;
+        if (inside) {
+            /* One contact through no triangle of the object: the link is inside it. */
+            state_output *out = run->out;
+            out->valid = 0;
+            if (out->count < out->capacity)
+                out->contacts[out->count] = (state_contact){link_index, 0, other_index, triangle, OBJECT_INTERIOR};
+            out->count++;
+            if (!run->all) {
+                out->truncated = out->capacity == 0;
+                return 1;
+            }
+        }
+        return 0;
+    }
     if (!m.hit)
         return 0;
     state_output *out = run->out;
@@ -181,12 +239,12 @@ octree_status object_set_state(const object_set *s, const state_link *links, siz
             const world_object *o = &s->objects[j];
             if (state_pair_allowed(allowed, allowed_count, l->name, o->name))
                 continue;
-            over = test_pair(&run, o->model->tree, &o->at, l, (uint32_t)i, 0, (uint32_t)j);
+            over = test_pair(&run, o->model->tree, &o->at, l, (uint32_t)i, 0, (uint32_t)j, o->solid);
         }
         for (size_t j = i + 1; self_collision && j < link_count && !over; j++) {
             if (boxes_apart(link_boxes[i], link_boxes[j]) || state_pair_allowed(allowed, allowed_count, l->name, links[j].name))
                 continue;
-            over = test_pair(&run, links[j].tree, &links[j].at, l, (uint32_t)i, 1, (uint32_t)j);
+            over = test_pair(&run, links[j].tree, &links[j].at, l, (uint32_t)i, 1, (uint32_t)j, 0);
         }
     }
     if (all_contacts)
