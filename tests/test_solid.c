@@ -593,6 +593,28 @@ static void test_links_inside_a_solid_collide(void **state)
             }
         }
     }
+    /* Distance and clearance see it too: inside the crate the distance is negative (minus
+     * its distance to the surface) and nothing is clear; inside the hollow copy, 0.7 from
+     * its y = 1 face, positive and clear of 0.01. */
+    state_link in_crate = {"link", one_tree, mesh_data_bounds(&a), placed(10, 0.2, 0.1, 1, 0, 0, 0)};
+    state_link in_hollow = {"link", one_tree, mesh_data_bounds(&a), placed(-10, 0.2, 0.1, 1, 0, 0, 0)};
+    object_shape_distance_output sd;
+    assert_int_equal(object_set_shape_distance(s, one_tree, &in_crate.at, INFINITY, &sd, NULL), OCTREE_OK);
+    assert_true(sd.found && sd.inside);
+    assert_int_equal(sd.inside_object, crate);
+    assert_true(sd.distance.upper < 0 && sd.distance.lower <= sd.distance.distance &&
+                sd.distance.distance <= sd.distance.upper && sd.distance.distance > -1);
+    assert_int_equal(object_set_shape_distance(s, one_tree, &in_hollow.at, INFINITY, &sd, NULL), OCTREE_OK);
+    assert_true(sd.found && !sd.inside && sd.inside_object == UINT32_MAX);
+    assert_true(sd.distance.lower <= 0.7 && 0.7 <= sd.distance.upper);
+    int clear;
+    long first;
+    assert_int_equal(object_set_shape_clearance(s, one_tree, &in_crate.at, 0.01, &clear, &first, NULL), OCTREE_OK);
+    assert_false(clear);
+    assert_int_equal(first, crate);
+    assert_int_equal(object_set_shape_clearance(s, one_tree, &in_hollow.at, 0.01, &clear, &first, NULL), OCTREE_OK);
+    assert_true(clear && first == -1);
+
     /* Crossing the crate's face: its triangles, no interior contact. */
     state_contact contacts[64];
     state_output out = {.contacts = contacts, .capacity = 64};

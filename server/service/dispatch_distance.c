@@ -244,11 +244,13 @@ static octree_status shape_answer(const world *w, const octree *shape, const pos
     out->feature = -1; /* a shape's witness is on a triangle pair, not one feature */
     out->feature_index = -1;
     octree_status st;
+    /* A solid's inside counts, which only the objects' path asks. */
+    const octree *tree = w->objects->solids == 0 ? w->tree : NULL;
     if (kind == TRIOCT_DISTANCE_REQUEST_T_CLEAR) {
         int clear;
-        long first = w->tree ? 0 : -1;
-        st = w->tree ? octree_shape_clearance(w->tree, NULL, shape, at, within, &clear, NULL)
-                     : object_set_shape_clearance(w->objects, shape, at, within, &clear, &first, NULL);
+        long first = tree ? 0 : -1;
+        st = tree ? octree_shape_clearance(tree, NULL, shape, at, within, &clear, NULL)
+                  : object_set_shape_clearance(w->objects, shape, at, within, &clear, &first, NULL);
         if (st == OCTREE_OK) {
             out->clear = (int8_t)clear;
             out->object = clear ? -1 : (int32_t)first; /* the first object not proven clear */
@@ -258,14 +260,15 @@ static octree_status shape_answer(const world *w, const octree *shape, const pos
     double max_distance = within < 0 ? INFINITY : within;
     shape_distance_output d;
     uint32_t object = 0;
-    if (w->tree) {
-        st = octree_shape_distance(w->tree, NULL, shape, at, max_distance, &d, NULL);
+    if (tree) {
+        st = octree_shape_distance(tree, NULL, shape, at, max_distance, &d, NULL);
     } else {
         object_shape_distance_output od;
         st = object_set_shape_distance(w->objects, shape, at, max_distance, &od, NULL);
         d = od.distance;
         d.found = od.found;
         object = od.object;
+        out->inside = (int8_t)od.inside; /* inside a solid: the distance is negative */
     }
     if (st != OCTREE_OK || !d.found)
         return st;

@@ -153,6 +153,7 @@ octree_status object_set_shape_distance(const object_set *s, const octree *shape
     if (!s || !shape || !at || !out)
         return OCTREE_ERR_INVALID;
     *out = (object_shape_distance_output){0};
+    out->inside_object = UINT32_MAX;
     if (!(max_distance >= 0))
         return OCTREE_ERR_INVALID;
     octree_status st = octree_pose_check(at);
@@ -183,8 +184,24 @@ octree_status object_set_shape_distance(const object_set *s, const octree *shape
     }
     if (cand != local)
         free(cand);
-    if (st == OCTREE_OK && out->found)
-        finish_bounds(&out->distance);
+    if (st != OCTREE_OK || !out->found)
+        return st;
+    finish_bounds(&out->distance);
+    if (out->distance.upper > 0 && s->solids > 0) {
+        long solid;
+        uint32_t triangle;
+        state_link link = {"shape", shape, octree_world_box(shape), *at};
+        st = object_set_link_inside(s, &link, &solid, &triangle, stats);
+        if (st == OCTREE_OK && solid >= 0) {
+            shape_distance_output *d = &out->distance;
+            double lower = d->lower;
+            d->lower = -d->upper;
+            d->upper = -lower;
+            d->distance = -d->distance;
+            out->inside = 1;
+            out->inside_object = (uint32_t)solid;
+        }
+    }
     return st;
 }
 
@@ -223,6 +240,18 @@ octree_status object_set_shape_clearance(const object_set *s, const octree *shap
     }
     if (cand != local)
         free(cand);
+    if (st == OCTREE_OK && *clear && s->solids > 0) {
+        /* Clear of every surface, but perhaps inside a solid: that is contact. */
+        long solid;
+        uint32_t triangle;
+        state_link link = {"shape", shape, octree_world_box(shape), *at};
+        st = object_set_link_inside(s, &link, &solid, &triangle, stats);
+        if (st == OCTREE_OK && solid >= 0) {
+            *clear = 0;
+            if (object)
+                *object = solid;
+        }
+    }
     return st;
 }
 

@@ -208,14 +208,19 @@ typedef struct object_shape_distance_output {
     int found;
     shape_distance_output distance; /* world_triangle: the index in the object's mesh */
     uint32_t object;
+    /* 1 when a part of the shape lies inside a solid object without touching it: the
+     * distance is then negative, minus its distance to the surface (lower and upper
+     * negated and swapped); inside_object names the solid, else UINT32_MAX. */
+    int inside;
+    uint32_t inside_object;
 } object_shape_distance_output;
 
 octree_status object_set_shape_distance(const object_set *s, const octree *shape, const pose *at,
                                         double max_distance, object_shape_distance_output *out, query_stats *stats);
 
 /* Clearance over every object: *clear = 1 when every object is proven farther than radius
- * from the placed shape; else 0, with *object (may be NULL) the first object that could
- * not be proven so. */
+ * from the placed shape and no part of it lies inside a solid; else 0, with *object (may
+ * be NULL) the first object that could not be proven so (or the solid holding a part). */
 octree_status object_set_shape_clearance(const object_set *s, const octree *shape, const pose *at, double radius,
                                          int *clear, long *object, query_stats *stats);
 

@@ -95,6 +95,29 @@ typedef struct state_run {
  * one vertex of each connected part (octree_component_points) placed by the link's pose;
  * 1 with *triangle a triangle of that part. */
 static int link_inside(state_run *run, const octree *other, const pose *other_at, const state_link *link,
+                       uint32_t *triangle);
+
+octree_status object_set_link_inside(const object_set *s, const state_link *link, long *object, uint32_t *triangle,
+                                     query_stats *stats)
+{
+    *object = -1;
+    if (s->solids == 0 || s->count == 0)
+        return OCTREE_OK;
+    uint32_t *near = malloc(s->count * sizeof *near);
+    if (!near)
+        return OCTREE_ERR_NOMEM;
+    state_run run = {NULL, NULL, 0, NULL, 0, OCTREE_OK, stats};
+    size_t n = object_set_near(s, octree_pose_box(&link->at, link->bounds), near);
+    for (size_t k = 0; k < n && *object < 0 && run.st == OCTREE_OK; k++) {
+        const world_object *o = &s->objects[near[k]];
+        if (o->solid && link_inside(&run, o->model->tree, &o->at, link, triangle))
+            *object = near[k];
+    }
+    free(near);
+    return run.st;
+}
+
+static int link_inside(state_run *run, const octree *other, const pose *other_at, const state_link *link,
                        uint32_t *triangle)
 {
     enum { ROOM = 16 };

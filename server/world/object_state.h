@@ -67,6 +67,13 @@ octree_status object_set_state(const object_set *s, const state_link *links, siz
 octree_status state_links_check(const state_link *links, size_t link_count, const state_allowed *allowed,
                                 size_t allowed_count);
 
+/* For a link that touches no triangle of the solid objects it meets: the first solid
+ * object (in object order, among those whose posed boxes meet the link's) holding a
+ * connected part of it, as *object (-1: none), with a triangle of that part. What signs a
+ * shape's distance and keeps a clearance from calling a shape inside a solid clear. */
+octree_status object_set_link_inside(const object_set *s, const state_link *link, long *object, uint32_t *triangle,
+                                     query_stats *stats);
+
 /* 1 when the pair (x, y) is named in allowed (either way round). */
 int state_pair_allowed(const state_allowed *allowed, size_t count, const char *x, const char *y);
 
