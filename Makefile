@@ -481,7 +481,7 @@ clean:
 # for the loader child's parsing, one for what the daemon reads back from the child.
 FUZZ_BUILD    := build-fuzz
 FUZZ_SECONDS  ?= 60
-FUZZ_REQUESTS := ray triangle mesh admin objects state
+FUZZ_REQUESTS := ray triangle mesh admin objects state distance
 FUZZ_TARGETS  := $(FUZZ_REQUESTS:%=fuzz_%) fuzz_mesh_file fuzz_mesh_frame
 FUZZ_LIBS     := $(SERVICE_LIB) $(WORLD_LIB) $(PROTO_LIB) $(ENGINE_LIB)
 .PHONY: fuzz fuzz-build

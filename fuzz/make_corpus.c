@@ -31,9 +31,10 @@ int main(int argc, char **argv)
         fprintf(stderr, "usage: fuzz-make-corpus OUT LOG...\n");
         return 2;
     }
-    const char *types[] = {"ray", "triangle", "mesh", "admin", "objects", "state"};
+    /* Every directory type_dir names: a request type without one failed its first write. */
+    const char *types[] = {"ray", "triangle", "mesh", "admin", "objects", "state", "distance"};
     mkdir(argv[1], 0755);
-    for (size_t t = 0; t < 6; t++) {
+    for (size_t t = 0; t < sizeof types / sizeof types[0]; t++) {
         char dir[4200];
         snprintf(dir, sizeof dir, "%s/%s", argv[1], types[t]);
         if (mkdir(dir, 0755) != 0 && errno != EEXIST) {
@@ -62,6 +63,7 @@ int main(int argc, char **argv)
             FILE *f = fopen(path, "wb");
             if (!f) {
                 perror(path);
+                replay_log_free(&log);
                 return 1;
             }
             fputc(pick, f);
