@@ -12,6 +12,7 @@
 #include <math.h>
 #include <string.h>
 
+#include "../geom/box_distance.h"
 #include "../geom/interval.h"
 #include "../geom/point_distance.h"
 #include "../geom/tri_distance.h"
@@ -44,45 +45,20 @@ typedef struct distance_search {
     uint32_t recent[RECENT_SLOTS];
 } distance_search;
 
-/* A lower bound of the squared distance between p and the closed box [lo - g, hi + g]
- * along one axis' gap, never above the real one. */
-static inline double gap_below(double lo, double hi, double p, double g)
-{
-    double below = iv_down(lo - p), above = iv_down(p - hi);
-    double gap = below > above ? below : above;
-    if (g > 0)
-        gap = iv_down(gap - g);
-    return gap > 0 ? gap : 0.0;
-}
-
-/* The squared gaps summed, rounded down: three products and two sums of nonnegative
- * doubles are each within a relative u, and the 2^-1072 covers an underflow. */
-static inline double sum_below(double gx, double gy, double gz)
-{
-    double s = (gx * gx + gy * gy + gz * gz) * (1 - 0x1p-50) - 0x1p-1072;
-    return s > 0 ? s : 0.0;
-}
-
+/* A node box's lower bound: the box grown by what a pose's rounding can move a point, its
+ * distance from the local point, scaled to stay below the world distance. */
 static double box_distance2_below(const distance_query *q, box3 b)
 {
-    vec3 p = q->local_point;
-    return sum_below(gap_below(b.lo.x, b.hi.x, p.x, q->grow), gap_below(b.lo.y, b.hi.y, p.y, q->grow),
-                     gap_below(b.lo.z, b.hi.z, p.z, q->grow)) *
-           q->shrink2;
+    return boxes_distance2_below(box_grown(b, q->grow), point_box(q->local_point)) * q->shrink2;
 }
 
-/* The same for a triangle's float box, whose offsets are from the world cube's corner. */
+/* The same for a triangle's float box, whose offsets are from the world cube's corner (the
+ * floats exact as doubles), against the bounds of the local point's offset. */
 static double triangle_box_distance2_below(const distance_query *q, const triangle_box *tb)
 {
-    double g[3];
-    for (int k = 0; k < 3; k++) {
-        double below = iv_down((double)tb->lo[k] - q->offset[k].hi), above = iv_down(q->offset[k].lo - (double)tb->hi[k]);
-        double gap = below > above ? below : above;
-        if (q->grow > 0)
-            gap = iv_down(gap - q->grow);
-        g[k] = gap > 0 ? gap : 0.0;
-    }
-    return sum_below(g[0], g[1], g[2]) * q->shrink2;
+    box3 offsets = {{tb->lo[0], tb->lo[1], tb->lo[2]}, {tb->hi[0], tb->hi[1], tb->hi[2]}};
+    box3 point = {{q->offset[0].lo, q->offset[1].lo, q->offset[2].lo}, {q->offset[0].hi, q->offset[1].hi, q->offset[2].hi}};
+    return boxes_distance2_below(box_grown(offsets, q->grow), point) * q->shrink2;
 }
 
 static void take_triangle(const octree *tree, const distance_query *q, distance_search *s, uint32_t id,
@@ -101,14 +77,7 @@ static void take_triangle(const octree *tree, const distance_query *q, distance_
             v[k] = octree_apply_pose(q->at, v[k]);
     /* The box of the (posed) vertices is a cheaper lower bound than the triangle's own,
      * and in a tree without triangle boxes the only one. */
-    double gap[3];
-    const double pw[3] = {q->world_point.x, q->world_point.y, q->world_point.z};
-    for (int k = 0; k < 3; k++) {
-        double lo = fmin(fmin(vec3_get(v[0], k), vec3_get(v[1], k)), vec3_get(v[2], k));
-        double hi = fmax(fmax(vec3_get(v[0], k), vec3_get(v[1], k)), vec3_get(v[2], k));
-        gap[k] = gap_below(lo, hi, pw[k], 0.0);
-    }
-    if (sum_below(gap[0], gap[1], gap[2]) > s->limit2)
+    if (boxes_distance2_below(triangle_bounds(v), point_box(q->world_point)) > s->limit2)
         return;
     /* The distance to the triangle's plane is a lower bound too, and a tight one where
      * many triangles stand about as far (a point inside a sphere, above a plain): a

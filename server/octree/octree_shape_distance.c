@@ -15,6 +15,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "../geom/box_distance.h"
 #include "../geom/interval.h"
 #include "../geom/tri_distance.h"
 #include "octree_internal.h"
@@ -45,18 +46,10 @@ typedef struct shape_walk {
     double shape_tau, shape_error, shape_reach; /* the pose's defect, vertex error, largest |x| + |t| */
 } shape_walk;
 
-static box3 grown(box3 b, double g)
-{
-    if (g > 0)
-        b = (box3){{iv_down(b.lo.x - g), iv_down(b.lo.y - g), iv_down(b.lo.z - g)},
-                   {iv_up(b.hi.x + g), iv_up(b.hi.y + g), iv_up(b.hi.z + g)}};
-    return b;
-}
-
 /* A node's box in the world frame. */
 static box3 world_box_of(box3 local, double grow, const pose *at)
 {
-    return at ? grown(octree_pose_box(at, local), grow) : local;
+    return at ? box_grown(octree_pose_box(at, local), grow) : local;
 }
 
 /* A shape slab taken into the world frame: each axis a becomes m = R a, and the range of
@@ -110,25 +103,6 @@ static box3 shape_node_world_box(shape_walk *w, uint32_t node, box3 cell)
 /* A lower bound of the squared distance between two closed boxes: each gap rounded down,
  * squared and summed rounded down. A box that holds nothing (inverted bounds) is at
  * infinity. */
-/* The larger of two gaps, or 0 (fmax is a call at -O2). */
-static inline double gap_of(double x, double y)
-{
-    double g = x > y ? x : y;
-    return g > 0 ? g : 0.0;
-}
-
-static double boxes_distance2_below(box3 a, box3 b)
-{
-    if (!(b.lo.x <= b.hi.x) || !(a.lo.x <= a.hi.x))
-        return INFINITY;
-    /* Each gap is one rounded subtraction (within u of the real one), squared and summed
-     * in four more roundings: 2^-50 of the sum covers them, 2^-1060 an underflow. */
-    double gx = gap_of(a.lo.x - b.hi.x, b.lo.x - a.hi.x), gy = gap_of(a.lo.y - b.hi.y, b.lo.y - a.hi.y),
-           gz = gap_of(a.lo.z - b.hi.z, b.lo.z - a.hi.z);
-    double s = (gx * gx + gy * gy + gz * gz) * (1 - 0x1p-50) - 0x1p-1060;
-    return s > 0 ? s : 0.0;
-}
-
 static double pair_bound(shape_walk *w, uint32_t world_node, box3 world_cell, uint32_t shape_node,
                          box3 shape_cell)
 {
@@ -157,11 +131,6 @@ static void triangle_in_world(const octree *tree, const pose *at, uint32_t id, v
     if (at)
         for (int k = 0; k < 3; k++)
             out[k] = octree_apply_pose(at, out[k]);
-}
-
-static box3 triangle_bounds(const vec3 v[3])
-{
-    return (box3){vec3_min(vec3_min(v[0], v[1]), v[2]), vec3_max(vec3_max(v[0], v[1]), v[2])};
 }
 
 static vec3 triangle_normal(const vec3 v[3])

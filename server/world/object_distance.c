@@ -4,6 +4,7 @@
 #include <math.h>
 #include <stdlib.h>
 
+#include "../geom/box_distance.h"
 #include "../geom/interval.h"
 #include "object_set.h"
 #include "object_state.h"
@@ -27,18 +28,34 @@ static int by_bound(const void *a, const void *b)
     return (x->object > y->object) - (x->object < y->object);
 }
 
-/* Rounded down: each gap, square and sum within a relative u of the real one. */
-static double box_distance2_below(vec3 p, box3 b)
+/* The objects in order of their boxes' distance from box b (a lower bound of every
+ * distance to them): the candidates, in local when there is room (64), else on the heap;
+ * NULL when out of memory. */
+static object_candidate *objects_by_box(const object_set *s, box3 b, object_candidate local[64])
 {
-    const double lo[3] = {b.lo.x, b.lo.y, b.lo.z}, hi[3] = {b.hi.x, b.hi.y, b.hi.z}, q[3] = {p.x, p.y, p.z};
-    double s = 0;
-    for (int k = 0; k < 3; k++) {
-        double below = iv_down(lo[k] - q[k]), above = iv_down(q[k] - hi[k]);
-        double g = below > above ? below : above;
-        if (g > 0)
-            s = iv_down(s + iv_down(g * g));
-    }
-    return s;
+    object_candidate *cand = s->count <= 64 ? local : malloc(s->count * sizeof *cand);
+    if (!cand)
+        return NULL;
+    for (size_t i = 0; i < s->count; i++)
+        cand[i] = (object_candidate){boxes_distance2_below(s->objects[i].bounds, b), (uint32_t)i};
+    qsort(cand, s->count, sizeof *cand, by_bound);
+    return cand;
+}
+
+static void candidates_free(object_candidate *cand, object_candidate local[64])
+{
+    if (cand != local)
+        free(cand);
+}
+
+/* A distance enclosure made signed: the point or shape lies inside a solid, so its
+ * distance to the surface counts below zero. */
+static void negate_enclosure(double *distance, double *lower, double *upper)
+{
+    double was_lower = *lower;
+    *lower = -*upper;
+    *upper = -was_lower;
+    *distance = -*distance;
 }
 
 octree_status object_set_point_distance(const object_set *s, vec3 p, double max_distance, object_distance_output *out,
@@ -55,12 +72,9 @@ octree_status object_set_point_distance(const object_set *s, vec3 p, double max_
     if (s->count == 0)
         return OCTREE_OK;
     object_candidate local[64];
-    object_candidate *cand = s->count <= 64 ? local : malloc(s->count * sizeof *cand);
+    object_candidate *cand = objects_by_box(s, point_box(p), local);
     if (!cand)
         return OCTREE_ERR_NOMEM;
-    for (size_t i = 0; i < s->count; i++)
-        cand[i] = (object_candidate){box_distance2_below(p, s->objects[i].bounds), (uint32_t)i};
-    qsort(cand, s->count, sizeof *cand, by_bound);
 
     double limit = max_distance;
     octree_status st = OCTREE_OK;
@@ -87,8 +101,7 @@ octree_status object_set_point_distance(const object_set *s, vec3 p, double max_
         out->distance.lower = lower;
         limit = out->distance.upper < limit ? out->distance.upper : limit;
     }
-    if (cand != local)
-        free(cand);
+    candidates_free(cand, local);
     if (st != OCTREE_OK || !out->found)
         return st;
     /* The midpoint and bound of the merged enclosure, as the engine states them. */
@@ -98,33 +111,12 @@ octree_status object_set_point_distance(const object_set *s, vec3 p, double max_
         object_point_output side;
         st = object_set_point(s, p, &side, stats);
         if (st == OCTREE_OK && side.side == POINT_INSIDE) {
-            double lower = d->lower;
-            d->lower = -d->upper;
-            d->upper = -lower;
-            d->distance = -d->distance;
+            negate_enclosure(&d->distance, &d->lower, &d->upper);
             out->inside = 1;
             out->inside_object = side.object;
         }
     }
     return st;
-}
-
-/* The objects in order of their boxes' distance from box b (a lower bound of every
- * distance to them): the candidates, cand (room for s->count), filled and sorted. */
-static void objects_by_box(const object_set *s, box3 b, object_candidate *cand)
-{
-    for (size_t i = 0; i < s->count; i++) {
-        box3 o = s->objects[i].bounds;
-        vec3 lo = {o.lo.x - b.hi.x, o.lo.y - b.hi.y, o.lo.z - b.hi.z};
-        box3 gap_box = {lo, {o.hi.x - b.lo.x, o.hi.y - b.lo.y, o.hi.z - b.lo.z}};
-        /* The distance between the boxes is that of the origin from their difference
-         * box [o.lo - b.hi, o.hi - b.lo]; the subtractions are rounded, so the bound is
-         * taken from bounds widened by a step each way. */
-        gap_box.lo = (vec3){iv_down(gap_box.lo.x), iv_down(gap_box.lo.y), iv_down(gap_box.lo.z)};
-        gap_box.hi = (vec3){iv_up(gap_box.hi.x), iv_up(gap_box.hi.y), iv_up(gap_box.hi.z)};
-        cand[i] = (object_candidate){box_distance2_below((vec3){0, 0, 0}, gap_box), (uint32_t)i};
-    }
-    qsort(cand, s->count, sizeof *cand, by_bound);
 }
 
 /* Merges one object's answer into the set's, as object_set_point_distance does. */
@@ -159,12 +151,11 @@ octree_status object_set_shape_distance(const object_set *s, const octree *shape
     octree_status st = octree_pose_check(at);
     if (st != OCTREE_OK || s->count == 0)
         return st;
+    /* Every posed shape vertex lies in the posed box of its tree's cube. */
     object_candidate local[64];
-    object_candidate *cand = s->count <= 64 ? local : malloc(s->count * sizeof *cand);
+    object_candidate *cand = objects_by_box(s, octree_pose_box(at, octree_world_box(shape)), local);
     if (!cand)
         return OCTREE_ERR_NOMEM;
-    /* Every posed shape vertex lies in the posed box of its tree's cube. */
-    objects_by_box(s, octree_pose_box(at, octree_world_box(shape)), cand);
     double limit = max_distance;
     for (size_t k = 0; k < s->count; k++) {
         double limit2 = squared_limit(limit);
@@ -182,8 +173,7 @@ octree_status object_set_shape_distance(const object_set *s, const octree *shape
         if (out->distance.upper == 0)
             break; /* touching: nothing is nearer */
     }
-    if (cand != local)
-        free(cand);
+    candidates_free(cand, local);
     if (st != OCTREE_OK || !out->found)
         return st;
     finish_bounds(&out->distance);
@@ -194,10 +184,7 @@ octree_status object_set_shape_distance(const object_set *s, const octree *shape
         st = object_set_link_inside(s, &link, &solid, &triangle, stats);
         if (st == OCTREE_OK && solid >= 0) {
             shape_distance_output *d = &out->distance;
-            double lower = d->lower;
-            d->lower = -d->upper;
-            d->upper = -lower;
-            d->distance = -d->distance;
+            negate_enclosure(&d->distance, &d->lower, &d->upper);
             out->inside = 1;
             out->inside_object = (uint32_t)solid;
         }
@@ -222,10 +209,9 @@ octree_status object_set_shape_clearance(const object_set *s, const octree *shap
     if (s->count == 0)
         return OCTREE_OK;
     object_candidate local[64];
-    object_candidate *cand = s->count <= 64 ? local : malloc(s->count * sizeof *cand);
+    object_candidate *cand = objects_by_box(s, octree_pose_box(at, octree_world_box(shape)), local);
     if (!cand)
         return OCTREE_ERR_NOMEM;
-    objects_by_box(s, octree_pose_box(at, octree_world_box(shape)), cand);
     double limit2 = squared_limit(radius);
     for (size_t k = 0; k < s->count && cand[k].lb2 <= limit2; k++) {
         const world_object *o = &s->objects[cand[k].object];
@@ -238,8 +224,7 @@ octree_status object_set_shape_clearance(const object_set *s, const octree *shap
             break;
         }
     }
-    if (cand != local)
-        free(cand);
+    candidates_free(cand, local);
     if (st == OCTREE_OK && *clear && s->solids > 0) {
         /* Clear of every surface, but perhaps inside a solid: that is contact. */
         long solid;
@@ -267,14 +252,16 @@ octree_status object_set_state_distance(const object_set *s, const state_link *l
         return checked;
     if (s->count == 0)
         return OCTREE_OK;
-    object_candidate *cand = malloc(s->count * sizeof *cand);
-    if (!cand)
-        return OCTREE_ERR_NOMEM;
     double limit = max_distance;
     octree_status st = OCTREE_OK;
     for (size_t l = 0; l < link_count && st == OCTREE_OK; l++) {
         const state_link *link = &links[l];
-        objects_by_box(s, octree_pose_box(&link->at, link->bounds), cand);
+        object_candidate local[64];
+        object_candidate *cand = objects_by_box(s, octree_pose_box(&link->at, link->bounds), local);
+        if (!cand) {
+            st = OCTREE_ERR_NOMEM;
+            break;
+        }
         for (size_t k = 0; k < s->count; k++) {
             double limit2 = squared_limit(limit);
             if (cand[k].lb2 > limit2)
@@ -301,11 +288,12 @@ octree_status object_set_state_distance(const object_set *s, const state_link *l
             out->distance.lower = lower;
             limit = out->distance.upper < limit ? out->distance.upper : limit;
             if (out->distance.upper == 0)
-                goto done; /* touching: nothing is nearer */
+                break; /* touching: nothing is nearer */
         }
+        candidates_free(cand, local);
+        if (out->found && out->distance.upper == 0)
+            break;
     }
-done:
-    free(cand);
     if (st == OCTREE_OK && out->found)
         finish_bounds(&out->distance);
     return st;
