@@ -205,20 +205,11 @@ static int check_shape(job *j, const trioct_distance_request_t *m)
  * slabs), within the world's default budget for that many triangles. */
 static octree *inline_shape_tree(job *j, const trioct_distance_request_t *m)
 {
-    size_t n = (size_t)m->num_shape_triangles;
-    vec3 *vertices = dispatch_malloc(3 * n * sizeof *vertices);
-    uint32_t *indices = dispatch_malloc(3 * n * sizeof *indices);
+    vec3 *vertices;
+    uint32_t *indices;
+    mesh_view view;
     octree *tree = NULL;
-    if (vertices && indices) {
-        for (size_t i = 0; i < n; i++) {
-            const trioct_triangle_t *t = &m->shape_triangles[i];
-            vertices[3 * i] = (vec3){t->a.x, t->a.y, t->a.z};
-            vertices[3 * i + 1] = (vec3){t->b.x, t->b.y, t->b.z};
-            vertices[3 * i + 2] = (vec3){t->c.x, t->c.y, t->c.z};
-            for (uint32_t k = 0; k < 3; k++)
-                indices[3 * i + k] = (uint32_t)(3 * i) + k;
-        }
-        mesh_view view = {vertices, 3 * n, indices, n};
+    if (dispatch_triangle_mesh(m->shape_triangles, (size_t)m->num_shape_triangles, &vertices, &indices, &view) == 0) {
         octree_def def = octree_default_def();
         def.node_bounds = 1;
         def.node_slabs = 1;

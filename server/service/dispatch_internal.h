@@ -160,6 +160,12 @@ typedef int32_t *(*object_field_fn)(void *records, size_t i);
 int dispatch_name_objects(job *j, void *records, size_t count, object_field_fn field, int32_t *named_count,
                           char ***names);
 
+/* Triangles of the wire as a mesh of three vertices a triangle (inline shapes and links:
+ * the engine tests triangles, so no vertex need be shared), in *vertices and *indices (the
+ * caller frees both) and *view; 0, or -1 when out of memory, with nothing left allocated. */
+int dispatch_triangle_mesh(const trioct_triangle_t *tris, size_t n, vec3 **vertices, uint32_t **indices,
+                           mesh_view *view);
+
 /* TRIOCT_ERR_NOMEM with "out of memory for <what>". */
 int dispatch_out_of_memory(job *j, const char *what);
 

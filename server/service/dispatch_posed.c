@@ -225,3 +225,26 @@ int posed_name_objects(job *j, query_result *r)
 {
     return dispatch_name_objects(j, r, r->record_count, record_object, &r->object_count, &r->objects);
 }
+
+int dispatch_triangle_mesh(const trioct_triangle_t *tris, size_t n, vec3 **vertices, uint32_t **indices,
+                           mesh_view *view)
+{
+    *vertices = dispatch_malloc(3 * n * sizeof **vertices);
+    *indices = dispatch_malloc(3 * n * sizeof **indices);
+    if (!*vertices || !*indices) {
+        free(*vertices);
+        free(*indices);
+        *vertices = NULL;
+        *indices = NULL;
+        return -1;
+    }
+    for (size_t i = 0; i < n; i++) {
+        const trioct_vec3_t *c[3] = {&tris[i].a, &tris[i].b, &tris[i].c};
+        for (int k = 0; k < 3; k++) {
+            (*vertices)[3 * i + k] = (vec3){c[k]->x, c[k]->y, c[k]->z};
+            (*indices)[3 * i + k] = (uint32_t)(3 * i + k);
+        }
+    }
+    *view = (mesh_view){*vertices, 3 * n, *indices, n};
+    return 0;
+}

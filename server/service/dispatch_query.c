@@ -570,28 +570,6 @@ static int posed_mesh_work(job *j, const trioct_mesh_request_t *m, const mesh_vi
     return status;
 }
 
-/* An inline shape becomes a mesh of three vertices per triangle: no vertex sharing is
- * needed, since the engine tests triangles, not a connected surface. */
-static int inline_shape(job *j, const trioct_mesh_request_t *m, vec3 **vertices, uint32_t **indices,
-                        mesh_view *view)
-{
-    size_t n = (size_t)m->num_shape_triangles;
-    *vertices = dispatch_malloc(3 * n * sizeof **vertices);
-    *indices = dispatch_malloc(3 * n * sizeof **indices);
-    if (!*vertices || !*indices)
-        return out_of_memory(j, "the inline shape");
-    for (size_t i = 0; i < n; i++) {
-        const trioct_triangle_t *t = &m->shape_triangles[i];
-        (*vertices)[3 * i] = vec_in(&t->a);
-        (*vertices)[3 * i + 1] = vec_in(&t->b);
-        (*vertices)[3 * i + 2] = vec_in(&t->c);
-        for (uint32_t k = 0; k < 3; k++)
-            (*indices)[3 * i + k] = (uint32_t)(3 * i) + k;
-    }
-    *view = (mesh_view){*vertices, 3 * n, *indices, n};
-    return TRIOCT_OK;
-}
-
 int dispatch_mesh(job *j, const trioct_mesh_request_t *m)
 {
     accuracy_mode mode = ACCURACY_EXACT;
@@ -610,10 +588,9 @@ int dispatch_mesh(job *j, const trioct_mesh_request_t *m)
         }
         shape = mesh_data_view(&s->model->mesh);
         shape_tree = s->model->tree;
-    } else if (inline_shape(j, m, &vertices, &indices, &shape) != TRIOCT_OK) {
-        free(vertices);
-        free(indices);
-        return j->status;
+    } else if (dispatch_triangle_mesh(m->shape_triangles, (size_t)m->num_shape_triangles, &vertices, &indices,
+                                      &shape) != 0) {
+        return out_of_memory(j, "the inline shape");
     }
     size_t n = (size_t)m->num_poses;
     pose *poses = dispatch_malloc(n * sizeof *poses);

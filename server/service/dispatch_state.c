@@ -102,26 +102,16 @@ static int check_state(job *j, const trioct_state_request_t *m)
 static int inline_link(job *j, const trioct_state_link_t *l, int index, octree **tree, box3 *bounds)
 {
     size_t n = (size_t)l->num_triangles;
-    vec3 *v = dispatch_malloc(3 * n * sizeof *v);
-    uint32_t *ix = dispatch_malloc(3 * n * sizeof *ix);
-    if (!v || !ix) {
-        free(v);
-        free(ix);
+    vec3 *v;
+    uint32_t *ix;
+    mesh_view view;
+    if (dispatch_triangle_mesh(l->triangles, n, &v, &ix, &view) != 0)
         return job_fail(j, TRIOCT_ERR_NOMEM, "out of memory for links[%d]", index);
-    }
-    for (size_t t = 0; t < n; t++) {
-        const trioct_vec3_t *c[3] = {&l->triangles[t].a, &l->triangles[t].b, &l->triangles[t].c};
-        for (int k = 0; k < 3; k++) {
-            v[3 * t + k] = (vec3){c[k]->x, c[k]->y, c[k]->z};
-            ix[3 * t + k] = (uint32_t)(3 * t + k);
-        }
-    }
     *bounds = (box3){v[0], v[0]};
     for (size_t k = 1; k < 3 * n; k++) {
         bounds->lo = (vec3){fmin(bounds->lo.x, v[k].x), fmin(bounds->lo.y, v[k].y), fmin(bounds->lo.z, v[k].z)};
         bounds->hi = (vec3){fmax(bounds->hi.x, v[k].x), fmax(bounds->hi.y, v[k].y), fmax(bounds->hi.z, v[k].z)};
     }
-    mesh_view view = {v, 3 * n, ix, n};
     octree_def def = octree_default_def();
     def.node_bounds = 1;
     octree_error e;
