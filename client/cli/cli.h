@@ -78,6 +78,11 @@ int cli_check_name(cli_context *ctx, const char *what, const char *name);
 int cli_open_input(cli_context *ctx, const char *path, FILE **file, const char **name);
 void cli_close_input(FILE *file);
 
+/* Appends the poses of path ("-": standard input), one a line as cli_read_poses reads them,
+ * to *poses. Returns -1 to go on, or CLI_EXIT_USAGE (reported). */
+typedef struct cli_pose_list cli_pose_list;
+int cli_read_pose_file(cli_context *ctx, const char *path, cli_pose_list *poses);
+
 /* Connects to the bus. Returns -1 to go on, or the exit code (reported). */
 int cli_connect(cli_context *ctx);
 void cli_disconnect(cli_context *ctx);

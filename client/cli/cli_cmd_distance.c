@@ -254,19 +254,6 @@ static int distance_print(cli_context *ctx, const distance_answer *a, const cli_
     return rc == 0 ? CLI_EXIT_OK : cli_internal_error(ctx, "out of memory printing the answer");
 }
 
-static int read_pose_file(cli_context *ctx, cli_distance_args *a)
-{
-    FILE *file;
-    const char *name;
-    int rc = cli_open_input(ctx, a->poses_file, &file, &name);
-    if (rc >= 0)
-        return rc;
-    char err[512];
-    int read_rc = cli_read_poses(file, name, &a->poses, err, sizeof err);
-    cli_close_input(file);
-    return read_rc == 0 ? -1 : cli_usage_error(ctx, "%s", err);
-}
-
 static int distance_with_args(cli_context *ctx, const cli_command *cmd, int clear, int argc, char **argv,
                               cli_distance_args *a, trioct_triangle **tris, size_t *num_tris)
 {
@@ -282,7 +269,7 @@ static int distance_with_args(cli_context *ctx, const cli_command *cmd, int clea
     char err[1024];
     if (cli_distance_check(a, clear, err, sizeof err) != 0)
         return cli_usage_error(ctx, "%s", err);
-    if (a->poses_file != NULL && (rc = read_pose_file(ctx, a)) >= 0)
+    if (a->poses_file != NULL && (rc = cli_read_pose_file(ctx, a->poses_file, &a->poses)) >= 0)
         return rc;
     if (a->shape_file != NULL && cli_read_shape_file(a->shape_file, tris, num_tris, err, sizeof err) != 0)
         return cli_usage_error(ctx, "%s", err);

@@ -262,19 +262,6 @@ static int mesh_print(cli_context *ctx, const mesh_answer *a, const char *shape,
     return rc == 0 ? CLI_EXIT_OK : cli_internal_error(ctx, "out of memory printing the answer");
 }
 
-static int read_pose_file(cli_context *ctx, mesh_args *a)
-{
-    FILE *file;
-    const char *name;
-    int rc = cli_open_input(ctx, a->poses_file, &file, &name);
-    if (rc >= 0)
-        return rc;
-    char err[512];
-    int read_rc = cli_read_poses(file, name, &a->poses, err, sizeof err);
-    cli_close_input(file);
-    return read_rc == 0 ? -1 : cli_usage_error(ctx, "%s", err);
-}
-
 static int mesh_with_args(cli_context *ctx, int argc, char **argv, mesh_args *a)
 {
     char *pos[CLI_MAX_POSITIONAL];
@@ -293,7 +280,7 @@ static int mesh_with_args(cli_context *ctx, int argc, char **argv, mesh_args *a)
     if ((rc = cli_check_name(ctx, "world", pos[0])) >= 0 ||
         (a->shape_file == NULL && (rc = cli_check_name(ctx, "shape", pos[1])) >= 0))
         return rc;
-    if (a->poses_file != NULL && (rc = read_pose_file(ctx, a)) >= 0)
+    if (a->poses_file != NULL && (rc = cli_read_pose_file(ctx, a->poses_file, &a->poses)) >= 0)
         return rc;
     char err[1024];
     if (a->shape_file != NULL && cli_read_shape_file(a->shape_file, &a->triangles, &a->num_triangles, err,

@@ -7,6 +7,7 @@
 #include <string.h>
 
 #include "cli.h"
+#include "cli_pose.h"
 
 enum { OPT_URL, OPT_PREFIX, OPT_TIMEOUT, OPT_KEY_FILE, OPT_JSON, OPT_PROGRESS, OPT_HELP, OPT_VERSION };
 
@@ -147,6 +148,19 @@ void cli_close_input(FILE *file)
 {
     if (file != NULL && file != stdin)
         fclose(file);
+}
+
+int cli_read_pose_file(cli_context *ctx, const char *path, cli_pose_list *poses)
+{
+    FILE *file;
+    const char *name;
+    int rc = cli_open_input(ctx, path, &file, &name);
+    if (rc >= 0)
+        return rc;
+    char err[512];
+    int read_rc = cli_read_poses(file, name, poses, err, sizeof err);
+    cli_close_input(file);
+    return read_rc == 0 ? -1 : cli_usage_error(ctx, "%s", err);
 }
 
 int cli_connect(cli_context *ctx)
