@@ -271,7 +271,16 @@ class _Names:
         return m
 
 
-class RayResult:
+class _ObjectIndexed:
+    """Results whose .object indexes .objects, -1 where no object is named."""
+
+    def object_names(self):
+        """The object's name for each item (ray, point or pose), None where none is named:
+        a miss, nothing found, or a clear pose."""
+        return [self.objects[i] if i >= 0 else None for i in self.object]
+
+
+class RayResult(_ObjectIndexed):
     """The answers of a batch of N rays, each array indexed by ray:
 
     hit       bool (N,): the ray met the world in [tmin, tmax]
@@ -305,10 +314,6 @@ class RayResult:
     def __len__(self):
         return self.t.shape[0]
 
-    def object_names(self):
-        """The object's name for each ray, None for a miss."""
-        return [self.objects[i] if i >= 0 else None for i in self.object]
-
     def __repr__(self):
         return "RayResult(%d rays, %d hits)" % (len(self), int(self.hit.sum()))
 
@@ -316,7 +321,7 @@ class RayResult:
 _FEATURES = ("face", "edge", "vertex")
 
 
-class ShapeDistanceResult:
+class ShapeDistanceResult(_ObjectIndexed):
     """A shape's distances to a world, one per pose (Client.shape_distance):
 
     found     bool (N,): something within the query's `within`
@@ -344,12 +349,8 @@ class ShapeDistanceResult:
     def __len__(self):
         return self.distance.shape[0]
 
-    def object_names(self):
-        """The object's name for each pose, None when not found."""
-        return [self.objects[i] if i >= 0 else None for i in self.object]
 
-
-class ClearanceResult:
+class ClearanceResult(_ObjectIndexed):
     """A shape's clearance, one per pose (Client.clear): clear bool (N,), and object int32
     (N,), the index into .objects of the object a pose could not be proven clear of (-1
     where clear)."""
@@ -362,12 +363,8 @@ class ClearanceResult:
     def __len__(self):
         return self.clear.shape[0]
 
-    def object_names(self):
-        """The object each pose could not be proven clear of, None where clear."""
-        return [self.objects[i] if i >= 0 else None for i in self.object]
 
-
-class DistanceResult:
+class DistanceResult(_ObjectIndexed):
     """The answers of a batch of N points, each array indexed by point:
 
     found     bool (N,): something of the world lies within `within`
@@ -405,10 +402,6 @@ class DistanceResult:
 
     def __len__(self):
         return self.distance.shape[0]
-
-    def object_names(self):
-        """The object's name for each point, None when not found."""
-        return [self.objects[i] if i >= 0 else None for i in self.object]
 
     def __repr__(self):
         return "DistanceResult(%d points, %d found)" % (len(self), int(self.found.sum()))
