@@ -88,10 +88,12 @@ typedef struct octree_def {
      * node's box alone would keep; for a tree built as a query shape. Answers are the same
      * either way. 0 (the default): none. */
     int node_bounds;
-    /* 1: store each node's slab, the range of its triangles along their mean normal (40
-     * bytes a node), which distance queries use beside the node's box: a surface's piece
-     * is as thin along its normal as it is flat. Answers are the same either way. 0 (the
-     * default): none. */
+    /* 1: store what distance queries walk (128 bytes a node and 4 a triangle): each
+     * triangle owned by one node, with each node's bounds of the triangles it owns, so that
+     * a walk meets a triangle once where the leaves list it several times; and each node's
+     * slab, the range of those triangles along their mean normal and two axes across it:
+     * a surface's piece is as thin along its normal as it is flat. Answers are the same
+     * either way. 0 (the default): none. */
     int node_slabs;
     /* The most memory the build may hold, in bytes: its copy of the mesh, the nodes, the
      * leaf lists and the lists it holds while building, each growing array counted at the
@@ -169,8 +171,9 @@ typedef struct octree_info {
     size_t bytes_node_bounds;    /* with octree_def.node_bounds 48 per node and 392 per block
                                     of eight children (their bounds laid out for the lane
                                     tests), else 0; part of bytes_total */
-    size_t bytes_node_slabs;     /* with octree_def.node_slabs 40 per node, else 0; part of
-                                    bytes_total */
+    size_t bytes_node_slabs;     /* with octree_def.node_slabs 128 per node (the slab, the
+                                    owned span and bounds) and 4 per triangle (the owned
+                                    lists), else 0; part of bytes_total */
     double build_seconds;
     accuracy_mode mode;
 } octree_info;

@@ -903,6 +903,9 @@ octree *octree_build(const mesh_view *mesh, const octree_def *def_in, octree_err
     if (st == OCTREE_OK)
         st = index_triangles(&ctx, mesh);
     if (st == OCTREE_OK && def.node_slabs)
+        st = budget_take(&ctx, octree_owned_bytes(tree->node_count, tree->triangle_count)) != 0 ? OCTREE_ERR_BUDGET
+                                                                                              : octree_owned_build(tree);
+    if (st == OCTREE_OK && def.node_slabs)
         st = budget_take(&ctx, tree->node_count * sizeof *tree->node_slabs) != 0 ? OCTREE_ERR_BUDGET
                                                                                : octree_slabs_build(tree);
     /* The final array, 64-byte aligned (realloc keeps no alignment, so the build grows a
@@ -983,7 +986,9 @@ octree *octree_build(const mesh_view *mesh, const octree_def *def_in, octree_err
                             tree->used_vertex_count * sizeof *tree->vertices;
     info->bytes_triangle_boxes = tree->triangle_boxes ? tree->triangle_count * sizeof *tree->triangle_boxes : 0;
     info->bytes_traversal = tree->traversal.bytes;
-    info->bytes_node_slabs = tree->node_slabs ? tree->node_count * sizeof *tree->node_slabs : 0;
+    info->bytes_node_slabs = tree->node_slabs ? tree->node_count * sizeof *tree->node_slabs +
+                                                    octree_owned_bytes(tree->node_count, tree->triangle_count)
+                                              : 0;
     info->bytes_node_bounds = tree->node_bounds ? tree->node_count * sizeof *tree->node_bounds +
                                                       child_lane_blocks(tree->node_count) * sizeof *tree->child_lanes
                                                 : 0;
@@ -1011,6 +1016,9 @@ void octree_free(octree *tree)
     free(tree->triangle_boxes);
     free(tree->node_bounds);
     free(tree->node_slabs);
+    free(tree->owned);
+    free(tree->owned_items);
+    free(tree->owned_bounds);
     free(tree->child_lanes);
     free(tree->nodes);
     free(tree->leaf_items);

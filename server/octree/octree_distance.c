@@ -2,13 +2,15 @@
  * proven by interval arithmetic (server/geom/point_distance.h).
  *
  * The walk is depth first, nearest child first: a node's eight children are ordered by
- * their box's distance from the point, a lower bound of every triangle point in them, and
- * a child is entered only while that bound is within the search radius, the smallest
- * upper bound any candidate has given so far (or the caller's max_distance). Depth first
+ * the distance of their bounds (octree_distance_bounds) from the point, a lower bound of
+ * every triangle point in them, and a child is entered only while that bound is within
+ * the search radius, the smallest upper bound any candidate has given so far (or the
+ * caller's max_distance). Depth first
  * keeps the stack at 8 entries a level, where a best-first heap could hold every node; it
  * visits the same leaves once the radius is small, which the nearest-first order makes it
- * soon. A triangle listed in several leaves is bounded once: a small table of the ids
- * tested remembers the recent ones, which are the ones a neighbouring leaf repeats. */
+ * soon. A tree with owned lists meets each triangle once; in one without, a triangle
+ * listed in several leaves is bounded once: a small table of the ids tested remembers the
+ * recent ones, which are the ones a neighbouring leaf repeats. */
 #include <math.h>
 #include <string.h>
 
@@ -105,8 +107,8 @@ static void walk(const octree *tree, const distance_query *q, distance_search *s
     distance_entry stack[OCTREE_STACK_MAX];
     size_t top = 0;
     stats->nodes_visited++;
-    double root = box_distance2_below(q, tree->world);
-    if (tree->nodes[0].count != 0 && root <= s->limit2)
+    double root = box_distance2_below(q, octree_distance_bounds(tree, 0, tree->world));
+    if (!octree_distance_empty(tree, 0) && root <= s->limit2)
         stack[top++] = (distance_entry){0, root, tree->world};
     while (top > 0) {
         distance_entry e = stack[--top];
@@ -115,23 +117,24 @@ static void walk(const octree *tree, const distance_query *q, distance_search *s
         octree_node node = tree->nodes[e.node];
         if (node.count != NODE_INTERIOR) {
             stats->leaves_visited++;
-            for (uint32_t i = 0; i < node.count; i++)
-                take_triangle(tree, q, s, tree->leaf_items[node.first + i], stats);
+            uint32_t count;
+            const uint32_t *items = octree_distance_items(tree, node, e.node, &count);
+            for (uint32_t i = 0; i < count; i++)
+                take_triangle(tree, q, s, items[i], stats);
             continue;
         }
         vec3 c = octree_split_point(tree, e.box);
-        const octree_node *kids = &tree->nodes[node.first];
         distance_entry near[8];
         int n = 0;
         for (int k = 0; k < 8; k++) {
-            if (kids[k].count == 0)
+            uint32_t child = node.first + (uint32_t)k;
+            if (octree_distance_empty(tree, child))
                 continue;
             box3 cb = box_child(e.box, c, box_octant_upper_bits[k]);
             stats->nodes_visited++;
-            double lb2 = box_distance2_below(q, cb);
+            double lb2 = box_distance2_below(q, octree_distance_bounds(tree, child, cb));
             if (tree->node_slabs && lb2 <= s->limit2) {
-                double slab = octree_slab_point_distance2_below(&tree->node_slabs[node.first + (uint32_t)k],
-                                                                q->local_point, q->grow) *
+                double slab = octree_slab_point_distance2_below(&tree->node_slabs[child], q->local_point, q->grow) *
                               q->shrink2;
                 lb2 = slab > lb2 ? slab : lb2;
             }
@@ -143,7 +146,7 @@ static void walk(const octree *tree, const distance_query *q, distance_search *s
                 near[j] = near[j - 1];
                 j--;
             }
-            near[j] = (distance_entry){node.first + (uint32_t)k, lb2, cb};
+            near[j] = (distance_entry){child, lb2, cb};
         }
         for (int j = 0; j < n; j++)
             stack[top++] = near[j];

@@ -67,6 +67,15 @@ typedef struct node_slab {
     double range[2][2]; /* [u, v][lo, hi] */
 } node_slab;
 
+/* A node's share of the owned lists (octree_owned.c). */
+typedef struct owned_span {
+    uint32_t first; /* into owned_items, for a node that is not interior */
+    uint32_t count; /* owned by the node, or within an interior node's subtree */
+} owned_span;
+
+_Static_assert(sizeof(node_slab) + sizeof(owned_span) + sizeof(box3) == 128,
+               "engine.h documents 128 bytes a node with node_slabs");
+
 /* An oriented box: lo[a] <= axes[a] . x <= hi[a] for the three axes (each of length 1 to
  * within `stretch`: |axes[a]| <= 1 + stretch). A node slab in its own frame, or taken
  * into another (a posed shape's). */
@@ -120,8 +129,16 @@ struct octree {
      * their bounds' centres and half sides side by side, as a shape expansion's lanes read
      * them, and which of them hold anything. */
     struct child_lanes *child_lanes;
-    /* Per node when the tree was built with node_slabs, else NULL. */
+    /* Per node when the tree was built with node_slabs, else NULL; over the owned lists
+     * below. */
     node_slab *node_slabs;
+    /* With node_slabs, the owned lists the distance walks take in place of the leaf lists
+     * (octree_owned.c): each triangle owned by one node, per node the span of owned_items
+     * it owns (a leaf or empty node) or the number owned in its subtree (an interior
+     * node), and the bounds of every triangle owned in its subtree, whole. */
+    owned_span *owned;
+    uint32_t *owned_items;
+    box3 *owned_bounds;
 
     octree_node *nodes;
     size_t node_count;
@@ -472,12 +489,45 @@ octree_status octree_posed_point_setup(const octree *tree, const pose *at, vec3 
  * posed node's world box grows by. The pose must have passed octree_pose_check. */
 double octree_pose_reach(const octree *tree, const pose *at);
 
-/* octree_def.node_slabs: the slabs of a finished tree (its vertices and lists in place). */
+/* octree_def.node_slabs: the owned lists, then the slabs over them, of a finished tree
+ * (its vertices and nodes in place). */
+octree_status octree_owned_build(octree *tree);
 octree_status octree_slabs_build(octree *tree);
+/* The bytes the owned lists of a tree of this size take. */
+size_t octree_owned_bytes(size_t node_count, size_t triangle_count);
+
+/* What a distance walk reads of a node, from the owned lists where the tree has them, else
+ * from the leaf lists and the node's bounds within its cell (or the cell itself): whether
+ * it holds nothing, a lower box of every triangle point it holds, and, not interior, the
+ * triangles it holds. With leaf lists a triangle is met in every leaf it is listed in, so
+ * those walks also remember what they have tested. */
+static inline int octree_distance_empty(const octree *tree, uint32_t node)
+{
+    return tree->owned ? tree->owned[node].count == 0 : tree->nodes[node].count == 0;
+}
+
+static inline box3 octree_distance_bounds(const octree *tree, uint32_t node, box3 cell)
+{
+    return tree->owned ? tree->owned_bounds[node] : tree->node_bounds ? tree->node_bounds[node] : cell;
+}
+
+static inline const uint32_t *octree_distance_items(const octree *tree, octree_node node, uint32_t index,
+                                                    uint32_t *count)
+{
+    if (tree->owned) {
+        *count = tree->owned[index].count;
+        return tree->owned_items + tree->owned[index].first;
+    }
+    *count = node.count;
+    return tree->leaf_items + node.first;
+}
 /* Lower bounds of the squared distance from a slab to a point (the slab's points moved by
  * up to grow in the max norm first) and to a closed box: 0 when the slab bounds nothing
  * there. */
 double octree_slab_point_distance2_below(const node_slab *slab, vec3 p, double grow);
+/* Along the slab's normal alone: no frame to make, and across it a node's box is about as
+ * tight as its slab. */
+double octree_slab_normal_box_distance2_below(const node_slab *slab, box3 b);
 static inline double octree_slab_box_distance2_below(const node_slab *slab, box3 b)
 {
     if (slab->n[0] == 0 && slab->n[1] == 0 && slab->n[2] == 0)

@@ -2,14 +2,14 @@
  * tree (itself placed, or as built), and whether anything comes within a radius; bounds
  * proven per triangle pair (server/geom/tri_distance.h).
  *
- * The two trees are descended together, nearest pair first: a pair of a
- * world node and a shape node has the distance between their boxes in the world frame as
- * a lower bound of every pair of triangle points they hold, and is entered only while that
- * is within the search radius, the best upper bound so far (or the caller's limit). The
- * larger node of a pair is split. A world node's box is its cube, a shape node's the
- * bounds of its triangles within its cell (octree_def.node_bounds) or its cell; placed by
- * a pose, each is the box of its posed corners grown by what the pose's rounding can move
- * a point (octree_pose_reach). Clearance is the same walk with the radius fixed: it stops
+ * The two trees are descended together, nearest pair first: a pair of a world node and a
+ * shape node has the distance between their boxes in the world frame as a lower bound of
+ * every pair of triangle points they hold, and is entered only while that is within the
+ * search radius, the best upper bound so far (or the caller's limit). The larger node of a
+ * pair is split. A node's box is octree_distance_bounds': of the triangles it owns, where
+ * its tree has owned lists, else of its triangles within its cell, or the cell; placed by
+ * a pose, it is the box of its posed corners grown by what the pose's rounding can move a
+ * point (octree_pose_reach). Clearance is the same walk with the radius fixed: it stops
  * at the first pair that cannot be proven beyond it. */
 #include <math.h>
 #include <stdlib.h>
@@ -19,12 +19,18 @@
 #include "../geom/interval.h"
 #include "../geom/tri_distance.h"
 #include "octree_internal.h"
+#include "pair_set.h"
 
 typedef struct pair_entry {
     uint32_t world_node, shape_node;
     double lb2;
     box3 world_cell, shape_cell; /* the nodes' cells in their own frames */
 } pair_entry;
+
+typedef struct shape_triangle {
+    vec3 v[3];
+    box3 bounds;
+} shape_triangle;
 
 typedef struct shape_walk {
     const octree *world, *shape;
@@ -36,13 +42,17 @@ typedef struct shape_walk {
     double lower2;
     triangle_pair_distance best;
     uint32_t best_world, best_shape; /* caller's ids */
-    uint64_t recent[64];
+    pair_set tested; /* each triangle pair is tested once */
     query_stats stats;
     /* Per shape node, its world-frame box and slab, made on first use: a node is in many
      * pairs. shape_slab.n = 0 when the node has none. */
     box3 *shape_boxes;
     oriented_box *shape_slabs; /* stretch < 0: none */
     unsigned char *shape_ready;
+    /* Per shape triangle, its posed vertices and their bounds, made on first use: a
+     * triangle meets many world triangles, and each pair was posing it anew. */
+    shape_triangle *shape_triangles;
+    unsigned char *shape_triangle_ready;
     double shape_tau, shape_error, shape_reach; /* the pose's defect, vertex error, largest |x| + |t| */
 } shape_walk;
 
@@ -83,7 +93,7 @@ static void shape_node_ready(shape_walk *w, uint32_t node, box3 cell)
 {
     if (w->shape_ready[node])
         return;
-    box3 b = w->shape->node_bounds ? w->shape->node_bounds[node] : cell;
+    box3 b = octree_distance_bounds(w->shape, node, cell);
     w->shape_boxes[node] = world_box_of(b, w->shape_grow, w->shape_at);
     w->shape_slabs[node].stretch = -1;
     if (w->shape->node_slabs) {
@@ -106,19 +116,20 @@ static box3 shape_node_world_box(shape_walk *w, uint32_t node, box3 cell)
 static double pair_bound(shape_walk *w, uint32_t world_node, box3 world_cell, uint32_t shape_node,
                          box3 shape_cell)
 {
-    box3 wb = world_box_of(w->world->node_bounds ? w->world->node_bounds[world_node] : world_cell, w->world_grow,
-                           w->world_at);
+    box3 wb = world_box_of(octree_distance_bounds(w->world, world_node, world_cell), w->world_grow, w->world_at);
     box3 sb = shape_node_world_box(w, shape_node, shape_cell);
     double lb2 = boxes_distance2_below(wb, sb);
+    if (lb2 > w->limit2)
+        return lb2; /* the boxes suffice: the slabs cost a frame each */
     /* Each side's slab against the other's box: a surface's piece is far thinner along its
      * normal than its box. The world's slab is in the world frame only when it is not
      * placed. */
     if (w->world->node_slabs && !w->world_at) {
-        double g = octree_slab_box_distance2_below(&w->world->node_slabs[world_node], sb);
+        double g = octree_slab_normal_box_distance2_below(&w->world->node_slabs[world_node], sb);
         lb2 = g > lb2 ? g : lb2;
     }
     const oriented_box *ss = &w->shape_slabs[shape_node];
-    if (ss->stretch >= 0) {
+    if (ss->stretch >= 0 && !(lb2 > w->limit2)) {
         double g = octree_oriented_box_distance2_below(ss, wb);
         lb2 = g > lb2 ? g : lb2;
     }
@@ -138,25 +149,30 @@ static vec3 triangle_normal(const vec3 v[3])
     return vec3_cross(vec3_sub(v[1], v[0]), vec3_sub(v[2], v[0]));
 }
 
-/* The eight corners of a box. */
-static void box_corners(box3 b, vec3 out[8])
+static const shape_triangle *shape_triangle_of(shape_walk *w, uint32_t sid)
 {
-    for (int q = 0; q < 8; q++)
-        out[q] = (vec3){q & 1 ? b.hi.x : b.lo.x, q & 2 ? b.hi.y : b.lo.y, q & 4 ? b.hi.z : b.lo.z};
+    shape_triangle *t = &w->shape_triangles[sid];
+    if (!w->shape_triangle_ready[sid]) {
+        triangle_in_world(w->shape, w->shape_at, sid, t->v);
+        t->bounds = triangle_bounds(t->v);
+        w->shape_triangle_ready[sid] = 1;
+    }
+    return t;
 }
 
-/* 1 when the walk may stop: a clearance found a pair it cannot prove clear. */
-static int take_pair(shape_walk *w, uint32_t wid, const vec3 wv[3], uint32_t sid)
+/* 1 when the walk may stop: a clearance found a pair it cannot prove clear, or the
+ * pair touches; -1 when memory ran out. The boxes come first: most pairs a leaf pair
+ * holds are parted by them, and a pair is in as many leaf pairs as its triangles' leaves
+ * make, so the set of pairs tested is asked only for pairs worth the full bounds. */
+static int take_pair(shape_walk *w, uint32_t wid, const vec3 wv[3], box3 wb, uint32_t sid)
 {
-    uint64_t key = (uint64_t)wid << 32 | sid;
-    uint64_t *slot = &w->recent[(wid * 0x9e3779b1u ^ sid) % 64];
-    if (*slot == key)
+    const shape_triangle *st = shape_triangle_of(w, sid);
+    if (boxes_distance2_below(wb, st->bounds) > w->limit2)
         return 0;
-    *slot = key;
-    vec3 sv[3];
-    triangle_in_world(w->shape, w->shape_at, sid, sv);
-    if (boxes_distance2_below(triangle_bounds(wv), triangle_bounds(sv)) > w->limit2)
-        return 0;
+    int fresh = pair_set_insert(&w->tested, pair_set_key(wid, sid));
+    if (fresh <= 0)
+        return fresh;
+    const vec3 *sv = st->v;
     /* Each triangle's plane parts the pair when the other lies beyond it by more than the
      * radius: a near-parallel pair of surfaces, which boxes cannot tell apart, is decided
      * at a sixth of the full bounds' cost. */
@@ -194,22 +210,27 @@ static int take_pair(shape_walk *w, uint32_t wid, const vec3 wv[3], uint32_t sid
 }
 
 /* Every world triangle of the leaf against every shape triangle of the other, a world
- * triangle first against the shape leaf's box as a whole. */
-static int leaf_pair(shape_walk *w, octree_node wn, octree_node sn, box3 shape_box)
+ * triangle first against the shape leaf's box as a whole. As take_pair. */
+static int leaf_pair(shape_walk *w, const pair_entry *e, box3 shape_box)
 {
     w->stats.leaves_visited++;
-    vec3 corners[8];
-    box_corners(shape_box, corners);
-    for (uint32_t i = 0; i < wn.count; i++) {
-        uint32_t wid = w->world->leaf_items[wn.first + i];
+    uint32_t world_count, shape_count;
+    const uint32_t *world_items = octree_distance_items(w->world, w->world->nodes[e->world_node], e->world_node,
+                                                        &world_count);
+    const uint32_t *shape_items = octree_distance_items(w->shape, w->shape->nodes[e->shape_node], e->shape_node,
+                                                        &shape_count);
+    for (uint32_t i = 0; i < world_count; i++) {
+        uint32_t wid = world_items[i];
         vec3 wv[3];
         triangle_in_world(w->world, w->world_at, wid, wv);
-        if (boxes_distance2_below(triangle_bounds(wv), shape_box) > w->limit2 ||
-            convex_gap_lower2(corners, 8, wv, 3, triangle_normal(wv)) > w->limit2)
+        box3 wb = triangle_bounds(wv);
+        if (boxes_distance2_below(wb, shape_box) > w->limit2)
             continue;
-        for (uint32_t j = 0; j < sn.count; j++)
-            if (take_pair(w, wid, wv, w->shape->leaf_items[sn.first + j]))
-                return 1;
+        for (uint32_t j = 0; j < shape_count; j++) {
+            int r = take_pair(w, wid, wv, wb, shape_items[j]);
+            if (r != 0)
+                return r;
+        }
     }
     return 0;
 }
@@ -269,7 +290,7 @@ static octree_status walk_pairs(shape_walk *w)
     const octree *world = w->world, *shape = w->shape;
     pair_heap heap = {0};
     octree_status st = OCTREE_OK;
-    if (world->nodes[0].count == 0 || shape->nodes[0].count == 0)
+    if (octree_distance_empty(world, 0) || octree_distance_empty(shape, 0))
         return OCTREE_OK;
     double root = pair_bound(w, 0, world->world, 0, shape->world);
     if (root <= w->limit2 && heap_push(&heap, (pair_entry){0, 0, root, world->world, shape->world}) != 0)
@@ -282,7 +303,10 @@ static octree_status walk_pairs(shape_walk *w)
         octree_node wn = world->nodes[e.world_node], sn = shape->nodes[e.shape_node];
         int world_leaf = wn.count != NODE_INTERIOR, shape_leaf = sn.count != NODE_INTERIOR;
         if (world_leaf && shape_leaf) {
-            if (leaf_pair(w, wn, sn, shape_node_world_box(w, e.shape_node, e.shape_cell)))
+            int r = leaf_pair(w, &e, shape_node_world_box(w, e.shape_node, e.shape_cell));
+            if (r < 0)
+                st = OCTREE_ERR_NOMEM;
+            if (r != 0)
                 break;
             continue;
         }
@@ -294,7 +318,7 @@ static octree_status walk_pairs(shape_walk *w)
         vec3 c = octree_split_point(tree, cell);
         for (int k = 0; k < 8 && st == OCTREE_OK; k++) {
             uint32_t child = node.first + (uint32_t)k;
-            if (tree->nodes[child].count == 0)
+            if (octree_distance_empty(tree, child))
                 continue;
             box3 cb = box_child(cell, c, box_octant_upper_bits[k]);
             pair_entry p = split_world ? (pair_entry){child, e.shape_node, 0, cb, e.shape_cell}
@@ -313,6 +337,11 @@ static void walk_release(shape_walk *w)
     free(w->shape_boxes);
     free(w->shape_slabs);
     free(w->shape_ready);
+    free(w->shape_triangles);
+    free(w->shape_triangle_ready);
+    pair_set_release(&w->tested);
+    w->shape_triangles = NULL;
+    w->shape_triangle_ready = NULL;
     w->shape_boxes = NULL;
     w->shape_slabs = NULL;
     w->shape_ready = NULL;
@@ -322,6 +351,7 @@ static octree_status walk_setup(shape_walk *w, const octree *world, const pose *
                                 const pose *shape_at, double limit)
 {
     memset(w, 0, sizeof *w);
+    pair_set_init(&w->tested);
     if (!(limit >= 0))
         return OCTREE_ERR_INVALID;
     octree_status st = world_at ? octree_pose_check(world_at) : OCTREE_OK;
@@ -340,7 +370,9 @@ static octree_status walk_setup(shape_walk *w, const octree *world, const pose *
     w->shape_boxes = malloc(shape->node_count * sizeof *w->shape_boxes);
     w->shape_slabs = malloc(shape->node_count * sizeof *w->shape_slabs);
     w->shape_ready = calloc(shape->node_count, 1);
-    if (!w->shape_boxes || !w->shape_slabs || !w->shape_ready) {
+    w->shape_triangles = malloc(shape->triangle_count * sizeof *w->shape_triangles);
+    w->shape_triangle_ready = calloc(shape->triangle_count, 1);
+    if (!w->shape_boxes || !w->shape_slabs || !w->shape_ready || !w->shape_triangles || !w->shape_triangle_ready) {
         walk_release(w);
         return OCTREE_ERR_NOMEM;
     }
@@ -356,7 +388,6 @@ static octree_status walk_setup(shape_walk *w, const octree *world, const pose *
     w->lower2 = INFINITY;
     w->best = (triangle_pair_distance){INFINITY, INFINITY, {0, 0, 0}, {0, 0, 0}};
     w->best_world = w->best_shape = UINT32_MAX;
-    memset(w->recent, 0xff, sizeof w->recent);
     return OCTREE_OK;
 }
 

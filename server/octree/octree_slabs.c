@@ -1,8 +1,9 @@
-/* Node slabs (octree_def.node_slabs): per node a direction n, the sum of its triangles'
- * area normals, and the range [lo, hi] of n . x over their vertices, so that every point of
- * the node's triangles lies in the slab lo <= n . x <= hi. A distance walk bounds a node
- * by the slab as well as by its box: for a piece of a surface the slab is as thin as the
- * piece is flat, where the box is as thick as the cell, and a point facing a curved
+/* Node slabs (octree_def.node_slabs): per node a direction n, the sum of the area normals
+ * of the triangles its subtree owns (octree_owned.c), and the range [lo, hi] of n . x over
+ * their vertices, so that every point of those triangles lies in the slab
+ * lo <= n . x <= hi. A distance walk bounds a node by the slab as well as by its box: for
+ * a piece of a surface the slab is as thin as the piece is flat, where the box is as thick
+ * as the piece is wide, and a point facing a curved
  * surface (from inside a sphere, above a plain) sees most cells' boxes about as near as
  * the surface itself and their slabs much farther.
  *
@@ -27,8 +28,8 @@ static inline double max_abs(vec3 v)
     return larger(fabs(v.x), larger(fabs(v.y), fabs(v.z)));
 }
 
-/* The area normal sum over the node's subtree (interior nodes: their children's), each
- * triangle counted once a leaf it is listed in. */
+/* The area normal sum over the triangles the node's subtree owns (interior nodes: their
+ * children's). */
 static vec3 normals_of(const octree *tree, uint32_t node, vec3 *sums)
 {
     octree_node n = tree->nodes[node];
@@ -37,9 +38,10 @@ static vec3 normals_of(const octree *tree, uint32_t node, vec3 *sums)
         for (int k = 0; k < 8; k++)
             s = vec3_add(s, normals_of(tree, n.first + (uint32_t)k, sums));
     } else {
-        for (uint32_t i = 0; i < n.count; i++) {
+        owned_span own = tree->owned[node];
+        for (uint32_t i = 0; i < own.count; i++) {
             vec3 v[3];
-            octree_triangle_vertices(tree, tree->leaf_items[n.first + i], v);
+            octree_triangle_vertices(tree, tree->owned_items[own.first + i], v);
             s = vec3_add(s, vec3_cross(vec3_sub(v[1], v[0]), vec3_sub(v[2], v[0])));
         }
     }
@@ -75,7 +77,8 @@ static inline double dot3(const double a[3], vec3 x)
     return a[0] * x.x + a[1] * x.y + a[2] * x.z;
 }
 
-/* The ranges of n . x, u . x and v . x over the vertices of the triangles under node. */
+/* The ranges of n . x, u . x and v . x over the vertices of the triangles the node's
+ * subtree owns. */
 static void range_under(const octree *tree, uint32_t node, const double axes[3][3], slab_range *r)
 {
     octree_node nd = tree->nodes[node];
@@ -84,9 +87,10 @@ static void range_under(const octree *tree, uint32_t node, const double axes[3][
             range_under(tree, nd.first + (uint32_t)k, axes, r);
         return;
     }
-    for (uint32_t i = 0; i < nd.count; i++) {
+    owned_span own = tree->owned[node];
+    for (uint32_t i = 0; i < own.count; i++) {
         vec3 v[3];
-        octree_triangle_vertices(tree, tree->leaf_items[nd.first + i], v);
+        octree_triangle_vertices(tree, tree->owned_items[own.first + i], v);
         for (int k = 0; k < 3; k++) {
             for (int a = 0; a < 3; a++) {
                 double d = dot3(axes[a], v[k]);
@@ -116,7 +120,7 @@ octree_status octree_slabs_build(octree *tree)
         *slab = none;
         vec3 n = sums[i];
         double len = vec3_length(n);
-        if (tree->nodes[i].count == 0 || !(len > 0) || !(len < INFINITY))
+        if (tree->owned[i].count == 0 || !(len > 0) || !(len < INFINITY))
             continue;
         double axes[3][3] = {{n.x / len, n.y / len, n.z / len}};
         octree_slab_frame(axes[0], axes[1], axes[2]);
@@ -177,6 +181,32 @@ oriented_box octree_slab_box(const node_slab *slab)
                       0x1p-40};
     octree_slab_frame(slab->n, o.axes[1], o.axes[2]);
     return o;
+}
+
+/* The gap between the box's projection on axis x, [d - r, d + r], and [lo, hi], less what
+ * the projection's roundings may hide (8u of |x|_1 (|c| + |h|)), or 0. */
+static inline double axis_box_gap(const double x[3], double lo, double hi, const double c[3], const double h[3],
+                                  double m)
+{
+    double d = x[0] * c[0] + x[1] * c[1] + x[2] * c[2];
+    double r = fabs(x[0]) * h[0] + fabs(x[1]) * h[1] + fabs(x[2]) * h[2];
+    double norm1 = fabs(x[0]) + fabs(x[1]) + fabs(x[2]);
+    double err = 8 * 0x1p-53 * norm1 * 2 * m + 0x1p-1060;
+    double gap = lo - (d + r) > (d - r) - hi ? lo - (d + r) : (d - r) - hi;
+    if (!(gap < INFINITY))
+        return 0.0;
+    gap -= err + 0x1p-52 * (gap > 0 ? gap : 0);
+    return gap > 0 ? gap : 0.0;
+}
+
+double octree_slab_normal_box_distance2_below(const node_slab *slab, box3 b)
+{
+    double c[3] = {0.5 * b.lo.x + 0.5 * b.hi.x, 0.5 * b.lo.y + 0.5 * b.hi.y, 0.5 * b.lo.z + 0.5 * b.hi.z};
+    double h[3] = {0.5 * b.hi.x - 0.5 * b.lo.x, 0.5 * b.hi.y - 0.5 * b.lo.y, 0.5 * b.hi.z - 0.5 * b.lo.z};
+    double g = axis_box_gap(slab->n, slab->lo, slab->hi, c, h, larger(max_abs(b.lo), max_abs(b.hi)));
+    /* n is of unit length to within 2^-40 (it was divided by its rounded length); 2^-48
+     * covers the square's rounding. */
+    return g * g * (1 - 0x1p-48) / ((1 + 0x1p-40) * (1 + 0x1p-40));
 }
 
 double octree_oriented_box_distance2_below(const oriented_box *o, box3 b)
