@@ -501,11 +501,14 @@ static void test_hard_pairs(void **state)
     }
 }
 
-static octree *build_shape(const mesh_data *m)
+/* slabs: also the owned lists and slabs a distance world's shapes get, which the walk
+ * reads in place of the leaf lists. */
+static octree *build_shape(const mesh_data *m, int slabs)
 {
     mesh_view view = mesh_data_view(m);
     octree_def def = octree_default_def();
     def.node_bounds = 1;
+    def.node_slabs = slabs;
     octree_error err;
     octree *t = octree_build(&view, &def, &err);
     assert_non_null(t);
@@ -612,14 +615,16 @@ static pose random_pose(rng *r, vec3 t)
 }
 
 /* Shapes near, touching and inside worlds, placed by random poses and exact quarter
- * turns, the world itself placed or not, and at a 1e6 offset. */
+ * turns, the world itself placed or not, and at a 1e6 offset; each shape as a tree with
+ * leaf lists alone and with owned lists and slabs, against worlds of either kind. */
 static void test_shape_distance(void **state)
 {
     (void)state;
     rng r = rng_seeded(seed + 20);
     mesh_data sphere = meshgen_icosphere((vec3){0, 0, 0}, 0.5, 1);
     mesh_data box = meshgen_box((box3){{-0.5, -0.5, -0.5}, {0.5, 0.5, 0.5}});
-    octree *sphere_tree = build_shape(&sphere), *box_tree = build_shape(&box);
+    octree *sphere_trees[2] = {build_shape(&sphere, 0), build_shape(&sphere, 1)};
+    octree *box_trees[2] = {build_shape(&box, 0), build_shape(&box, 1)};
     box3 region = {{-4, -4, -1}, {4, 4, 1}};
     mesh_data terrain = meshgen_terrain(seed, region, 12, 12);
     mesh_data blocks = meshgen_blocks(seed, 3, 3, 2, 1.0);
@@ -633,21 +638,27 @@ static void test_shape_distance(void **state)
             pose at = random_pose(&r, t);
             if (i % 4 == 3) /* a quarter turn: faces parallel to the blocks' */
                 at = (pose){{0, -1, 0, 1, 0, 0, 0, 0, 1}, {floor(t.x) + 0.5, floor(t.y) + 0.5, wb.hi.z + 0.5 + (i % 8 == 3)}};
-            check_shape(world, wm, NULL, i % 2 ? sphere_tree : box_tree, i % 2 ? &sphere : &box, &at);
+            for (int slabs = 0; slabs < 2; slabs++)
+                check_shape(world, wm, NULL, i % 2 ? sphere_trees[slabs] : box_trees[slabs], i % 2 ? &sphere : &box,
+                            &at);
         }
         /* The world placed too, far from the origin. */
         pose wat = random_pose(&r, (vec3){1e6, -1e6, 5});
         for (int i = 0; i < 8; i++) {
             vec3 local = rng_point_in_box(&r, wb);
             pose at = random_pose(&r, octree_pose_point(&wat, local));
-            check_shape(world, wm, &wat, i % 2 ? sphere_tree : box_tree, i % 2 ? &sphere : &box, &at);
+            for (int slabs = 0; slabs < 2; slabs++)
+                check_shape(world, wm, &wat, i % 2 ? sphere_trees[slabs] : box_trees[slabs], i % 2 ? &sphere : &box,
+                            &at);
         }
         octree_free(world);
     }
     mesh_data_free(&terrain);
     mesh_data_free(&blocks);
-    octree_free(sphere_tree);
-    octree_free(box_tree);
+    for (int slabs = 0; slabs < 2; slabs++) {
+        octree_free(sphere_trees[slabs]);
+        octree_free(box_trees[slabs]);
+    }
     mesh_data_free(&sphere);
     mesh_data_free(&box);
 }

@@ -42,7 +42,10 @@ typedef struct shape_walk {
     double lower2;
     triangle_pair_distance best;
     uint32_t best_world, best_shape; /* caller's ids */
-    pair_set tested; /* each triangle pair is tested once */
+    /* Each triangle pair is tested once: in trees with owned lists a pair is met in one
+     * node pair; in others, in every pair of leaves that list its triangles, and this set
+     * remembers it. */
+    pair_set *tested; /* NULL with owned lists */
     query_stats stats;
     /* Per shape node, its world-frame box and slab, made on first use: a node is in many
      * pairs. shape_slab.n = 0 when the node has none. */
@@ -89,12 +92,64 @@ static oriented_box posed_slab(const shape_walk *w, const node_slab *local)
     return out;
 }
 
+static void triangle_in_world(const octree *tree, const pose *at, uint32_t id, vec3 out[3])
+{
+    octree_triangle_vertices(tree, id, out);
+    if (at)
+        for (int k = 0; k < 3; k++)
+            out[k] = octree_apply_pose(at, out[k]);
+}
+
+static const shape_triangle *shape_triangle_of(shape_walk *w, uint32_t sid)
+{
+    shape_triangle *t = &w->shape_triangles[sid];
+    if (!w->shape_triangle_ready[sid]) {
+        triangle_in_world(w->shape, w->shape_at, sid, t->v);
+        t->bounds = triangle_bounds(t->v);
+        w->shape_triangle_ready[sid] = 1;
+    }
+    return t;
+}
+
+/* A posed shape node's box: the box of its posed triangles where it owns few (each
+ * triangle posed once a walk, and its bounds those the pairs are measured with, so they
+ * need no growing), else the box of its bounds' posed corners, grown. A small node's
+ * rotated box reaches up to sqrt(3) times as far as its triangles. */
+#define EXACT_POSED_NODE 64
+
+static void shape_node_ready(shape_walk *w, uint32_t node, box3 cell);
+
+static box3 posed_owned_box(shape_walk *w, uint32_t node)
+{
+    const octree *shape = w->shape;
+    octree_node n = shape->nodes[node];
+    box3 b = {{INFINITY, INFINITY, INFINITY}, {-INFINITY, -INFINITY, -INFINITY}};
+    if (n.count == NODE_INTERIOR) {
+        for (int k = 0; k < 8; k++) {
+            uint32_t child = n.first + (uint32_t)k;
+            if (octree_distance_empty(shape, child))
+                continue;
+            shape_node_ready(w, child, shape->world); /* owned lists: the cell is not read */
+            b = (box3){vec3_min(b.lo, w->shape_boxes[child].lo), vec3_max(b.hi, w->shape_boxes[child].hi)};
+        }
+        return b;
+    }
+    owned_span own = shape->owned[node];
+    for (uint32_t i = 0; i < own.count; i++) {
+        box3 t = shape_triangle_of(w, shape->owned_items[own.first + i])->bounds;
+        b = (box3){vec3_min(b.lo, t.lo), vec3_max(b.hi, t.hi)};
+    }
+    return b;
+}
+
 static void shape_node_ready(shape_walk *w, uint32_t node, box3 cell)
 {
     if (w->shape_ready[node])
         return;
-    box3 b = octree_distance_bounds(w->shape, node, cell);
-    w->shape_boxes[node] = world_box_of(b, w->shape_grow, w->shape_at);
+    if (w->shape_at && w->shape->owned && w->shape->owned[node].count <= EXACT_POSED_NODE)
+        w->shape_boxes[node] = posed_owned_box(w, node);
+    else
+        w->shape_boxes[node] = world_box_of(octree_distance_bounds(w->shape, node, cell), w->shape_grow, w->shape_at);
     w->shape_slabs[node].stretch = -1;
     if (w->shape->node_slabs) {
         const node_slab *ls = &w->shape->node_slabs[node];
@@ -136,42 +191,25 @@ static double pair_bound(shape_walk *w, uint32_t world_node, box3 world_cell, ui
     return lb2;
 }
 
-static void triangle_in_world(const octree *tree, const pose *at, uint32_t id, vec3 out[3])
-{
-    octree_triangle_vertices(tree, id, out);
-    if (at)
-        for (int k = 0; k < 3; k++)
-            out[k] = octree_apply_pose(at, out[k]);
-}
-
 static vec3 triangle_normal(const vec3 v[3])
 {
     return vec3_cross(vec3_sub(v[1], v[0]), vec3_sub(v[2], v[0]));
 }
 
-static const shape_triangle *shape_triangle_of(shape_walk *w, uint32_t sid)
-{
-    shape_triangle *t = &w->shape_triangles[sid];
-    if (!w->shape_triangle_ready[sid]) {
-        triangle_in_world(w->shape, w->shape_at, sid, t->v);
-        t->bounds = triangle_bounds(t->v);
-        w->shape_triangle_ready[sid] = 1;
-    }
-    return t;
-}
-
 /* 1 when the walk may stop: a clearance found a pair it cannot prove clear, or the
  * pair touches; -1 when memory ran out. The boxes come first: most pairs a leaf pair
- * holds are parted by them, and a pair is in as many leaf pairs as its triangles' leaves
- * make, so the set of pairs tested is asked only for pairs worth the full bounds. */
+ * holds are parted by them, so the set of pairs tested is asked only for pairs worth the
+ * full bounds. */
 static int take_pair(shape_walk *w, uint32_t wid, const vec3 wv[3], box3 wb, uint32_t sid)
 {
     const shape_triangle *st = shape_triangle_of(w, sid);
     if (boxes_distance2_below(wb, st->bounds) > w->limit2)
         return 0;
-    int fresh = pair_set_insert(&w->tested, pair_set_key(wid, sid));
-    if (fresh <= 0)
-        return fresh;
+    if (w->tested) {
+        int fresh = pair_set_insert(w->tested, pair_set_key(wid, sid));
+        if (fresh <= 0)
+            return fresh;
+    }
     const vec3 *sv = st->v;
     /* Each triangle's plane parts the pair when the other lies beyond it by more than the
      * radius: a near-parallel pair of surfaces, which boxes cannot tell apart, is decided
@@ -240,33 +278,46 @@ static double cell_size(box3 b)
     return fmax(b.hi.x - b.lo.x, fmax(b.hi.y - b.lo.y, b.hi.z - b.lo.z));
 }
 
-
 /* The pairs waiting, a binary min-heap by lower bound: the walk always takes the pair
  * that may be nearest, so the first leaf pairs it reaches hold the answer or nearly, the
  * radius falls at once, and every pair whose bound is past it is never taken. Depth first,
  * with each node's children in order, measured 1.5-90x the pairs on a sphere over a
  * terrain (the nearest child's subtree is not where the nearest pair is). */
+typedef struct heap_item {
+    double lb2;
+    uint32_t entry; /* into the pool */
+} heap_item;
+
+/* The heap orders small items; the pairs themselves (with their cells, 112 bytes) stay
+ * where they were put, in a pool that only grows while a walk lasts. Sifting whole pairs
+ * was a sixth of a walk. */
 typedef struct pair_heap {
-    pair_entry *items;
+    heap_item *items;
     size_t count, capacity;
+    pair_entry *pool;
+    size_t pool_count, pool_capacity;
 } pair_heap;
 
-static int heap_push(pair_heap *h, pair_entry e)
+static int heap_push(pair_heap *h, const pair_entry *e)
 {
-    if (array_reserve((void **)&h->items, &h->capacity, h->count + 1, sizeof *h->items, 64) != 0)
+    if (h->pool_count >= UINT32_MAX ||
+        array_reserve((void **)&h->pool, &h->pool_capacity, h->pool_count + 1, sizeof *h->pool, 64) != 0 ||
+        array_reserve((void **)&h->items, &h->capacity, h->count + 1, sizeof *h->items, 64) != 0)
         return -1;
+    h->pool[h->pool_count] = *e;
+    heap_item item = {e->lb2, (uint32_t)h->pool_count++};
     size_t i = h->count++;
-    while (i > 0 && h->items[(i - 1) / 2].lb2 > e.lb2) {
+    while (i > 0 && h->items[(i - 1) / 2].lb2 > item.lb2) {
         h->items[i] = h->items[(i - 1) / 2];
         i = (i - 1) / 2;
     }
-    h->items[i] = e;
+    h->items[i] = item;
     return 0;
 }
 
-static pair_entry heap_pop(pair_heap *h)
+static const pair_entry *heap_pop(pair_heap *h)
 {
-    pair_entry top = h->items[0], last = h->items[--h->count];
+    heap_item top = h->items[0], last = h->items[--h->count];
     size_t i = 0;
     for (;;) {
         size_t c = 2 * i + 1;
@@ -281,7 +332,13 @@ static pair_entry heap_pop(pair_heap *h)
     }
     if (h->count > 0)
         h->items[i] = last;
-    return top;
+    return &h->pool[top.entry];
+}
+
+static void heap_free(pair_heap *h)
+{
+    free(h->items);
+    free(h->pool);
 }
 
 /* OCTREE_ERR_NOMEM when the heap cannot grow. */
@@ -293,10 +350,11 @@ static octree_status walk_pairs(shape_walk *w)
     if (octree_distance_empty(world, 0) || octree_distance_empty(shape, 0))
         return OCTREE_OK;
     double root = pair_bound(w, 0, world->world, 0, shape->world);
-    if (root <= w->limit2 && heap_push(&heap, (pair_entry){0, 0, root, world->world, shape->world}) != 0)
+    pair_entry first = {0, 0, root, world->world, shape->world};
+    if (root <= w->limit2 && heap_push(&heap, &first) != 0)
         st = OCTREE_ERR_NOMEM;
     while (st == OCTREE_OK && heap.count > 0) {
-        pair_entry e = heap_pop(&heap);
+        pair_entry e = *heap_pop(&heap); /* a copy: the pool may move as pairs are pushed */
         if (e.lb2 > w->limit2)
             break; /* every pair left is as far */
         w->stats.nodes_visited++;
@@ -324,11 +382,11 @@ static octree_status walk_pairs(shape_walk *w)
             pair_entry p = split_world ? (pair_entry){child, e.shape_node, 0, cb, e.shape_cell}
                                        : (pair_entry){e.world_node, child, 0, e.world_cell, cb};
             p.lb2 = pair_bound(w, p.world_node, p.world_cell, p.shape_node, p.shape_cell);
-            if (p.lb2 <= w->limit2 && heap_push(&heap, p) != 0)
+            if (p.lb2 <= w->limit2 && heap_push(&heap, &p) != 0)
                 st = OCTREE_ERR_NOMEM;
         }
     }
-    free(heap.items);
+    heap_free(&heap);
     return st;
 }
 
@@ -339,7 +397,10 @@ static void walk_release(shape_walk *w)
     free(w->shape_ready);
     free(w->shape_triangles);
     free(w->shape_triangle_ready);
-    pair_set_release(&w->tested);
+    if (w->tested)
+        pair_set_release(w->tested);
+    free(w->tested);
+    w->tested = NULL;
     w->shape_triangles = NULL;
     w->shape_triangle_ready = NULL;
     w->shape_boxes = NULL;
@@ -351,7 +412,6 @@ static octree_status walk_setup(shape_walk *w, const octree *world, const pose *
                                 const pose *shape_at, double limit)
 {
     memset(w, 0, sizeof *w);
-    pair_set_init(&w->tested);
     if (!(limit >= 0))
         return OCTREE_ERR_INVALID;
     octree_status st = world_at ? octree_pose_check(world_at) : OCTREE_OK;
@@ -372,7 +432,13 @@ static octree_status walk_setup(shape_walk *w, const octree *world, const pose *
     w->shape_ready = calloc(shape->node_count, 1);
     w->shape_triangles = malloc(shape->triangle_count * sizeof *w->shape_triangles);
     w->shape_triangle_ready = calloc(shape->triangle_count, 1);
-    if (!w->shape_boxes || !w->shape_slabs || !w->shape_ready || !w->shape_triangles || !w->shape_triangle_ready) {
+    if (!world->owned || !shape->owned) {
+        w->tested = malloc(sizeof *w->tested);
+        if (w->tested)
+            pair_set_init(w->tested);
+    }
+    if (!w->shape_boxes || !w->shape_slabs || !w->shape_ready || !w->shape_triangles || !w->shape_triangle_ready ||
+        (!w->tested && (!world->owned || !shape->owned))) {
         walk_release(w);
         return OCTREE_ERR_NOMEM;
     }
