@@ -47,8 +47,8 @@ typedef struct shape_walk {
      * remembers it. */
     pair_set *tested; /* NULL with owned lists */
     query_stats stats;
-    /* Per shape node, its world-frame box and slab, made on first use: a node is in many
-     * pairs. shape_slab.n = 0 when the node has none. */
+    /* Per shape node, its world-frame box and slab, each made on first use (shape_ready):
+     * a node is in many pairs. */
     box3 *shape_boxes;
     oriented_box *shape_slabs; /* stretch < 0: none */
     unsigned char *shape_ready;
@@ -142,21 +142,34 @@ static box3 posed_owned_box(shape_walk *w, uint32_t node)
     return b;
 }
 
+/* shape_ready bits: the box is made, the slab is made. Slabs are made only for pairs
+ * whose boxes do not part them: a frame and three posed axes each. */
+enum { SHAPE_BOX_READY = 1, SHAPE_SLAB_READY = 2 };
+
 static void shape_node_ready(shape_walk *w, uint32_t node, box3 cell)
 {
-    if (w->shape_ready[node])
+    if (w->shape_ready[node] & SHAPE_BOX_READY)
         return;
     if (w->shape_at && w->shape->owned && w->shape->owned[node].count <= EXACT_POSED_NODE)
         w->shape_boxes[node] = posed_owned_box(w, node);
     else
         w->shape_boxes[node] = world_box_of(octree_distance_bounds(w->shape, node, cell), w->shape_grow, w->shape_at);
-    w->shape_slabs[node].stretch = -1;
+    w->shape_ready[node] |= SHAPE_BOX_READY;
+}
+
+static const oriented_box *shape_node_slab(shape_walk *w, uint32_t node)
+{
+    oriented_box *o = &w->shape_slabs[node];
+    if (w->shape_ready[node] & SHAPE_SLAB_READY)
+        return o;
+    o->stretch = -1;
     if (w->shape->node_slabs) {
         const node_slab *ls = &w->shape->node_slabs[node];
         if (ls->n[0] != 0 || ls->n[1] != 0 || ls->n[2] != 0)
-            w->shape_slabs[node] = w->shape_at ? posed_slab(w, ls) : octree_slab_box(ls);
+            *o = w->shape_at ? posed_slab(w, ls) : octree_slab_box(ls);
     }
-    w->shape_ready[node] = 1;
+    w->shape_ready[node] |= SHAPE_SLAB_READY;
+    return o;
 }
 
 static box3 shape_node_world_box(shape_walk *w, uint32_t node, box3 cell)
@@ -183,10 +196,12 @@ static double pair_bound(shape_walk *w, uint32_t world_node, box3 world_cell, ui
         double g = octree_slab_normal_box_distance2_below(&w->world->node_slabs[world_node], sb);
         lb2 = g > lb2 ? g : lb2;
     }
-    const oriented_box *ss = &w->shape_slabs[shape_node];
-    if (ss->stretch >= 0 && !(lb2 > w->limit2)) {
-        double g = octree_oriented_box_distance2_below(ss, wb);
-        lb2 = g > lb2 ? g : lb2;
+    if (w->shape->node_slabs && !(lb2 > w->limit2)) {
+        const oriented_box *ss = shape_node_slab(w, shape_node);
+        if (ss->stretch >= 0) {
+            double g = octree_oriented_box_distance2_below(ss, wb);
+            lb2 = g > lb2 ? g : lb2;
+        }
     }
     return lb2;
 }
