@@ -368,12 +368,29 @@ static void test_posed_matches_built(void **state)
     mesh_data_free(&torus);
 }
 
+/* triangle_pair_distance_within at a search radius: the full bounds when it says within,
+ * and always within a radius at or past the upper bound; when it says farther, a lower
+ * bound past the radius that the exact distance is not below. */
+static void check_within(const vec3 a[3], const vec3 b[3], const triangle_pair_distance *full, double limit2)
+{
+    triangle_pair_distance w;
+    if (triangle_pair_distance_within(a, b, limit2, &w)) {
+        assert_true(w.lo2 == full->lo2 && w.hi2 == full->hi2 && w.lo2 <= limit2);
+        return;
+    }
+    assert_true(limit2 < full->hi2 && w.lo2 > limit2);
+    assert_true(oracle_triangle_pair_compare(a, b, iv_sqrt_nonnegative((interval){w.lo2, w.lo2}).lo) >= 0);
+}
+
 /* Two triangles: enclosed exactly, and (when tight is given) upper - lower within
- * tight times the pair's extent. */
+ * tight times the pair's extent; and the same bounds at search radii about them. */
 static void check_pair(const vec3 a[3], const vec3 b[3], double tight)
 {
     triangle_pair_distance r;
     triangle_pair_distance_bounds(a, b, &r);
+    const double radii[] = {0.25 * r.lo2, r.lo2 * (1 - 0x1p-30), r.lo2, r.hi2, 2 * r.hi2};
+    for (int k = 0; k < 5; k++)
+        check_within(a, b, &r, radii[k]);
     double lower = iv_sqrt_nonnegative((interval){r.lo2, r.lo2}).lo;
     double upper = iv_sqrt_nonnegative((interval){r.hi2, r.hi2}).hi;
     if (!(lower <= upper) || oracle_triangle_pair_compare(a, b, lower) < 0 ||

@@ -213,10 +213,34 @@ static double oriented_gap_lower2(const vec3 a[3], const vec3 b[3], vec3 n, vec3
     return gap_lower2(a, b, side < 0 ? vec3_scale(n, -1.0) : n);
 }
 
+static void certify(const vec3 a[3], const vec3 b[3], const pair_choice *found, triangle_pair_distance *out);
+
 void triangle_pair_distance_bounds(const vec3 a[3], const vec3 b[3], triangle_pair_distance *out)
 {
     pair_choice best;
     search(a, b, &best);
+    certify(a, b, &best, out);
+}
+
+int triangle_pair_distance_within(const vec3 a[3], const vec3 b[3], double limit2, triangle_pair_distance *out)
+{
+    pair_choice best;
+    search(a, b, &best);
+    /* The gap along the line between the points found, in doubles with its error bound:
+     * when that alone is past the limit, the interval proof is not needed. */
+    double far2 = convex_gap_lower2(a, 3, b, 3, vec3_sub(best.a_point, best.b_point));
+    if (far2 > limit2) {
+        *out = (triangle_pair_distance){far2, INFINITY, best.a_point, best.b_point};
+        return 0;
+    }
+    certify(a, b, &best, out);
+    return out->lo2 <= limit2;
+}
+
+/* The bounds of the pair the search found (see the header). */
+static void certify(const vec3 a[3], const vec3 b[3], const pair_choice *found, triangle_pair_distance *out)
+{
+    pair_choice best = *found;
 
     /* The upper bound: the two points found, as the real points of the triangles they
      * stand for. */

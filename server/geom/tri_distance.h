@@ -22,6 +22,13 @@ typedef struct triangle_pair_distance {
 
 void triangle_pair_distance_bounds(const vec3 a[3], const vec3 b[3], triangle_pair_distance *out);
 
+/* The same for a walk with a search radius: 1 with the bounds when the pair may be
+ * within limit2 (lo2 <= limit2); 0 when it is proven farther, and then only lo2 (a lower
+ * bound past the limit) is meant. Most pairs a walk measures are past its radius, and
+ * their proof needs no interval arithmetic: the gap along the line between the points
+ * the search found, in doubles with their error bound (convex_gap_lower2), parts them. */
+int triangle_pair_distance_within(const vec3 a[3], const vec3 b[3], double limit2, triangle_pair_distance *out);
+
 /* A lower bound of the squared distance between the convex hulls of a[0..na) and
  * b[0..nb) from their gap along n (either way along it): 0 when they overlap along n or
  * n is no direction. Cheap (one dot product a point): what prunes pairs before the full

@@ -234,8 +234,7 @@ static int take_pair(shape_walk *w, uint32_t wid, const vec3 wv[3], box3 wb, uin
         return 0;
     w->stats.candidates_tested++;
     triangle_pair_distance r;
-    triangle_pair_distance_bounds(wv, sv, &r);
-    if (!(r.lo2 <= w->limit2))
+    if (!triangle_pair_distance_within(wv, sv, w->limit2, &r))
         return 0;
     w->found = 1;
     if (w->clearance)
